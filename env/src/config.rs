@@ -1,0 +1,159 @@
+//! Environment configuration and the seeded episode generator.
+
+use rand::seq::index::sample;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::error::EnvError;
+use crate::map::{Map, Scenario};
+
+/// Where agents start and where their goals are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Starts {
+    /// Drawn per episode from the seeded RNG: 2n distinct free cells.
+    #[default]
+    Random,
+    /// The map's `.scen` scenario (the dissertation's "deterministic" setting).
+    Fixed,
+}
+
+impl std::str::FromStr for Starts {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "random" => Ok(Starts::Random),
+            "fixed" | "deterministic" => Ok(Starts::Fixed),
+            other => Err(format!(
+                "unknown starts '{other}': expected 'random' or 'fixed'"
+            )),
+        }
+    }
+}
+
+/// Settings of one grid environment; `Default` is the dissertation's setup.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EnvConfig {
+    /// Number of agents.
+    pub agents: usize,
+    /// Truncation step count `T_max`.
+    pub t_max: u32,
+    /// Fixed or random starts and goals.
+    pub starts: Starts,
+    /// Seed of the episode generator.
+    pub seed: u64,
+    /// Sensor range `R` of the local window, `(2R+1)²` cells.
+    pub sensor_range: usize,
+    /// Lifelong mode: an agent that reaches its goal gets a new one.
+    pub lifelong: bool,
+    /// Steps without progress after which an agent counts as stalled
+    /// (deadlock/livelock detection, see [`crate::monitor`]).
+    pub stall_window: u32,
+}
+
+impl Default for EnvConfig {
+    fn default() -> Self {
+        Self {
+            agents: 4,
+            t_max: 100,
+            starts: Starts::Random,
+            seed: 0,
+            sensor_range: 2,
+            lifelong: false,
+            stall_window: 8,
+        }
+    }
+}
+
+impl EnvConfig {
+    /// Checks ranges that do not depend on the map.
+    pub fn validate(&self) -> Result<(), EnvError> {
+        if self.agents == 0 || self.agents > u16::MAX as usize - 1 {
+            return Err(EnvError::InvalidConfig(format!(
+                "agents must be in 1..65534, got {}",
+                self.agents
+            )));
+        }
+        if self.t_max == 0 {
+            return Err(EnvError::InvalidConfig("t_max must be at least 1".into()));
+        }
+        if self.sensor_range > 16 {
+            return Err(EnvError::InvalidConfig(format!(
+                "sensor_range must be at most 16, got {}",
+                self.sensor_range
+            )));
+        }
+        if self.stall_window == 0 {
+            return Err(EnvError::InvalidConfig(
+                "stall_window must be at least 1".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The RNG of one episode: a pure function of `(seed, episode)`.
+pub fn episode_rng(seed: u64, episode: u64) -> ChaCha8Rng {
+    // Distinct streams of one ChaCha key keep episodes independent and stable
+    // across platforms and rand versions.
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(episode);
+    rng
+}
+
+/// The starts and goals of episode `episode`: the fixed scenario, or 2n
+/// distinct free cells drawn from [`episode_rng`] (first n starts, next n
+/// goals). Identical for every controller given the same arguments.
+///
+/// ```
+/// use buridan_env::{episode_instance, Map, Starts};
+/// let map = Map::load("rm-2.1").unwrap();
+/// let a = episode_instance(&map, 4, Starts::Random, 42, 7).unwrap();
+/// assert_eq!(a, episode_instance(&map, 4, Starts::Random, 42, 7).unwrap());
+/// assert_ne!(a, episode_instance(&map, 4, Starts::Random, 42, 8).unwrap());
+/// ```
+pub fn episode_instance(
+    map: &Map,
+    agents: usize,
+    starts: Starts,
+    seed: u64,
+    episode: u64,
+) -> Result<Scenario, EnvError> {
+    match starts {
+        Starts::Fixed => {
+            let available = map.scenario.as_ref().map_or(0, |s| s.starts.len());
+            let scen = map
+                .scenario
+                .as_ref()
+                .filter(|s| s.starts.len() >= agents)
+                .ok_or(EnvError::NotEnoughFixedAgents {
+                    map: map.name.clone(),
+                    available,
+                    requested: agents,
+                })?;
+            Ok(Scenario {
+                starts: scen.starts[..agents].to_vec(),
+                goals: scen.goals[..agents].to_vec(),
+            })
+        }
+        Starts::Random => {
+            let free = map.grid.free_cells();
+            if free.len() < 2 * agents {
+                return Err(EnvError::TooFewFreeCells {
+                    map: map.name.clone(),
+                    free: free.len(),
+                    agents,
+                    needed: 2 * agents,
+                });
+            }
+            let mut rng = episode_rng(seed, episode);
+            let picked = sample(&mut rng, free.len(), 2 * agents);
+            let cells: Vec<_> = picked.iter().map(|i| free[i]).collect();
+            Ok(Scenario {
+                starts: cells[..agents].to_vec(),
+                goals: cells[agents..].to_vec(),
+            })
+        }
+    }
+}

@@ -1,0 +1,115 @@
+//! Errors of map loading and of the environment, as data.
+
+use std::path::PathBuf;
+
+/// A map or scenario could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum MapError {
+    /// The file could not be read at all.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file that failed.
+        path: PathBuf,
+        /// The underlying I/O error.
+        source: std::io::Error,
+    },
+    /// The file was read but its content is malformed.
+    #[error("{file}:{line}: {problem}")]
+    Parse {
+        /// File name (or `<bundled rm-x>` for an embedded model).
+        file: String,
+        /// 1-based line number of the problem.
+        line: usize,
+        /// What is wrong, in words.
+        problem: String,
+    },
+    /// Neither a bundled reference model id nor an existing file.
+    #[error("unknown map '{name}': not a file and not a reference model id (known ids: {known})")]
+    UnknownMap {
+        /// What the user asked for.
+        name: String,
+        /// The bundled ids, comma separated.
+        known: String,
+    },
+}
+
+/// The environment was configured or driven incorrectly.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum EnvError {
+    /// An action index outside `0..5`.
+    #[error(
+        "agent {agent}: action {action} is outside 0..5 (0 stay, 1 up, 2 right, 3 down, 4 left)"
+    )]
+    InvalidAction {
+        /// The agent whose action is wrong.
+        agent: usize,
+        /// The value given.
+        action: u8,
+    },
+    /// The number of actions (or of buffer elements) does not match.
+    #[error("expected {expected} {what}, got {got}")]
+    WrongLength {
+        /// What was counted ("actions", "observation floats", ...).
+        what: &'static str,
+        /// The length required.
+        expected: usize,
+        /// The length given.
+        got: usize,
+    },
+    /// Fewer free cells than distinct starts and goals require.
+    #[error("map '{map}' has {free} free cells, but {agents} agents need {needed} distinct start and goal cells")]
+    TooFewFreeCells {
+        /// Map name.
+        map: String,
+        /// Free cells on the map.
+        free: usize,
+        /// Number of agents requested.
+        agents: usize,
+        /// 2 × agents.
+        needed: usize,
+    },
+    /// Fixed starts were requested but the map has no (or too short a) scenario.
+    #[error("map '{map}' has fixed starts for {available} agents, {requested} requested")]
+    NotEnoughFixedAgents {
+        /// Map name.
+        map: String,
+        /// Agents in the `.scen` file.
+        available: usize,
+        /// Agents requested.
+        requested: usize,
+    },
+    /// A start or goal lies on a wall or outside the grid.
+    #[error("agent {agent}: {which} ({row}, {col}) is {problem}")]
+    BadCell {
+        /// Agent index.
+        agent: usize,
+        /// "start" or "goal".
+        which: &'static str,
+        /// Row of the cell.
+        row: usize,
+        /// Column of the cell.
+        col: usize,
+        /// "a wall" or "outside the grid".
+        problem: &'static str,
+    },
+    /// Two agents share a start or a goal.
+    #[error("agents {first} and {second} share the {which} cell ({row}, {col})")]
+    SharedCell {
+        /// Lower agent index.
+        first: usize,
+        /// Higher agent index.
+        second: usize,
+        /// "start" or "goal".
+        which: &'static str,
+        /// Row of the shared cell.
+        row: usize,
+        /// Column of the shared cell.
+        col: usize,
+    },
+    /// A configuration value is out of its range.
+    #[error("invalid configuration: {0}")]
+    InvalidConfig(String),
+    /// `step` was called on a finished episode without `reset`.
+    #[error("the episode is over: call reset before stepping again")]
+    EpisodeOver,
+}

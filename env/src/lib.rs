@@ -1,0 +1,35 @@
+//! Buridan's grid environments: the deadlock reference models of the
+//! dissertation as a fast multi-agent simulator.
+//!
+//! - [`map`]: MovingAI `.map`/`.scen` loading, the 17 bundled reference models.
+//! - [`world`]: [`GridEnv`], one env under the `thesis` ruleset.
+//! - [`obs`]: CTDE/DTE local and CTE central observations, action masks.
+//! - [`vec_env`]: [`VecEnv`], a batch of envs with auto-reset.
+//! - [`monitor`]: deadlock and livelock detection.
+//!
+//! ```
+//! use buridan_env::{EnvConfig, GridEnv, Map, Starts};
+//! let map = std::sync::Arc::new(Map::load("rm-1.1").unwrap());
+//! let cfg = EnvConfig { agents: 2, starts: Starts::Fixed, ..EnvConfig::default() };
+//! let mut env = GridEnv::new(map, cfg).unwrap();
+//! let mut obs = vec![0.0; env.local_obs_dim()];
+//! env.write_local_obs(0, &mut obs).unwrap();
+//! assert_eq!(obs.len(), 129);
+//! ```
+
+pub mod config;
+pub mod error;
+pub mod map;
+pub mod monitor;
+pub mod obs;
+pub mod stats;
+pub mod vec_env;
+pub mod world;
+
+pub use config::{episode_instance, episode_rng, EnvConfig, Starts};
+pub use error::{EnvError, MapError};
+pub use map::{Cell, Grid, Map, Scenario, REFERENCE_MODELS};
+pub use obs::{central_obs_dim, local_obs_dim, ObsKind};
+pub use stats::EpisodeStats;
+pub use vec_env::VecEnv;
+pub use world::{GridEnv, StepOutcome, NUM_ACTIONS};

@@ -1,0 +1,212 @@
+//! Observations and action masks, written into caller-provided flat buffers.
+//!
+//! # Local observation (CTDE and DTE), per agent
+//!
+//! `local_obs_dim(R) = (2R+1)² · 5 + 4` floats:
+//!
+//! | offset | size | content |
+//! |---|---|---|
+//! | `0` | `(2R+1)² · 5` | window cells row-major, top-left first, the agent at the centre; cell `k` is one-hot over 5 codes at `5k .. 5k+5` |
+//! | `(2R+1)²·5` | 1 | own row / (height − 1) |
+//! | `+1` | 1 | own column / (width − 1) |
+//! | `+2` | 1 | (goal row − own row) / (height − 1) |
+//! | `+3` | 1 | (goal column − own column) / (width − 1) |
+//!
+//! Cell codes ([`write_local_codes`](crate::GridEnv::write_local_codes)):
+//! 0 empty, 1 wall or outside the grid, 2 another agent, 3 own goal, 4 another
+//! agent's goal; an agent beats a goal. The centre is the agent itself: 3 if it
+//! stands on its goal, else 0 (or 4 on another's goal). For R = 2 the
+//! observation has 129 floats. (v1.0.0 gave raw (row, col) of position and
+//! goal; the normalised goal delta is the improvement SPEC §3 allows.)
+//!
+//! Action mask, 5 bytes per agent: 1 = legal. Stay is always legal; a move is
+//! legal iff the neighbouring cell's code is 0, 3 or 4.
+//!
+//! # Central observation (CTE)
+//!
+//! `central_obs_dim(h, w, n) = (1 + 2n) · h · w` floats: plane 0 the walls,
+//! plane `1 + i` agent `i`'s cell, plane `1 + n + i` agent `i`'s goal (each a
+//! one-hot `h × w` plane, row-major). The v1.0.0 integer codes — 0 empty,
+//! 1 wall, 2+2i agent i, 3+2i goal of agent i, agents over goals — come from
+//! [`write_central_codes`](crate::GridEnv::write_central_codes). The joint
+//! mask is the `5n` per-agent masks in agent order.
+
+use crate::error::EnvError;
+use crate::world::{GridEnv, NUM_ACTIONS};
+
+/// Number of cell codes in the local window.
+pub const NUM_LOCAL_CODES: usize = 5;
+
+/// Floats in one local observation for sensor range `r`.
+///
+/// ```
+/// assert_eq!(buridan_env::local_obs_dim(2), 129);
+/// ```
+pub const fn local_obs_dim(sensor_range: usize) -> usize {
+    let side = 2 * sensor_range + 1;
+    side * side * NUM_LOCAL_CODES + 4
+}
+
+/// Floats in one central observation.
+///
+/// ```
+/// assert_eq!(buridan_env::central_obs_dim(10, 20, 4), 9 * 200);
+/// ```
+pub const fn central_obs_dim(height: usize, width: usize, agents: usize) -> usize {
+    (1 + 2 * agents) * height * width
+}
+
+/// Which observation a policy consumes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ObsKind {
+    /// One local observation and a 5-action mask per agent (CTDE, DTE).
+    Local,
+    /// One central observation and a `5n` joint mask per env (CTE).
+    Central,
+}
+
+fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), EnvError> {
+    if expected == got {
+        Ok(())
+    } else {
+        Err(EnvError::WrongLength {
+            what,
+            expected,
+            got,
+        })
+    }
+}
+
+impl GridEnv {
+    /// Floats of one local observation of this env.
+    pub fn local_obs_dim(&self) -> usize {
+        local_obs_dim(self.config().sensor_range)
+    }
+
+    /// Floats of one central observation of this env.
+    pub fn central_obs_dim(&self) -> usize {
+        central_obs_dim(
+            self.map().grid.height(),
+            self.map().grid.width(),
+            self.agents(),
+        )
+    }
+
+    /// Writes agent `i`'s window codes, `(2R+1)²` bytes row-major.
+    pub fn write_local_codes(&self, agent: usize, out: &mut [u8]) -> Result<(), EnvError> {
+        let r = self.config().sensor_range;
+        let side = 2 * r + 1;
+        check_len("window codes", side * side, out.len())?;
+        self.for_each_window_code(agent, |k, code| out[k] = code);
+        Ok(())
+    }
+
+    /// Writes agent `i`'s local observation (layout in the module docs).
+    pub fn write_local_obs(&self, agent: usize, out: &mut [f32]) -> Result<(), EnvError> {
+        check_len("observation floats", self.local_obs_dim(), out.len())?;
+        let cells = out.len() - 4;
+        let (window, tail) = out.split_at_mut(cells);
+        window.fill(0.0);
+        self.for_each_window_code(agent, |k, code| {
+            window[k * NUM_LOCAL_CODES + code as usize] = 1.0
+        });
+        let grid = &self.map().grid;
+        let sy = (grid.height().max(2) - 1) as f32;
+        let sx = (grid.width().max(2) - 1) as f32;
+        let (p, g) = (self.position(agent), self.goal(agent));
+        tail[0] = p.row as f32 / sy;
+        tail[1] = p.col as f32 / sx;
+        tail[2] = (g.row as f32 - p.row as f32) / sy;
+        tail[3] = (g.col as f32 - p.col as f32) / sx;
+        Ok(())
+    }
+
+    /// Writes agent `i`'s action mask, 5 bytes (1 = legal).
+    pub fn write_action_mask(&self, agent: usize, out: &mut [u8]) -> Result<(), EnvError> {
+        check_len("mask bytes", NUM_ACTIONS, out.len())?;
+        let raw = self.raw();
+        let p = raw.pos[agent];
+        out[0] = 1;
+        for a in 1..NUM_ACTIONS {
+            let q = p.wrapping_add_signed(raw.step_offsets[a]);
+            out[a] = u8::from(raw.blocked[q] == 0 && raw.occupant[q] == 0);
+        }
+        Ok(())
+    }
+
+    /// Writes the central one-hot planes (layout in the module docs).
+    pub fn write_central_obs(&self, out: &mut [f32]) -> Result<(), EnvError> {
+        check_len(
+            "central observation floats",
+            self.central_obs_dim(),
+            out.len(),
+        )?;
+        let grid = &self.map().grid;
+        let plane = grid.height() * grid.width();
+        let n = self.agents();
+        out.fill(0.0);
+        for (o, &wall) in out[..plane].iter_mut().zip(grid.walls()) {
+            *o = f32::from(u8::from(wall));
+        }
+        for i in 0..n {
+            out[(1 + i) * plane + grid.index(self.position(i))] = 1.0;
+            out[(1 + n + i) * plane + grid.index(self.goal(i))] = 1.0;
+        }
+        Ok(())
+    }
+
+    /// Writes the v1.0.0 full-grid codes, `h · w` values row-major.
+    pub fn write_central_codes(&self, out: &mut [u16]) -> Result<(), EnvError> {
+        let grid = &self.map().grid;
+        check_len("grid codes", grid.height() * grid.width(), out.len())?;
+        for (o, &wall) in out.iter_mut().zip(grid.walls()) {
+            *o = u16::from(wall);
+        }
+        for i in 0..self.agents() {
+            out[grid.index(self.goal(i))] = 3 + 2 * i as u16;
+        }
+        for i in 0..self.agents() {
+            out[grid.index(self.position(i))] = 2 + 2 * i as u16;
+        }
+        Ok(())
+    }
+
+    /// Writes the joint mask, `5n` bytes in agent order.
+    pub fn write_joint_mask(&self, out: &mut [u8]) -> Result<(), EnvError> {
+        check_len("joint mask bytes", NUM_ACTIONS * self.agents(), out.len())?;
+        for (i, chunk) in out.chunks_exact_mut(NUM_ACTIONS).enumerate() {
+            self.write_action_mask(i, chunk)?;
+        }
+        Ok(())
+    }
+
+    fn for_each_window_code(&self, agent: usize, mut emit: impl FnMut(usize, u8)) {
+        let raw = self.raw();
+        let r = self.config().sensor_range;
+        let me = agent as u16 + 1;
+        let centre = raw.pos[agent];
+        let mut k = 0;
+        for dr in 0..=2 * r {
+            // The padding is at least R wide, so the window never leaves the padded grid.
+            let row_start = centre + dr * raw.padded_width - r * raw.padded_width - r;
+            for q in row_start..=row_start + 2 * r {
+                let occ = raw.occupant[q];
+                let owner = raw.goal_owner[q];
+                let code = if raw.blocked[q] != 0 {
+                    1
+                } else if occ != 0 && occ != me {
+                    2
+                } else if owner == me {
+                    3
+                } else if owner != 0 {
+                    4
+                } else {
+                    0
+                };
+                emit(k, code);
+                k += 1;
+            }
+        }
+    }
+}

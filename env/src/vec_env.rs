@@ -1,0 +1,282 @@
+//! Many env instances stepped as one batch, with auto-reset.
+//!
+//! Buffers are flat and owned by the [`VecEnv`]; after every [`VecEnv::step`]
+//! they hold, per env `e` and agent `i` (row `e·n + i` for local observations,
+//! row `e` for central ones):
+//!
+//! - `obs`: the observation to act on next — after an episode ended, the first
+//!   observation of the next episode (auto-reset);
+//! - `final_obs`: for envs whose episode ended in this step, the observation
+//!   of the last state (to bootstrap values on truncation); other rows stale;
+//! - `masks`, `rewards` (per agent), `terminated` and `truncated` (per env).
+//!
+//! Env `e` plays episodes `e, e + N, e + 2N, …` (N envs), so every episode is
+//! reproducible from (map, agents, seed, episode index).
+//!
+//! ```
+//! use buridan_env::{EnvConfig, Map, ObsKind, VecEnv};
+//! let map = std::sync::Arc::new(Map::load("rm-2.1").unwrap());
+//! let mut venv = VecEnv::new(map, EnvConfig::default(), 8, ObsKind::Local, 1).unwrap();
+//! let actions = vec![0u8; 8 * 4];
+//! for _ in 0..100 {
+//!     venv.step(&actions).unwrap();
+//! }
+//! let episodes = venv.drain_episodes();
+//! assert_eq!(episodes.len(), 8); // all truncated at T_max = 100
+//! assert!(episodes.iter().all(|e| !e.success && e.length == 100));
+//! ```
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+
+use crate::config::EnvConfig;
+use crate::error::EnvError;
+use crate::map::Map;
+use crate::obs::ObsKind;
+use crate::stats::EpisodeStats;
+use crate::world::{GridEnv, NUM_ACTIONS};
+
+/// A batch of environments with flat observation, mask and reward buffers.
+pub struct VecEnv {
+    envs: Vec<GridEnv>,
+    kind: ObsKind,
+    agents: usize,
+    obs_dim: usize,
+    mask_dim: usize,
+    obs: Vec<f32>,
+    final_obs: Vec<f32>,
+    masks: Vec<u8>,
+    rewards: Vec<f32>,
+    terminated: Vec<u8>,
+    truncated: Vec<u8>,
+    finished: Vec<Option<EpisodeStats>>,
+    episodes: Vec<EpisodeStats>,
+    pool: Option<rayon::ThreadPool>,
+}
+
+impl VecEnv {
+    /// `num_envs` copies of the env, observations of `kind`, stepped on
+    /// `threads` threads (1 = on the caller's thread).
+    pub fn new(
+        map: Arc<Map>,
+        cfg: EnvConfig,
+        num_envs: usize,
+        kind: ObsKind,
+        threads: usize,
+    ) -> Result<Self, EnvError> {
+        if num_envs == 0 {
+            return Err(EnvError::InvalidConfig(
+                "a VecEnv needs at least one env".into(),
+            ));
+        }
+        let envs = (0..num_envs)
+            .map(|e| GridEnv::with_episode(map.clone(), cfg.clone(), e as u64))
+            .collect::<Result<Vec<_>, _>>()?;
+        let n = cfg.agents;
+        let (obs_dim, mask_dim, rows) = match kind {
+            ObsKind::Local => (envs[0].local_obs_dim(), NUM_ACTIONS, num_envs * n),
+            ObsKind::Central => (envs[0].central_obs_dim(), NUM_ACTIONS * n, num_envs),
+        };
+        let pool = if threads > 1 {
+            Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .thread_name(|i| format!("vec-env-{i}"))
+                    .build()
+                    .map_err(|e| {
+                        EnvError::InvalidConfig(format!("cannot start {threads} env threads: {e}"))
+                    })?,
+            )
+        } else {
+            None
+        };
+        let mut venv = Self {
+            kind,
+            agents: n,
+            obs_dim,
+            mask_dim,
+            obs: vec![0.0; rows * obs_dim],
+            final_obs: vec![0.0; rows * obs_dim],
+            masks: vec![0; rows * mask_dim],
+            rewards: vec![0.0; num_envs * n],
+            terminated: vec![0; num_envs],
+            truncated: vec![0; num_envs],
+            finished: vec![None; num_envs],
+            episodes: Vec::new(),
+            envs,
+            pool,
+        };
+        let rows = venv.rows_per_env();
+        let per_env = venv
+            .obs
+            .chunks_mut(rows * obs_dim)
+            .zip(venv.masks.chunks_mut(rows * mask_dim));
+        for (env, (obs, masks)) in venv.envs.iter().zip(per_env) {
+            write_obs(env, kind, obs, masks)?;
+        }
+        Ok(venv)
+    }
+
+    fn rows_per_env(&self) -> usize {
+        match self.kind {
+            ObsKind::Local => self.agents,
+            ObsKind::Central => 1,
+        }
+    }
+
+    /// Steps every env with `actions` (`num_envs · n` values, env-major).
+    /// Invalid actions are rejected before any env moves.
+    pub fn step(&mut self, actions: &[u8]) -> Result<(), EnvError> {
+        let n = self.agents;
+        let expected = self.envs.len() * n;
+        if actions.len() != expected {
+            return Err(EnvError::WrongLength {
+                what: "actions",
+                expected,
+                got: actions.len(),
+            });
+        }
+        if let Some(k) = actions.iter().position(|&a| a as usize >= NUM_ACTIONS) {
+            return Err(EnvError::InvalidAction {
+                agent: k % n,
+                action: actions[k],
+            });
+        }
+        let rows = self.rows_per_env();
+        let (o, m) = (rows * self.obs_dim, rows * self.mask_dim);
+        let stride = self.envs.len() as u64;
+        let kind = self.kind;
+        let work = (
+            self.envs.par_iter_mut(),
+            actions.par_chunks(n),
+            self.rewards.par_chunks_mut(n),
+            self.obs.par_chunks_mut(o),
+            self.final_obs.par_chunks_mut(o),
+            self.masks.par_chunks_mut(m),
+            self.terminated.par_iter_mut(),
+            self.truncated.par_iter_mut(),
+            self.finished.par_iter_mut(),
+        );
+        let run = move || {
+            work.into_par_iter().try_for_each(
+                |(env, act, rew, obs, final_obs, mask, term, trunc, finished)| {
+                    let out = env.step(act, rew)?;
+                    *term = u8::from(out.terminated);
+                    *trunc = u8::from(out.truncated);
+                    if out.done() {
+                        write_obs(env, kind, final_obs, mask)?;
+                        *finished = Some(env.stats());
+                        env.reset_next(stride)?;
+                    }
+                    write_obs(env, kind, obs, mask)
+                },
+            )
+        };
+        match &self.pool {
+            Some(pool) => pool.install(run)?,
+            None => run()?,
+        }
+        self.episodes
+            .extend(self.finished.iter_mut().filter_map(Option::take));
+        Ok(())
+    }
+
+    /// Number of envs.
+    pub fn num_envs(&self) -> usize {
+        self.envs.len()
+    }
+
+    /// Agents per env.
+    pub fn agents(&self) -> usize {
+        self.agents
+    }
+
+    /// Floats per observation row.
+    pub fn obs_dim(&self) -> usize {
+        self.obs_dim
+    }
+
+    /// Bytes per mask row (5 for local, 5n for central).
+    pub fn mask_dim(&self) -> usize {
+        self.mask_dim
+    }
+
+    /// The observation kind.
+    pub fn kind(&self) -> ObsKind {
+        self.kind
+    }
+
+    /// Current observations, one row per agent (local) or per env (central).
+    pub fn obs(&self) -> &[f32] {
+        &self.obs
+    }
+
+    /// Last observations of episodes that ended in the last step.
+    pub fn final_obs(&self) -> &[f32] {
+        &self.final_obs
+    }
+
+    /// Current action masks.
+    pub fn masks(&self) -> &[u8] {
+        &self.masks
+    }
+
+    /// Rewards of the last step, per agent, env-major.
+    pub fn rewards(&self) -> &[f32] {
+        &self.rewards
+    }
+
+    /// Per env: 1 if its episode terminated (success) in the last step.
+    pub fn terminated(&self) -> &[u8] {
+        &self.terminated
+    }
+
+    /// Per env: 1 if its episode was truncated in the last step.
+    pub fn truncated(&self) -> &[u8] {
+        &self.truncated
+    }
+
+    /// The envs, for inspection.
+    pub fn envs(&self) -> &[GridEnv] {
+        &self.envs
+    }
+
+    /// Takes the statistics of the episodes finished since the last call.
+    pub fn drain_episodes(&mut self) -> Vec<EpisodeStats> {
+        std::mem::take(&mut self.episodes)
+    }
+
+    /// Visit counts summed over all envs since creation (row-major cells).
+    pub fn visits(&self) -> Vec<u64> {
+        let mut totals = vec![0u64; self.envs[0].visits().len()];
+        for env in &self.envs {
+            for (t, &v) in totals.iter_mut().zip(env.visits()) {
+                *t += v;
+            }
+        }
+        totals
+    }
+}
+
+fn write_obs(
+    env: &GridEnv,
+    kind: ObsKind,
+    obs: &mut [f32],
+    masks: &mut [u8],
+) -> Result<(), EnvError> {
+    match kind {
+        ObsKind::Local => {
+            let d = env.local_obs_dim();
+            for i in 0..env.agents() {
+                env.write_local_obs(i, &mut obs[i * d..(i + 1) * d])?;
+                env.write_action_mask(i, &mut masks[i * NUM_ACTIONS..(i + 1) * NUM_ACTIONS])?;
+            }
+            Ok(())
+        }
+        ObsKind::Central => {
+            env.write_central_obs(obs)?;
+            env.write_joint_mask(masks)
+        }
+    }
+}

@@ -1,0 +1,529 @@
+//! The multi-agent grid world under the `thesis` ruleset (SPEC §2).
+//!
+//! One step moves agents **sequentially in index order**: agent `i`'s move
+//! succeeds iff the target is inside the grid, not a wall and not occupied at
+//! that moment — a lower-index agent may already have moved in or out, so an
+//! agent may enter a cell vacated earlier in the same step, and no two agents
+//! can swap. Rewards per agent: +0.5 the first time it stands on its goal;
+//! +1 to every agent when all stand on their goals after a step (the episode
+//! terminates); at truncation (`t == T_max`) −1 to every agent off its goal;
+//! −1 to an agent sharing a cell (impossible under these rules; checked).
+//!
+//! In lifelong mode an agent that reaches its goal earns +0.5 and at once gets
+//! a new goal (drawn from the episode RNG, distinct from the other agents'
+//! goals); there is no termination bonus and no truncation penalty, and
+//! throughput = goals reached per step.
+
+use std::sync::Arc;
+
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::config::{episode_instance, episode_rng, EnvConfig};
+use crate::error::EnvError;
+use crate::map::{Cell, Map};
+use crate::monitor::StallMonitor;
+use crate::stats::EpisodeStats;
+
+/// Reward for first standing on one's goal.
+pub const REWARD_GOAL: f32 = 0.5;
+/// Reward to every agent when all stand on their goals.
+pub const REWARD_ALL_AT_GOAL: f32 = 1.0;
+/// Reward to every agent off its goal at truncation.
+pub const REWARD_TRUNCATED_OFF_GOAL: f32 = -1.0;
+/// Reward to each agent sharing a cell with another.
+pub const REWARD_COLLISION: f32 = -1.0;
+
+/// Number of actions: 0 stay, 1 up, 2 right, 3 down, 4 left.
+pub const NUM_ACTIONS: usize = 5;
+
+/// The RNG of lifelong goal draws: a stream apart from the episode instance's.
+fn lifelong_rng(seed: u64, episode: u64) -> ChaCha8Rng {
+    episode_rng(seed ^ 0x6c69_6665_6c6f_6e67, episode)
+}
+
+/// Sentinel for "no agent" in the per-cell arrays.
+const NOBODY: u16 = 0;
+
+/// How a step ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct StepOutcome {
+    /// All agents on their goals: the episode is over and successful.
+    pub terminated: bool,
+    /// `T_max` reached without success.
+    pub truncated: bool,
+    /// Move requests that failed this step (wall, edge or occupied cell).
+    pub blocked_moves: u32,
+}
+
+impl StepOutcome {
+    /// Whether the episode ended with this step.
+    pub fn done(&self) -> bool {
+        self.terminated || self.truncated
+    }
+}
+
+/// One environment instance.
+///
+/// ```
+/// use buridan_env::{EnvConfig, GridEnv, Map, Starts};
+/// let map = std::sync::Arc::new(Map::load("rm-1.1").unwrap());
+/// let cfg = EnvConfig { agents: 2, starts: Starts::Fixed, ..EnvConfig::default() };
+/// let mut env = GridEnv::new(map, cfg).unwrap();
+/// let mut rewards = [0.0; 2];
+/// let out = env.step(&[2, 4], &mut rewards).unwrap();
+/// assert!(!out.done());
+/// assert_eq!(env.position(0), buridan_env::Cell::new(1, 2));
+/// ```
+#[derive(Debug, Clone)]
+pub struct GridEnv {
+    map: Arc<Map>,
+    cfg: EnvConfig,
+    /// Padding around the grid, = sensor range, so windows need no bounds checks.
+    pad: usize,
+    padded_width: usize,
+    /// Per padded cell: 1 wall or outside, 0 free.
+    blocked: Vec<u8>,
+    /// Per padded cell: agent index + 1, or 0.
+    occupant: Vec<u16>,
+    /// Per padded cell: index + 1 of the agent whose goal it is, or 0.
+    goal_owner: Vec<u16>,
+    /// Padded index of each agent.
+    pos: Vec<usize>,
+    /// Padded index of each agent's goal.
+    goal: Vec<usize>,
+    /// Goal distance maps (unpadded, row-major) of each agent's goal.
+    goal_distance: Vec<Arc<[u16]>>,
+    reached: Vec<bool>,
+    step_offsets: [isize; NUM_ACTIONS],
+    t: u32,
+    episode: u64,
+    over: bool,
+    rng: ChaCha8Rng,
+    // Episode statistics.
+    episode_reward: f32,
+    blocked_moves: u32,
+    goals_reached: u32,
+    visits: Vec<u64>,
+    monitor: StallMonitor,
+    scratch_distance: Vec<u16>,
+    scratch_cell: Vec<(usize, usize)>,
+    scratch_at_goal: Vec<bool>,
+    /// Lifelong mode: agents that reached a goal this step (and got a new one).
+    arrived: Vec<bool>,
+}
+
+impl GridEnv {
+    /// A new environment, reset to episode 0.
+    pub fn new(map: Arc<Map>, cfg: EnvConfig) -> Result<Self, EnvError> {
+        Self::with_episode(map, cfg, 0)
+    }
+
+    /// A new environment, reset to the given episode index.
+    pub fn with_episode(map: Arc<Map>, cfg: EnvConfig, episode: u64) -> Result<Self, EnvError> {
+        cfg.validate()?;
+        let (h, w) = (map.grid.height(), map.grid.width());
+        let pad = cfg.sensor_range.max(1);
+        let padded_width = w + 2 * pad;
+        let padded_cells = (h + 2 * pad) * padded_width;
+        let mut blocked = vec![1u8; padded_cells];
+        for r in 0..h {
+            for c in 0..w {
+                blocked[(r + pad) * padded_width + c + pad] =
+                    u8::from(map.grid.is_wall(Cell::new(r, c)));
+            }
+        }
+        let pw = padded_width as isize;
+        let n = cfg.agents;
+        let mut env = Self {
+            pad,
+            padded_width,
+            blocked,
+            occupant: vec![NOBODY; padded_cells],
+            goal_owner: vec![NOBODY; padded_cells],
+            pos: vec![0; n],
+            goal: vec![0; n],
+            goal_distance: Vec::with_capacity(n),
+            reached: vec![false; n],
+            step_offsets: [0, -pw, 1, pw, -1],
+            t: 0,
+            episode,
+            over: false,
+            rng: lifelong_rng(cfg.seed, episode),
+            episode_reward: 0.0,
+            blocked_moves: 0,
+            goals_reached: 0,
+            visits: vec![0; h * w],
+            monitor: StallMonitor::new(n, cfg.stall_window),
+            scratch_distance: vec![0; n],
+            scratch_cell: vec![(0, 0); n],
+            scratch_at_goal: vec![false; n],
+            arrived: vec![false; n],
+            map,
+            cfg,
+        };
+        env.reset_to(episode)?;
+        Ok(env)
+    }
+
+    /// Starts episode `episode`; its starts and goals come from
+    /// [`episode_instance`] and so are a pure function of (map, agents, seed, episode).
+    pub fn reset_to(&mut self, episode: u64) -> Result<(), EnvError> {
+        let scen = episode_instance(
+            &self.map,
+            self.cfg.agents,
+            self.cfg.starts,
+            self.cfg.seed,
+            episode,
+        )?;
+        self.reset_with(episode, &scen.starts, &scen.goals)
+    }
+
+    /// Starts the next episode (`episode + stride`).
+    pub fn reset_next(&mut self, stride: u64) -> Result<(), EnvError> {
+        self.reset_to(self.episode + stride)
+    }
+
+    /// Starts an episode with explicit starts and goals (validated: inside
+    /// the grid, not on walls, pairwise distinct).
+    pub fn reset_with(
+        &mut self,
+        episode: u64,
+        starts: &[Cell],
+        goals: &[Cell],
+    ) -> Result<(), EnvError> {
+        let n = self.cfg.agents;
+        for (what, list) in [("starts", starts), ("goals", goals)] {
+            if list.len() != n {
+                return Err(EnvError::WrongLength {
+                    what,
+                    expected: n,
+                    got: list.len(),
+                });
+            }
+        }
+        let grid = &self.map.grid;
+        for (which, list) in [("start", starts), ("goal", goals)] {
+            for (i, &cell) in list.iter().enumerate() {
+                if !grid.contains(cell) {
+                    return Err(EnvError::BadCell {
+                        agent: i,
+                        which,
+                        row: cell.row,
+                        col: cell.col,
+                        problem: "outside the grid",
+                    });
+                }
+                if grid.is_wall(cell) {
+                    return Err(EnvError::BadCell {
+                        agent: i,
+                        which,
+                        row: cell.row,
+                        col: cell.col,
+                        problem: "a wall",
+                    });
+                }
+                if let Some(j) = list[..i].iter().position(|&c| c == cell) {
+                    return Err(EnvError::SharedCell {
+                        first: j,
+                        second: i,
+                        which,
+                        row: cell.row,
+                        col: cell.col,
+                    });
+                }
+            }
+        }
+        for i in 0..n {
+            self.occupant[self.pos[i]] = NOBODY;
+            self.goal_owner[self.goal[i]] = NOBODY;
+        }
+        self.goal_distance.clear();
+        for i in 0..n {
+            self.pos[i] = self.padded(starts[i]);
+            self.goal[i] = self.padded(goals[i]);
+            self.occupant[self.pos[i]] = i as u16 + 1;
+            self.goal_owner[self.goal[i]] = i as u16 + 1;
+            self.goal_distance.push(grid.distances_to(goals[i]));
+        }
+        self.reached.iter_mut().for_each(|r| *r = false);
+        self.t = 0;
+        self.episode = episode;
+        self.over = false;
+        self.rng = lifelong_rng(self.cfg.seed, episode);
+        self.episode_reward = 0.0;
+        self.blocked_moves = 0;
+        self.goals_reached = 0;
+        for i in 0..n {
+            let cell = self.unpadded(self.pos[i]);
+            self.visits[grid.index(cell)] += 1;
+        }
+        self.fill_scratch();
+        self.monitor
+            .reset(&self.scratch_distance, &self.scratch_cell);
+        Ok(())
+    }
+
+    /// Advances one step. `actions[i]` ∈ 0..5 is agent `i`'s action; the
+    /// per-agent rewards are written to `rewards`. Invalid input is rejected
+    /// before anything changes.
+    pub fn step(&mut self, actions: &[u8], rewards: &mut [f32]) -> Result<StepOutcome, EnvError> {
+        let n = self.cfg.agents;
+        if actions.len() != n {
+            return Err(EnvError::WrongLength {
+                what: "actions",
+                expected: n,
+                got: actions.len(),
+            });
+        }
+        if rewards.len() != n {
+            return Err(EnvError::WrongLength {
+                what: "rewards",
+                expected: n,
+                got: rewards.len(),
+            });
+        }
+        if let Some(agent) = actions.iter().position(|&a| a as usize >= NUM_ACTIONS) {
+            return Err(EnvError::InvalidAction {
+                agent,
+                action: actions[agent],
+            });
+        }
+        if self.over {
+            return Err(EnvError::EpisodeOver);
+        }
+        let mut outcome = StepOutcome::default();
+        for (i, &action) in actions.iter().enumerate() {
+            if action == 0 {
+                continue;
+            }
+            let from = self.pos[i];
+            let to = from.wrapping_add_signed(self.step_offsets[action as usize]);
+            if self.blocked[to] == 0 && self.occupant[to] == NOBODY {
+                self.occupant[from] = NOBODY;
+                self.occupant[to] = i as u16 + 1;
+                self.pos[i] = to;
+            } else {
+                outcome.blocked_moves += 1;
+            }
+        }
+        self.t += 1;
+        rewards.fill(0.0);
+        let mut all_home = true;
+        let grid_width = self.map.grid.width();
+        for i in 0..n {
+            let p = self.pos[i];
+            let (r, c) = (
+                p / self.padded_width - self.pad,
+                p % self.padded_width - self.pad,
+            );
+            self.visits[r * grid_width + c] += 1;
+            // Collision check: under sequential moves the occupant array has one
+            // agent per cell, so a mismatch would mean two agents in one cell.
+            if self.occupant[p] != i as u16 + 1 {
+                rewards[i] += REWARD_COLLISION;
+            }
+            if p == self.goal[i] {
+                if self.cfg.lifelong {
+                    rewards[i] += REWARD_GOAL;
+                    self.goals_reached += 1;
+                    self.draw_new_goal(i);
+                    self.arrived[i] = true;
+                    continue;
+                }
+                if !self.reached[i] {
+                    self.reached[i] = true;
+                    self.goals_reached += 1;
+                    rewards[i] += REWARD_GOAL;
+                }
+            } else {
+                all_home = false;
+            }
+        }
+        if self.cfg.lifelong {
+            all_home = false;
+        }
+        if all_home {
+            rewards.iter_mut().for_each(|r| *r += REWARD_ALL_AT_GOAL);
+            outcome.terminated = true;
+        } else if self.t >= self.cfg.t_max {
+            outcome.truncated = true;
+            if !self.cfg.lifelong {
+                for i in 0..n {
+                    if self.pos[i] != self.goal[i] {
+                        rewards[i] += REWARD_TRUNCATED_OFF_GOAL;
+                    }
+                }
+            }
+        }
+        self.episode_reward += rewards.iter().sum::<f32>();
+        self.blocked_moves += outcome.blocked_moves;
+        self.fill_scratch();
+        for (at_goal, arrived) in self.scratch_at_goal.iter_mut().zip(&mut self.arrived) {
+            *at_goal |= std::mem::take(arrived);
+        }
+        self.monitor.observe(
+            actions,
+            &self.scratch_distance,
+            &self.scratch_cell,
+            &self.scratch_at_goal,
+        );
+        self.over = outcome.done();
+        Ok(outcome)
+    }
+
+    fn draw_new_goal(&mut self, agent: usize) {
+        let free = self.map.grid.free_cells();
+        // Rejection sampling terminates: validation guarantees 2n ≤ free cells,
+        // so at least n free cells are nobody's goal.
+        let cell = loop {
+            let cand = free[self.rng.random_range(0..free.len())];
+            let p = self.padded(cand);
+            if self.goal_owner[p] == NOBODY {
+                break cand;
+            }
+        };
+        self.goal_owner[self.goal[agent]] = NOBODY;
+        self.goal[agent] = self.padded(cell);
+        self.goal_owner[self.goal[agent]] = agent as u16 + 1;
+        self.goal_distance[agent] = self.map.grid.distances_to(cell);
+    }
+
+    fn fill_scratch(&mut self) {
+        let grid = &self.map.grid;
+        for i in 0..self.cfg.agents {
+            let cell = self.unpadded(self.pos[i]);
+            self.scratch_cell[i] = (cell.row, cell.col);
+            self.scratch_distance[i] = self.goal_distance[i][grid.index(cell)];
+            self.scratch_at_goal[i] = self.pos[i] == self.goal[i];
+        }
+    }
+
+    fn padded(&self, cell: Cell) -> usize {
+        (cell.row + self.pad) * self.padded_width + cell.col + self.pad
+    }
+
+    fn unpadded(&self, p: usize) -> Cell {
+        Cell::new(
+            p / self.padded_width - self.pad,
+            p % self.padded_width - self.pad,
+        )
+    }
+
+    /// The map.
+    pub fn map(&self) -> &Arc<Map> {
+        &self.map
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &EnvConfig {
+        &self.cfg
+    }
+
+    /// Number of agents.
+    pub fn agents(&self) -> usize {
+        self.cfg.agents
+    }
+
+    /// Steps taken in this episode.
+    pub fn t(&self) -> u32 {
+        self.t
+    }
+
+    /// Index of the current episode.
+    pub fn episode(&self) -> u64 {
+        self.episode
+    }
+
+    /// Whether the current episode has ended.
+    pub fn is_over(&self) -> bool {
+        self.over
+    }
+
+    /// Agent `i`'s cell.
+    pub fn position(&self, agent: usize) -> Cell {
+        self.unpadded(self.pos[agent])
+    }
+
+    /// Agent `i`'s goal.
+    pub fn goal(&self, agent: usize) -> Cell {
+        self.unpadded(self.goal[agent])
+    }
+
+    /// All agents' cells.
+    pub fn positions(&self) -> Vec<Cell> {
+        (0..self.cfg.agents).map(|i| self.position(i)).collect()
+    }
+
+    /// All agents' goals.
+    pub fn goals(&self) -> Vec<Cell> {
+        (0..self.cfg.agents).map(|i| self.goal(i)).collect()
+    }
+
+    /// Whether agent `i` stands on its goal.
+    pub fn at_goal(&self, agent: usize) -> bool {
+        self.pos[agent] == self.goal[agent]
+    }
+
+    /// Per-cell visit counts since the env was created (row-major): each
+    /// episode's starts once, then every agent's cell after every step.
+    pub fn visits(&self) -> &[u64] {
+        &self.visits
+    }
+
+    /// Sets all visit counts to zero.
+    pub fn clear_visits(&mut self) {
+        self.visits.iter_mut().for_each(|v| *v = 0);
+    }
+
+    /// The deadlock/livelock monitor of this episode.
+    pub fn monitor(&self) -> &StallMonitor {
+        &self.monitor
+    }
+
+    /// Statistics of the episode so far (final once [`Self::is_over`]).
+    pub fn stats(&self) -> EpisodeStats {
+        let n = self.cfg.agents;
+        EpisodeStats {
+            episode: self.episode,
+            reward: self.episode_reward,
+            length: self.t,
+            success: !self.cfg.lifelong && (0..n).all(|i| self.at_goal(i)),
+            agents_at_goal: (0..n).filter(|&i| self.at_goal(i)).count() as u32,
+            blocked_moves: self.blocked_moves,
+            goals_reached: self.goals_reached,
+            deadlock_steps: self.monitor.deadlock_steps(),
+            livelock_steps: self.monitor.livelock_steps(),
+            deadlock_events: self.monitor.deadlock_events(),
+        }
+    }
+
+    // Accessors for the observation encoders.
+    pub(crate) fn raw(&self) -> RawView<'_> {
+        RawView {
+            padded_width: self.padded_width,
+            blocked: &self.blocked,
+            occupant: &self.occupant,
+            goal_owner: &self.goal_owner,
+            pos: &self.pos,
+            step_offsets: &self.step_offsets,
+        }
+    }
+
+    /// Goal distance (shortest path on the static layout) of agent `i`;
+    /// [`crate::map::UNREACHABLE`] if its goal cannot be reached.
+    pub fn goal_distance(&self, agent: usize) -> u16 {
+        let cell = self.position(agent);
+        self.goal_distance[agent][self.map.grid.index(cell)]
+    }
+}
+
+/// Borrowed internals for the observation encoders.
+pub(crate) struct RawView<'a> {
+    pub padded_width: usize,
+    pub blocked: &'a [u8],
+    pub occupant: &'a [u16],
+    pub goal_owner: &'a [u16],
+    pub pos: &'a [usize],
+    pub step_offsets: &'a [isize; NUM_ACTIONS],
+}

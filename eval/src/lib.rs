@@ -1,0 +1,1 @@
+//! Evaluation harness: filled by the baselines issue.

@@ -1,0 +1,1 @@
+//! Classical MAPF baselines: filled by the baselines issue.
