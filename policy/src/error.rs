@@ -1,0 +1,87 @@
+//! Errors of the policy crate.
+
+use std::path::PathBuf;
+
+/// What can go wrong building, running, saving or loading a policy.
+#[derive(Debug, thiserror::Error)]
+pub enum PolicyError {
+    /// The model spec is inconsistent.
+    #[error("invalid model spec: {0}")]
+    InvalidSpec(String),
+    /// A checkpoint file is missing.
+    #[error("checkpoint {dir}: missing file {file}")]
+    MissingFile {
+        /// The checkpoint directory.
+        dir: PathBuf,
+        /// The missing file's name.
+        file: &'static str,
+    },
+    /// A checkpoint file could not be read or written.
+    #[error("checkpoint file {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The spec file is not valid JSON/TOML for a [`crate::ModelSpec`].
+    #[error("spec file {path}: {message}")]
+    BadSpecFile {
+        /// The file.
+        path: PathBuf,
+        /// The parse error.
+        message: String,
+    },
+    /// The spec of a checkpoint differs from the one expected by the caller.
+    #[error("checkpoint spec does not match: expected {expected}, found {found}")]
+    SpecMismatch {
+        /// The expected spec (JSON).
+        expected: String,
+        /// The checkpoint's spec (JSON).
+        found: String,
+    },
+    /// The weights file lacks a tensor the spec requires.
+    #[error("weights lack tensor '{name}'")]
+    MissingTensor {
+        /// Tensor name.
+        name: String,
+    },
+    /// A tensor in the weights has the wrong shape for the spec.
+    #[error("tensor '{name}' has shape {found:?}, the spec needs {expected:?}")]
+    ShapeMismatch {
+        /// Tensor name.
+        name: String,
+        /// Shape required by the spec.
+        expected: Vec<usize>,
+        /// Shape found.
+        found: Vec<usize>,
+    },
+    /// The weights hold a tensor the spec does not know.
+    #[error("weights hold unexpected tensor '{name}'")]
+    UnexpectedTensor {
+        /// Tensor name.
+        name: String,
+    },
+    /// Input buffers of the wrong length.
+    #[error("{what}: expected {expected} values, got {got}")]
+    WrongLength {
+        /// Which buffer.
+        what: &'static str,
+        /// Expected length.
+        expected: usize,
+        /// Actual length.
+        got: usize,
+    },
+    /// A row has no legal action in some head (the env always allows stay,
+    /// so this means a corrupted mask).
+    #[error("row {row}, head {head}: the action mask allows no action")]
+    EmptyMask {
+        /// Row index.
+        row: usize,
+        /// Head index.
+        head: usize,
+    },
+    /// An error from candle.
+    #[error(transparent)]
+    Candle(#[from] candle_core::Error),
+}

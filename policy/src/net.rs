@@ -1,0 +1,398 @@
+//! One set of weights: hidden MLP, optional LSTM, logits and value heads.
+//!
+//! Parameter names (inside the [`candle_nn::VarMap`], prefixed `net{k}.`):
+//! `pi.{i}.weight|bias` (policy hidden layer `i`, weight `[out, in]`),
+//! `vf.{i}.weight|bias` (separate value MLP), `lstm.weight_ih_l0`,
+//! `lstm.weight_hh_l0`, `lstm.bias_ih_l0`, `lstm.bias_hh_l0` (PyTorch
+//! layout, gates i, f, g, o), `logits.weight|bias`, `value.weight|bias`.
+
+use candle_core::{Tensor, D};
+use candle_nn::{Linear, Module};
+
+use crate::error::PolicyError;
+use crate::spec::{Activation, LstmSpec, ModelSpec, ValueHead};
+
+/// How to initialise a parameter.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Init {
+    /// RLlib's `normc_initializer(std)`: each output row normal, scaled to norm `std`.
+    NormC(f32),
+    /// Uniform in `[-b, b]`.
+    Uniform(f32),
+    /// All zeros.
+    Zeros,
+}
+
+/// Creates parameters; implemented by the policy's seeded var store.
+pub(crate) trait ParamSource {
+    fn param(&mut self, name: &str, shape: &[usize], init: Init) -> Result<Tensor, PolicyError>;
+}
+
+/// The full list of (name, shape) a spec needs for net `k`, in creation order.
+pub(crate) fn param_shapes(spec: &ModelSpec, k: usize) -> Vec<(String, Vec<usize>)> {
+    let mut out = Vec::new();
+    let p = format!("net{k}.");
+    let push_mlp = |prefix: &str, out: &mut Vec<(String, Vec<usize>)>| {
+        let mut fan_in = spec.obs_dim;
+        for (i, &h) in spec.hidden.iter().enumerate() {
+            out.push((format!("{p}{prefix}.{i}.weight"), vec![h, fan_in]));
+            out.push((format!("{p}{prefix}.{i}.bias"), vec![h]));
+            fan_in = h;
+        }
+    };
+    push_mlp("pi", &mut out);
+    let mut feat = *spec.hidden.last().expect("validated");
+    if let Some(l) = &spec.lstm {
+        let input = feat + lstm_extra_inputs(spec, l);
+        out.push((format!("{p}lstm.weight_ih_l0"), vec![4 * l.cells, input]));
+        out.push((format!("{p}lstm.weight_hh_l0"), vec![4 * l.cells, l.cells]));
+        out.push((format!("{p}lstm.bias_ih_l0"), vec![4 * l.cells]));
+        out.push((format!("{p}lstm.bias_hh_l0"), vec![4 * l.cells]));
+        feat = l.cells;
+    } else if spec.value == ValueHead::Separate {
+        push_mlp("vf", &mut out);
+    }
+    out.push((format!("{p}logits.weight"), vec![spec.logits_dim(), feat]));
+    out.push((format!("{p}logits.bias"), vec![spec.logits_dim()]));
+    let vf_in = if spec.lstm.is_none() && spec.value == ValueHead::Separate {
+        *spec.hidden.last().expect("validated")
+    } else {
+        feat
+    };
+    out.push((format!("{p}value.weight"), vec![1, vf_in]));
+    out.push((format!("{p}value.bias"), vec![1]));
+    out
+}
+
+/// Extra LSTM inputs beyond the hidden features: previous action one-hot
+/// (`heads · actions`) and previous reward (1).
+pub(crate) fn lstm_extra_inputs(spec: &ModelSpec, l: &LstmSpec) -> usize {
+    (if l.prev_action { spec.logits_dim() } else { 0 }) + usize::from(l.prev_reward)
+}
+
+#[derive(Debug, Clone)]
+struct Mlp {
+    layers: Vec<Linear>,
+    act: Activation,
+}
+
+impl Mlp {
+    fn build(
+        spec: &ModelSpec,
+        prefix: &str,
+        src: &mut dyn ParamSource,
+    ) -> Result<Self, PolicyError> {
+        let mut layers = Vec::new();
+        let mut fan_in = spec.obs_dim;
+        for (i, &h) in spec.hidden.iter().enumerate() {
+            let w = src.param(
+                &format!("{prefix}.{i}.weight"),
+                &[h, fan_in],
+                Init::NormC(1.0),
+            )?;
+            let b = src.param(&format!("{prefix}.{i}.bias"), &[h], Init::Zeros)?;
+            layers.push(Linear::new(w, Some(b)));
+            fan_in = h;
+        }
+        Ok(Self {
+            layers,
+            act: spec.activation,
+        })
+    }
+
+    fn forward(&self, x: &Tensor) -> Result<Tensor, PolicyError> {
+        let mut h = x.clone();
+        for l in &self.layers {
+            h = l.forward(&h)?;
+            h = match self.act {
+                Activation::Tanh => h.tanh()?,
+                Activation::Relu => h.relu()?,
+            };
+        }
+        Ok(h)
+    }
+}
+
+/// An LSTM cell with PyTorch's parameter layout (gates i, f, g, o).
+#[derive(Debug, Clone)]
+struct LstmCell {
+    w_ih: Tensor,
+    w_hh: Tensor,
+    b_ih: Tensor,
+    b_hh: Tensor,
+    cells: usize,
+}
+
+impl LstmCell {
+    /// Input projection `x W_ihᵀ + b_ih + b_hh` (can be batched over time).
+    fn project_input(&self, x: &Tensor) -> Result<Tensor, PolicyError> {
+        Ok(x.matmul(&self.w_ih.t()?)?
+            .broadcast_add(&(&self.b_ih + &self.b_hh)?)?)
+    }
+
+    /// One step from a projected input: returns `(h', c')`.
+    fn step(&self, xp: &Tensor, h: &Tensor, c: &Tensor) -> Result<(Tensor, Tensor), PolicyError> {
+        let gates = (xp + h.matmul(&self.w_hh.t()?)?)?;
+        let n = self.cells;
+        let i = candle_nn::ops::sigmoid(&gates.narrow(1, 0, n)?)?;
+        let f = candle_nn::ops::sigmoid(&gates.narrow(1, n, n)?)?;
+        let g = gates.narrow(1, 2 * n, n)?.tanh()?;
+        let o = candle_nn::ops::sigmoid(&gates.narrow(1, 3 * n, n)?)?;
+        let c2 = ((f * c)? + (i * g)?)?;
+        let h2 = (o * c2.tanh()?)?;
+        Ok((h2, c2))
+    }
+}
+
+/// Inputs of a recurrent step besides the observation.
+#[derive(Debug, Clone)]
+pub struct RecurrentInput {
+    /// Previous action one-hot `[rows, heads·actions]` (zeros at an episode start).
+    pub prev_action: Tensor,
+    /// Previous reward `[rows, 1]` (0 at an episode start).
+    pub prev_reward: Tensor,
+    /// LSTM hidden state `[rows, cells]`.
+    pub h: Tensor,
+    /// LSTM cell state `[rows, cells]`.
+    pub c: Tensor,
+}
+
+/// Output of a forward pass.
+#[derive(Debug, Clone)]
+pub struct NetOutput {
+    /// Raw (unmasked) logits `[rows, heads·actions]`.
+    pub logits: Tensor,
+    /// State values `[rows]`.
+    pub value: Tensor,
+}
+
+/// Output of a sequence unroll.
+#[derive(Debug, Clone)]
+pub struct UnrollOutput {
+    /// Raw logits `[T·B, heads·actions]`, time-major.
+    pub logits: Tensor,
+    /// Values `[T·B]`, time-major.
+    pub value: Tensor,
+    /// LSTM `(h, c)` after each step `t` (before any reset), `[B, cells]` each.
+    pub states: Vec<(Tensor, Tensor)>,
+}
+
+/// One set of weights of a policy.
+#[derive(Debug, Clone)]
+pub struct Net {
+    pi: Mlp,
+    vf: Option<Mlp>,
+    lstm: Option<(LstmCell, LstmSpec)>,
+    logits: Linear,
+    value: Linear,
+    logits_dim: usize,
+}
+
+impl Net {
+    pub(crate) fn build(
+        spec: &ModelSpec,
+        k: usize,
+        src: &mut dyn ParamSource,
+    ) -> Result<Self, PolicyError> {
+        let p = format!("net{k}.");
+        let pi = Mlp::build(spec, &format!("{p}pi"), src)?;
+        let mut feat = *spec.hidden.last().expect("validated");
+        let mut lstm = None;
+        let mut vf = None;
+        if let Some(l) = &spec.lstm {
+            let input = feat + lstm_extra_inputs(spec, l);
+            let b = 1.0 / (l.cells as f32).sqrt();
+            let cell = LstmCell {
+                w_ih: src.param(
+                    &format!("{p}lstm.weight_ih_l0"),
+                    &[4 * l.cells, input],
+                    Init::Uniform(b),
+                )?,
+                w_hh: src.param(
+                    &format!("{p}lstm.weight_hh_l0"),
+                    &[4 * l.cells, l.cells],
+                    Init::Uniform(b),
+                )?,
+                b_ih: src.param(
+                    &format!("{p}lstm.bias_ih_l0"),
+                    &[4 * l.cells],
+                    Init::Uniform(b),
+                )?,
+                b_hh: src.param(
+                    &format!("{p}lstm.bias_hh_l0"),
+                    &[4 * l.cells],
+                    Init::Uniform(b),
+                )?,
+                cells: l.cells,
+            };
+            lstm = Some((cell, *l));
+            feat = l.cells;
+        } else if spec.value == ValueHead::Separate {
+            vf = Some(Mlp::build(spec, &format!("{p}vf"), src)?);
+        }
+        let logits = Linear::new(
+            src.param(
+                &format!("{p}logits.weight"),
+                &[spec.logits_dim(), feat],
+                Init::NormC(0.01),
+            )?,
+            Some(src.param(
+                &format!("{p}logits.bias"),
+                &[spec.logits_dim()],
+                Init::Zeros,
+            )?),
+        );
+        let vf_in = if vf.is_some() {
+            *spec.hidden.last().expect("validated")
+        } else {
+            feat
+        };
+        let value = Linear::new(
+            src.param(&format!("{p}value.weight"), &[1, vf_in], Init::NormC(0.01))?,
+            Some(src.param(&format!("{p}value.bias"), &[1], Init::Zeros)?),
+        );
+        Ok(Self {
+            pi,
+            vf,
+            lstm,
+            logits,
+            value,
+            logits_dim: spec.logits_dim(),
+        })
+    }
+
+    /// Whether this net has an LSTM.
+    pub fn is_recurrent(&self) -> bool {
+        self.lstm.is_some()
+    }
+
+    /// LSTM cells (0 without LSTM).
+    pub fn cells(&self) -> usize {
+        self.lstm.as_ref().map_or(0, |(c, _)| c.cells)
+    }
+
+    fn value_of(&self, obs: &Tensor, feat: &Tensor) -> Result<Tensor, PolicyError> {
+        let v = match &self.vf {
+            Some(vf) => self.value.forward(&vf.forward(obs)?)?,
+            None => self.value.forward(feat)?,
+        };
+        Ok(v.squeeze(D::Minus1)?)
+    }
+
+    /// Feed-forward pass of a non-recurrent net: `obs [rows, obs_dim]`.
+    pub fn forward(&self, obs: &Tensor) -> Result<NetOutput, PolicyError> {
+        if self.lstm.is_some() {
+            return Err(PolicyError::InvalidSpec(
+                "forward() on a recurrent net: use step() or unroll()".into(),
+            ));
+        }
+        let h = self.pi.forward(obs)?;
+        Ok(NetOutput {
+            logits: self.logits.forward(&h)?,
+            value: self.value_of(obs, &h)?,
+        })
+    }
+
+    /// Logits only (skips a separate value MLP): the actors' fast path.
+    pub fn forward_logits(&self, obs: &Tensor) -> Result<Tensor, PolicyError> {
+        let h = self.pi.forward(obs)?;
+        Ok(self.logits.forward(&h)?)
+    }
+
+    fn lstm_input(
+        &self,
+        feat: &Tensor,
+        prev_action: &Tensor,
+        prev_reward: &Tensor,
+    ) -> Result<Tensor, PolicyError> {
+        let (_, l) = self.lstm.as_ref().expect("recurrent");
+        let mut parts = vec![feat.clone()];
+        if l.prev_action {
+            parts.push(prev_action.clone());
+        }
+        if l.prev_reward {
+            parts.push(prev_reward.clone());
+        }
+        Ok(Tensor::cat(&parts, 1)?)
+    }
+
+    /// One recurrent step: returns the output and the new `(h, c)`.
+    pub fn step(
+        &self,
+        obs: &Tensor,
+        input: &RecurrentInput,
+    ) -> Result<(NetOutput, (Tensor, Tensor)), PolicyError> {
+        let Some((cell, _)) = &self.lstm else {
+            return Ok((self.forward(obs)?, (input.h.clone(), input.c.clone())));
+        };
+        let feat = self.pi.forward(obs)?;
+        let x = self.lstm_input(&feat, &input.prev_action, &input.prev_reward)?;
+        let xp = cell.project_input(&x)?;
+        let (h, c) = cell.step(&xp, &input.h, &input.c)?;
+        let out = NetOutput {
+            logits: self.logits.forward(&h)?,
+            value: self.value.forward(&h)?.squeeze(D::Minus1)?,
+        };
+        Ok((out, (h, c)))
+    }
+
+    /// Unrolls over a time-major sequence of `t` steps and `b` rows.
+    ///
+    /// `obs [t·b, obs_dim]`, `prev_action [t·b, heads·actions]`, `prev_reward
+    /// [t·b, 1]`: the inputs of each step, already zeroed at episode starts;
+    /// `keep [t·b, 1]`: 0 where step `t` starts a new episode (state reset
+    /// before the step), else 1; `(h0, c0)`: the state before step 0.
+    /// Gradients are truncated every `max_seq_len` steps (RLlib's
+    /// `max_seq_len`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn unroll(
+        &self,
+        obs: &Tensor,
+        prev_action: &Tensor,
+        prev_reward: &Tensor,
+        keep: &Tensor,
+        h0: &Tensor,
+        c0: &Tensor,
+        t: usize,
+        max_seq_len: usize,
+    ) -> Result<UnrollOutput, PolicyError> {
+        let Some((cell, _)) = &self.lstm else {
+            return Err(PolicyError::InvalidSpec(
+                "unroll() on a feed-forward net".into(),
+            ));
+        };
+        let (rows, _) = obs.dims2()?;
+        let b = rows / t.max(1);
+        let feat = self.pi.forward(obs)?;
+        let x = self.lstm_input(&feat, prev_action, prev_reward)?;
+        let xp = cell.project_input(&x)?;
+        let (mut h, mut c) = (h0.clone(), c0.clone());
+        let mut outs = Vec::with_capacity(t);
+        let mut states = Vec::with_capacity(t);
+        for s in 0..t {
+            if s > 0 && max_seq_len > 0 && s % max_seq_len == 0 {
+                h = h.detach();
+                c = c.detach();
+            }
+            let k = keep.narrow(0, s * b, b)?;
+            h = h.broadcast_mul(&k)?;
+            c = c.broadcast_mul(&k)?;
+            let (h2, c2) = cell.step(&xp.narrow(0, s * b, b)?, &h, &c)?;
+            outs.push(h2.clone());
+            states.push((h2.clone(), c2.clone()));
+            h = h2;
+            c = c2;
+        }
+        let out = Tensor::cat(&outs, 0)?;
+        Ok(UnrollOutput {
+            logits: self.logits.forward(&out)?,
+            value: self.value.forward(&out)?.squeeze(D::Minus1)?,
+            states,
+        })
+    }
+
+    /// Width of the logits.
+    pub fn logits_dim(&self) -> usize {
+        self.logits_dim
+    }
+}

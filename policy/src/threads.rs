@@ -1,0 +1,39 @@
+//! Thread count of candle's CPU backend.
+//!
+//! candle 0.11 reads `RAYON_NUM_THREADS` on every matrix multiplication
+//! ([`candle_core::utils::get_num_threads`]; more than one thread means gemm
+//! runs on rayon's global pool) and sizes its element-wise worker pool once,
+//! from `CANDLE_NUM_THREADS` (falling back to `RAYON_NUM_THREADS`, then the
+//! physical cores), at the first large element-wise op. Both must therefore
+//! be set before the first tensor operation of the process.
+//!
+//! Measured on the 2-core dev machine (see `policy/benches/inference.rs`):
+//! for the actors' batches of 64 rows one thread is fastest — the matrices
+//! are far too small to amortise waking a second thread.
+
+/// Threads candle's CPU matmul currently uses.
+pub fn candle_threads() -> usize {
+    candle_core::utils::get_num_threads()
+}
+
+/// Pins candle (matmul and element-wise pools) and rayon's global pool to
+/// `n` threads, unless the user already set `RAYON_NUM_THREADS` /
+/// `CANDLE_NUM_THREADS`. Call it at the start of `main`, before any other
+/// thread exists and before any tensor operation. Returns the thread count
+/// candle will use.
+///
+/// ```
+/// let n = buridan_policy::threads::pin_threads(1);
+/// assert!(n >= 1);
+/// ```
+pub fn pin_threads(n: usize) -> usize {
+    let n = n.max(1).to_string();
+    for var in ["RAYON_NUM_THREADS", "CANDLE_NUM_THREADS"] {
+        if std::env::var_os(var).is_none() {
+            // Setting the environment is only sound while no other thread
+            // reads it: the documented contract of this function.
+            std::env::set_var(var, &n);
+        }
+    }
+    candle_threads()
+}
