@@ -1,1 +1,20 @@
-//! Evaluation harness: filled by the baselines issue.
+//! One evaluation harness for every controller — MA-A*, CBS, random and
+//! trained policies — on identical episodes drawn from the env's seeded
+//! generator, with the dissertation's statistics and charts.
+//!
+//! - [`controller`]: the [`Controller`] trait and [`RandomController`].
+//! - [`planner`]: planners of `buridan-mapf` as controllers.
+//! - [`runner`]: [`evaluate`] runs episodes and aggregates them.
+//! - [`stats`]: quantiles and box-plot statistics.
+//! - [`output`]: CSV, JSON and PNG files of a report; the agent-count sweep.
+//! - [`plot`]: heatmaps, box plots and line charts as PNG.
+
+pub mod controller;
+pub mod output;
+pub mod planner;
+pub mod plot;
+pub mod runner;
+pub mod stats;
+
+pub use controller::{Controller, GiveUp, PlanNotes, RandomController};
+pub use runner::{evaluate, run_episode, EpisodeRecord, EvalReport, EvalSpec, EvalSummary};

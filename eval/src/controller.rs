@@ -1,0 +1,101 @@
+//! The controller trait every evaluated policy implements, and the random one.
+
+use buridan_env::{GridEnv, NUM_ACTIONS};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Why a controller gave up on an episode before acting.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GiveUp {
+    /// The per-instance time limit ran out.
+    TimeLimit,
+    /// The memory cap was reached.
+    MemoryLimit,
+    /// The instance has no solution (or none within the horizon).
+    NoSolution,
+    /// Anything else, in words.
+    Other(String),
+}
+
+impl std::fmt::Display for GiveUp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GiveUp::TimeLimit => f.write_str("time limit"),
+            GiveUp::MemoryLimit => f.write_str("memory limit"),
+            GiveUp::NoSolution => f.write_str("no solution"),
+            GiveUp::Other(why) => f.write_str(why),
+        }
+    }
+}
+
+/// Something that drives all agents of a [`GridEnv`]: a planner, a random
+/// controller or a trained policy. The harness times every call.
+///
+/// ```
+/// use buridan_eval::{Controller, GiveUp};
+/// struct Idle;
+/// impl Controller for Idle {
+///     fn name(&self) -> String { "idle".into() }
+///     fn begin_episode(&mut self, _: &buridan_env::GridEnv) -> Result<(), GiveUp> { Ok(()) }
+///     fn act(&mut self, _: &buridan_env::GridEnv, actions: &mut [u8]) { actions.fill(0) }
+/// }
+/// ```
+pub trait Controller: Send {
+    /// Name used in reports.
+    fn name(&self) -> String;
+    /// Prepares for the env's freshly reset episode (a planner plans here).
+    fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp>;
+    /// Writes one action per agent for the env's current state.
+    fn act(&mut self, env: &GridEnv, actions: &mut [u8]);
+    /// Extra per-episode facts (e.g. a planner's makespan), reported in the CSV.
+    fn episode_notes(&self) -> PlanNotes {
+        PlanNotes::default()
+    }
+}
+
+/// Optional facts a planner reports about its plan.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct PlanNotes {
+    /// Makespan of the plan, if one was found.
+    pub plan_makespan: Option<u32>,
+    /// Sum of costs of the plan, if one was found.
+    pub plan_sum_of_costs: Option<u32>,
+    /// Search nodes expanded.
+    pub expanded: Option<u64>,
+}
+
+/// Uniformly random legal actions (the action mask decides what is legal);
+/// reproducible per episode from the seed.
+pub struct RandomController {
+    seed: u64,
+    rng: ChaCha8Rng,
+    mask: [u8; NUM_ACTIONS],
+}
+
+impl RandomController {
+    /// A random controller whose draws in episode `e` depend only on `(seed, e)`.
+    pub fn new(seed: u64) -> Self {
+        Self { seed, rng: ChaCha8Rng::seed_from_u64(seed), mask: [1; NUM_ACTIONS] }
+    }
+}
+
+impl Controller for RandomController {
+    fn name(&self) -> String {
+        "random".into()
+    }
+
+    fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
+        self.rng = buridan_env::episode_rng(self.seed ^ 0x7261_6e64_6f6d, env.episode());
+        Ok(())
+    }
+
+    fn act(&mut self, env: &GridEnv, actions: &mut [u8]) {
+        for (i, a) in actions.iter_mut().enumerate() {
+            env.write_action_mask(i, &mut self.mask).expect("mask buffer has 5 bytes");
+            let legal = self.mask.iter().filter(|&&m| m == 1).count();
+            let pick = self.rng.random_range(0..legal);
+            *a = (0..NUM_ACTIONS as u8).filter(|&k| self.mask[k as usize] == 1).nth(pick).unwrap_or(0);
+        }
+    }
+}
