@@ -56,8 +56,8 @@ pub enum EnvError {
         /// The length given.
         got: usize,
     },
-    /// Fewer free cells than distinct starts and goals require.
-    #[error("map '{map}' has {free} free cells, but {agents} agents need {needed} distinct start and goal cells")]
+    /// Fewer free cells than distinct starts and goals (or lifelong goal draws) require.
+    #[error("map '{map}' has {free} free cells, but {agents} agents need {needed} (2 per agent for distinct starts and goals; agents + 1 for lifelong goal draws)")]
     TooFewFreeCells {
         /// Map name.
         map: String,
@@ -65,7 +65,8 @@ pub enum EnvError {
         free: usize,
         /// Number of agents requested.
         agents: usize,
-        /// 2 × agents.
+        /// Cells required: 2 × agents for distinct starts and goals,
+        /// agents + 1 for lifelong goal draws.
         needed: usize,
     },
     /// Fixed starts were requested but the map has no (or too short a) scenario.

@@ -172,8 +172,9 @@ impl Grid {
     }
 
     /// Shortest-path step distances from every cell to `target` (row-major,
-    /// [`UNREACHABLE`] where no path exists), computed once per target by
-    /// breadth-first search and shared between all users of this grid.
+    /// [`UNREACHABLE`] where no path exists; longer paths saturate at
+    /// `UNREACHABLE - 1`), computed once per target by breadth-first search
+    /// and shared between all users of this grid.
     pub fn distances_to(&self, target: Cell) -> Arc<[u16]> {
         let idx = self.index(target);
         self.distance_cache[idx]
@@ -195,7 +196,10 @@ impl Grid {
                 if let Some(n) = self.neighbour(cell, action) {
                     let ni = self.index(n);
                     if !self.walls[ni] && dist[ni] == UNREACHABLE {
-                        dist[ni] = d + 1;
+                        // Saturate below the sentinel: paths longer than
+                        // 65534 steps (large mazes) must not overflow or
+                        // read as unreachable.
+                        dist[ni] = d.saturating_add(1).min(UNREACHABLE - 1);
                         queue.push_back(n);
                     }
                 }

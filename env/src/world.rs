@@ -203,6 +203,15 @@ impl GridEnv {
             }
         }
         let grid = &self.map.grid;
+        // Lifelong goal draws need a free cell that is nobody's goal.
+        if self.cfg.lifelong && grid.free_cells().len() <= n {
+            return Err(EnvError::TooFewFreeCells {
+                map: self.map.name.clone(),
+                free: grid.free_cells().len(),
+                agents: n,
+                needed: n + 1,
+            });
+        }
         for (which, list) in [("start", starts), ("goal", goals)] {
             for (i, &cell) in list.iter().enumerate() {
                 if !grid.contains(cell) {
@@ -374,8 +383,8 @@ impl GridEnv {
 
     fn draw_new_goal(&mut self, agent: usize) {
         let free = self.map.grid.free_cells();
-        // Rejection sampling terminates: validation guarantees 2n ≤ free cells,
-        // so at least n free cells are nobody's goal.
+        // Rejection sampling terminates: `reset_with` guarantees more free
+        // cells than agents in lifelong mode, so some free cell is nobody's goal.
         let cell = loop {
             let cand = free[self.rng.random_range(0..free.len())];
             let p = self.padded(cand);
