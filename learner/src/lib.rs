@@ -1,1 +1,3 @@
 //! Learner library.
+
+pub mod algo;

@@ -1,0 +1,493 @@
+//! From fragments to train batches: rows grouped per weight set, plain
+//! buffers turned into tensors, and the value pass that yields `V(s_t)` and
+//! the bootstrap values `V(s_{t+1})` (see [`crate::algo::gae`]).
+
+use anyhow::{bail, ensure, Result};
+use buridan_policy::dist;
+use buridan_policy::infer::{one_hot_prev, RecurrentState, NO_ACTION};
+use buridan_policy::{Fragment, ModelSpec, Net};
+use candle_core::{Device, Tensor};
+
+/// The experience of one weight set: `T` steps of `R` rows gathered from
+/// fragments (all of the same length), time-major `[T, R]`.
+#[derive(Debug, Clone, Default)]
+pub struct NetBatch {
+    /// Steps `T`.
+    pub t: usize,
+    /// Rows `R`.
+    pub rows: usize,
+    /// Floats per observation.
+    pub obs_dim: usize,
+    /// Heads.
+    pub heads: usize,
+    /// Actions per head.
+    pub actions_per_head: usize,
+    /// `[T, R, obs_dim]`.
+    pub obs: Vec<f32>,
+    /// `[T, R, heads·A]`.
+    pub masks: Vec<u8>,
+    /// `[T, R, heads]`.
+    pub actions: Vec<u8>,
+    /// `[T, R, heads·A]`.
+    pub behaviour_logits: Vec<f32>,
+    /// `[T, R]`.
+    pub rewards: Vec<f32>,
+    /// `[T, R]`.
+    pub terminated: Vec<bool>,
+    /// `[T, R]`.
+    pub truncated: Vec<bool>,
+    /// Final observations of truncated steps, `[K, obs_dim]`.
+    pub final_obs: Vec<f32>,
+    /// `t·R + r` of each final observation.
+    pub final_index: Vec<usize>,
+    /// Observation after the last step, `[R, obs_dim]`.
+    pub last_obs: Vec<f32>,
+    /// Recurrent state before step 0 (rows `R`).
+    pub initial_state: Option<RecurrentState>,
+    /// Env steps the fragments of this batch hold (the same for every weight set).
+    pub env_steps: u64,
+}
+
+impl NetBatch {
+    /// Samples `T·R`.
+    pub fn len(&self) -> usize {
+        self.t * self.rows
+    }
+
+    /// Whether the batch is empty.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Splits fragments into one [`NetBatch`] per weight set of `spec`
+/// (one for CTE/CTDE, one per agent id for DTE).
+pub fn build_net_batches(fragments: &[Fragment], spec: &ModelSpec) -> Result<Vec<NetBatch>> {
+    ensure!(!fragments.is_empty(), "no fragments to build a batch from");
+    let t = fragments[0].len;
+    let w = spec.logits_dim();
+    for f in fragments {
+        f.validate()?;
+        ensure!(
+            f.len == t,
+            "fragments of different lengths ({} and {t})",
+            f.len
+        );
+        ensure!(
+            f.obs_dim == spec.obs_dim && f.heads == spec.heads,
+            "fragment shape (obs {}, heads {}) does not match the model (obs {}, heads {})",
+            f.obs_dim,
+            f.heads,
+            spec.obs_dim,
+            spec.heads
+        );
+        ensure!(
+            f.initial_state.is_some() == spec.is_recurrent(),
+            "fragment recurrent state does not match the model"
+        );
+    }
+    let env_steps: u64 = fragments.iter().map(|f| f.env_steps).sum();
+    let d = spec.obs_dim;
+    let h = spec.heads;
+    let mut out = Vec::with_capacity(spec.nets());
+    for k in 0..spec.nets() {
+        // (fragment, row) pairs of this weight set, in batch row order.
+        let sel: Vec<(usize, usize)> = fragments
+            .iter()
+            .enumerate()
+            .flat_map(|(fi, f)| {
+                (0..f.rows)
+                    .filter(move |&r| spec.net_of_row(r) == k)
+                    .map(move |r| (fi, r))
+            })
+            .collect();
+        let rows = sel.len();
+        let n = t * rows;
+        let mut b = NetBatch {
+            t,
+            rows,
+            obs_dim: d,
+            heads: h,
+            actions_per_head: spec.actions,
+            obs: Vec::with_capacity(n * d),
+            masks: Vec::with_capacity(n * w),
+            actions: Vec::with_capacity(n * h),
+            behaviour_logits: Vec::with_capacity(n * w),
+            rewards: Vec::with_capacity(n),
+            terminated: Vec::with_capacity(n),
+            truncated: Vec::with_capacity(n),
+            final_obs: Vec::new(),
+            final_index: Vec::new(),
+            last_obs: Vec::with_capacity(rows * d),
+            initial_state: None,
+            env_steps,
+        };
+        for s in 0..t {
+            for &(fi, r) in &sel {
+                let f = &fragments[fi];
+                let i = s * f.rows + r;
+                b.obs.extend_from_slice(&f.obs[i * d..(i + 1) * d]);
+                b.masks.extend_from_slice(&f.masks[i * w..(i + 1) * w]);
+                b.actions.extend_from_slice(&f.actions[i * h..(i + 1) * h]);
+                b.behaviour_logits
+                    .extend_from_slice(&f.behaviour_logits[i * w..(i + 1) * w]);
+                b.rewards.push(f.rewards[i]);
+                b.terminated.push(f.terminated[i] != 0);
+                b.truncated.push(f.truncated[i] != 0);
+            }
+        }
+        // Map (fragment, row) → batch row for the final observations.
+        let mut batch_row = vec![Vec::new(); fragments.len()];
+        for (j, &(fi, r)) in sel.iter().enumerate() {
+            if batch_row[fi].is_empty() {
+                batch_row[fi] = vec![usize::MAX; fragments[fi].rows];
+            }
+            batch_row[fi][r] = j;
+        }
+        for (fi, f) in fragments.iter().enumerate() {
+            for (q, &idx) in f.final_obs_index.iter().enumerate() {
+                let (s, r) = (idx as usize / f.rows, idx as usize % f.rows);
+                if batch_row[fi].is_empty() || batch_row[fi][r] == usize::MAX {
+                    continue;
+                }
+                b.final_index.push(s * rows + batch_row[fi][r]);
+                b.final_obs
+                    .extend_from_slice(&f.final_obs[q * d..(q + 1) * d]);
+            }
+        }
+        for &(fi, r) in &sel {
+            b.last_obs
+                .extend_from_slice(&fragments[fi].last_obs[r * d..(r + 1) * d]);
+        }
+        if spec.is_recurrent() {
+            let cells = spec.lstm.expect("recurrent").cells;
+            let mut st = RecurrentState::new(rows, cells, h);
+            for (j, &(fi, r)) in sel.iter().enumerate() {
+                let src = fragments[fi].initial_state.as_ref().expect("checked");
+                if src.cells != cells {
+                    bail!("fragment LSTM has {} cells, model {cells}", src.cells);
+                }
+                st.h[j * cells..(j + 1) * cells]
+                    .copy_from_slice(&src.h[r * cells..(r + 1) * cells]);
+                st.c[j * cells..(j + 1) * cells]
+                    .copy_from_slice(&src.c[r * cells..(r + 1) * cells]);
+                st.prev_actions[j * h..(j + 1) * h]
+                    .copy_from_slice(&src.prev_actions[r * h..(r + 1) * h]);
+                st.prev_rewards[j] = src.prev_rewards[r];
+            }
+            b.initial_state = Some(st);
+        }
+        out.push(b);
+    }
+    Ok(out)
+}
+
+/// Recurrent inputs of a batch as tensors.
+#[derive(Debug, Clone)]
+pub struct RecurrentTensors {
+    /// Previous action one-hot per step, `[T·R, heads·A]`.
+    pub prev_action: Tensor,
+    /// Previous reward per step, `[T·R, 1]`.
+    pub prev_reward: Tensor,
+    /// 0 where a step starts a new episode inside the sequence, `[T·R, 1]`.
+    pub keep: Tensor,
+    /// LSTM state before step 0, `[R, cells]`.
+    pub h0: Tensor,
+    /// LSTM cell state before step 0, `[R, cells]`.
+    pub c0: Tensor,
+}
+
+/// A [`NetBatch`] as tensors (all time-major, flattened `[T·R, …]`).
+#[derive(Debug, Clone)]
+pub struct BatchTensors {
+    /// Steps.
+    pub t: usize,
+    /// Rows.
+    pub rows: usize,
+    /// Heads.
+    pub heads: usize,
+    /// `[T·R, obs_dim]`.
+    pub obs: Tensor,
+    /// Additive action mask, `[T·R, heads·A]`.
+    pub mask_bias: Tensor,
+    /// Actions, u32 `[T·R, heads]`.
+    pub actions: Tensor,
+    /// Behaviour log-probabilities of all actions, `[T·R, heads, A]`.
+    pub behaviour_log_probs: Tensor,
+    /// Behaviour joint log-prob of the action taken, `[T·R]`.
+    pub behaviour_logp: Tensor,
+    /// Recurrent inputs, if the net is recurrent.
+    pub recurrent: Option<RecurrentTensors>,
+}
+
+impl BatchTensors {
+    /// Converts a batch; behaviour log-probs come from the stored logits
+    /// with the same masking as the learner's own.
+    pub fn new(b: &NetBatch, device: &Device) -> Result<Self> {
+        let n = b.len();
+        let w = b.heads * b.actions_per_head;
+        let mask_bias = dist::mask_bias(&b.masks, n, w, device)?;
+        let logits = Tensor::from_slice(&b.behaviour_logits, (n, w), device)?;
+        let behaviour_log_probs = dist::masked_log_probs(&logits, &mask_bias, b.heads)?;
+        let actions: Vec<u32> = b.actions.iter().map(|&a| a as u32).collect();
+        let actions = Tensor::from_vec(actions, (n, b.heads), device)?;
+        let behaviour_logp = dist::joint_log_prob(&behaviour_log_probs, &actions)?;
+        let recurrent = match &b.initial_state {
+            None => None,
+            Some(st) => Some(recurrent_inputs(b, st, device)?),
+        };
+        Ok(Self {
+            t: b.t,
+            rows: b.rows,
+            heads: b.heads,
+            obs: Tensor::from_slice(&b.obs, (n, b.obs_dim), device)?,
+            mask_bias,
+            actions,
+            behaviour_log_probs,
+            behaviour_logp,
+            recurrent,
+        })
+    }
+
+    /// The samples at flat indices `idx` (feed-forward minibatches).
+    pub fn select_samples(&self, idx: &Tensor) -> Result<Self> {
+        ensure!(
+            self.recurrent.is_none(),
+            "sample selection on a recurrent batch"
+        );
+        Ok(Self {
+            t: 1,
+            rows: idx.elem_count(),
+            heads: self.heads,
+            obs: self.obs.index_select(idx, 0)?,
+            mask_bias: self.mask_bias.index_select(idx, 0)?,
+            actions: self.actions.index_select(idx, 0)?,
+            behaviour_log_probs: self.behaviour_log_probs.index_select(idx, 0)?,
+            behaviour_logp: self.behaviour_logp.index_select(idx, 0)?,
+            recurrent: None,
+        })
+    }
+
+    /// Whole sequences of rows `rows` (recurrent minibatches); the result
+    /// stays time-major.
+    pub fn select_rows(&self, rows: &Tensor) -> Result<Self> {
+        let (t, r) = (self.t, self.rows);
+        let sel = |x: &Tensor| -> Result<Tensor> {
+            let dims = x.dims().to_vec();
+            let mut shape = vec![t, r];
+            shape.extend_from_slice(&dims[1..]);
+            let y = x.reshape(shape)?.index_select(rows, 1)?;
+            let mut flat = vec![t * rows.elem_count()];
+            flat.extend_from_slice(&dims[1..]);
+            Ok(y.reshape(flat)?)
+        };
+        let recurrent = match &self.recurrent {
+            None => None,
+            Some(rc) => Some(RecurrentTensors {
+                prev_action: sel(&rc.prev_action)?,
+                prev_reward: sel(&rc.prev_reward)?,
+                keep: sel(&rc.keep)?,
+                h0: rc.h0.index_select(rows, 0)?,
+                c0: rc.c0.index_select(rows, 0)?,
+            }),
+        };
+        Ok(Self {
+            t,
+            rows: rows.elem_count(),
+            heads: self.heads,
+            obs: sel(&self.obs)?,
+            mask_bias: sel(&self.mask_bias)?,
+            actions: sel(&self.actions)?,
+            behaviour_log_probs: sel(&self.behaviour_log_probs)?,
+            behaviour_logp: sel(&self.behaviour_logp)?,
+            recurrent,
+        })
+    }
+
+    /// Picks `x` (a `[T·R, …]` tensor aligned with this batch's source) the
+    /// same way as [`Self::select_rows`].
+    pub fn select_rows_of(x: &Tensor, t: usize, r: usize, rows: &Tensor) -> Result<Tensor> {
+        let dims = x.dims().to_vec();
+        let mut shape = vec![t, r];
+        shape.extend_from_slice(&dims[1..]);
+        let y = x.reshape(shape)?.index_select(rows, 1)?;
+        let mut flat = vec![t * rows.elem_count()];
+        flat.extend_from_slice(&dims[1..]);
+        Ok(y.reshape(flat)?)
+    }
+}
+
+fn recurrent_inputs(
+    b: &NetBatch,
+    st: &RecurrentState,
+    device: &Device,
+) -> Result<RecurrentTensors> {
+    let (t, r, h, na) = (b.t, b.rows, b.heads, b.actions_per_head);
+    let w = h * na;
+    let mut prev_actions = vec![NO_ACTION; t * r * h];
+    let mut prev_rewards = vec![0.0f32; t * r];
+    let mut keep = vec![1.0f32; t * r];
+    for j in 0..r {
+        prev_actions[j * h..(j + 1) * h].copy_from_slice(&st.prev_actions[j * h..(j + 1) * h]);
+        prev_rewards[j] = st.prev_rewards[j];
+    }
+    for s in 1..t {
+        for j in 0..r {
+            let prev = (s - 1) * r + j;
+            let k = s * r + j;
+            if b.terminated[prev] || b.truncated[prev] {
+                keep[k] = 0.0;
+            } else {
+                prev_actions[k * h..(k + 1) * h]
+                    .copy_from_slice(&b.actions[prev * h..(prev + 1) * h]);
+                prev_rewards[k] = b.rewards[prev];
+            }
+        }
+    }
+    let mut onehot = Vec::new();
+    one_hot_prev(&prev_actions, h, na, &mut onehot);
+    Ok(RecurrentTensors {
+        prev_action: Tensor::from_vec(onehot, (t * r, w), device)?,
+        prev_reward: Tensor::from_vec(prev_rewards, (t * r, 1), device)?,
+        keep: Tensor::from_vec(keep, (t * r, 1), device)?,
+        h0: Tensor::from_slice(&st.h, (r, st.cells), device)?,
+        c0: Tensor::from_slice(&st.c, (r, st.cells), device)?,
+    })
+}
+
+/// Logits and values of a batch under the current weights, plus the
+/// bootstrap values `V(s_{t+1})` in [`crate::algo::gae`]'s convention.
+#[derive(Debug, Clone)]
+pub struct Evaluation {
+    /// Raw logits `[T·R, heads·A]` (with gradient).
+    pub logits: Tensor,
+    /// Values `[T·R]` (with gradient).
+    pub values: Tensor,
+    /// `V(s_t)`, detached, `[T·R]`.
+    pub values_vec: Vec<f32>,
+    /// `V(s_{t+1})`, detached, `[T·R]`.
+    pub next_values: Vec<f32>,
+}
+
+/// Runs a net over a whole batch (feed-forward or unrolled), with the
+/// bootstrap observations (last and final) in the same pass.
+pub fn evaluate(
+    net: &Net,
+    b: &NetBatch,
+    bt: &BatchTensors,
+    max_seq_len: usize,
+    device: &Device,
+) -> Result<Evaluation> {
+    let (t, r, d) = (b.t, b.rows, b.obs_dim);
+    let n = t * r;
+    let k = b.final_index.len();
+    let (logits, values, last_v, final_v) = match &bt.recurrent {
+        None => {
+            let mut parts = vec![bt.obs.clone()];
+            parts.push(Tensor::from_slice(&b.last_obs, (r, d), device)?);
+            if k > 0 {
+                parts.push(Tensor::from_slice(&b.final_obs, (k, d), device)?);
+            }
+            let all = Tensor::cat(&parts, 0)?;
+            let out = net.forward(&all)?;
+            let v: Vec<f32> = out.value.detach().to_vec1()?;
+            let logits = out.logits.narrow(0, 0, n)?;
+            let values = out.value.narrow(0, 0, n)?;
+            (logits, values, v[n..n + r].to_vec(), v[n + r..].to_vec())
+        }
+        Some(rc) => {
+            let un = net.unroll(
+                &bt.obs,
+                &rc.prev_action,
+                &rc.prev_reward,
+                &rc.keep,
+                &rc.h0,
+                &rc.c0,
+                t,
+                max_seq_len,
+            )?;
+            let (na, h) = (b.actions_per_head, b.heads);
+            let w = h * na;
+            // Bootstrap of the fragment end: state after T−1, inputs a_{T−1}, r_{T−1}.
+            let (hl, cl) = un.states[t - 1].clone();
+            let last_idx: Vec<usize> = ((t - 1) * r..t * r).collect();
+            let (pa, pr) = prev_inputs_of(b, &last_idx, w, device)?;
+            let last_out = net.step(
+                &Tensor::from_slice(&b.last_obs, (r, d), device)?,
+                &buridan_policy::RecurrentInput {
+                    prev_action: pa,
+                    prev_reward: pr,
+                    h: hl.detach(),
+                    c: cl.detach(),
+                },
+            )?;
+            let last_v: Vec<f32> = last_out.0.value.detach().to_vec1()?;
+            let final_v = if k > 0 {
+                let mut hs = Vec::with_capacity(k);
+                let mut cs = Vec::with_capacity(k);
+                for &idx in &b.final_index {
+                    let (s, j) = (idx / r, idx % r);
+                    hs.push(un.states[s].0.narrow(0, j, 1)?.detach());
+                    cs.push(un.states[s].1.narrow(0, j, 1)?.detach());
+                }
+                let (pa, pr) = prev_inputs_of(b, &b.final_index, w, device)?;
+                let out = net.step(
+                    &Tensor::from_slice(&b.final_obs, (k, d), device)?,
+                    &buridan_policy::RecurrentInput {
+                        prev_action: pa,
+                        prev_reward: pr,
+                        h: Tensor::cat(&hs, 0)?,
+                        c: Tensor::cat(&cs, 0)?,
+                    },
+                )?;
+                out.0.value.detach().to_vec1()?
+            } else {
+                Vec::new()
+            };
+            (un.logits, un.value, last_v, final_v)
+        }
+    };
+    let values_vec: Vec<f32> = values.detach().to_vec1()?;
+    let mut next_values = vec![0.0f32; n];
+    for s in 0..t {
+        for j in 0..r {
+            let i = s * r + j;
+            next_values[i] = if s + 1 < t {
+                values_vec[i + r]
+            } else {
+                last_v[j]
+            };
+        }
+    }
+    for (q, &idx) in b.final_index.iter().enumerate() {
+        next_values[idx] = final_v[q];
+    }
+    Ok(Evaluation {
+        logits,
+        values,
+        values_vec,
+        next_values,
+    })
+}
+
+/// One-hot actions and rewards of the given flat steps (inputs of the step after them).
+fn prev_inputs_of(
+    b: &NetBatch,
+    idx: &[usize],
+    w: usize,
+    device: &Device,
+) -> Result<(Tensor, Tensor)> {
+    let h = b.heads;
+    let mut acts = Vec::with_capacity(idx.len() * h);
+    let mut rews = Vec::with_capacity(idx.len());
+    for &i in idx {
+        acts.extend_from_slice(&b.actions[i * h..(i + 1) * h]);
+        rews.push(b.rewards[i]);
+    }
+    let mut onehot = Vec::new();
+    one_hot_prev(&acts, h, b.actions_per_head, &mut onehot);
+    Ok((
+        Tensor::from_vec(onehot, (idx.len(), w), device)?,
+        Tensor::from_vec(rews, (idx.len(), 1), device)?,
+    ))
+}

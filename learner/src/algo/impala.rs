@@ -1,0 +1,171 @@
+//! IMPALA's learner update (Espeholt et al. 2018): V-trace targets and
+//! policy-gradient advantages from the current weights, then one gradient
+//! step on
+//!
+//! `total = −mean(log π(a|s)·A^vtrace) + c_vf·½·mean((V(s) − v_s)²) − c_ent·mean(H)`
+//!
+//! with global-norm gradient clipping (RLlib default 40). Means rather than
+//! sums over the batch, as RLlib's new-stack IMPALA learner does. Optimiser:
+//! Adam (RLlib IMPALA's default `opt_type="adam"`; the paper used RMSProp).
+
+use anyhow::Result;
+use buridan_policy::{dist, Policy};
+use candle_core::{Device, Tensor};
+
+use crate::algo::batch::{build_net_batches, evaluate, BatchTensors, NetBatch};
+use crate::algo::optim::{clip_global_norm, collect_grads, global_norm, Adam};
+use crate::algo::ppo::LossTerms;
+use crate::algo::vtrace::{vtrace, VTraceParams};
+use crate::algo::{net_var_groups, UpdateStats};
+
+/// Coefficients of the IMPALA loss.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImpalaLossParams {
+    /// Value loss coefficient.
+    pub vf_coeff: f32,
+    /// Entropy coefficient.
+    pub entropy_coeff: f32,
+}
+
+/// The V-trace actor-critic loss: `logits [N, heads·A]`, `values [N]` from
+/// the current network, `pg_advantages [N]` and value targets `vs [N]`
+/// (constants).
+pub fn impala_loss(
+    logits: &Tensor,
+    values: &Tensor,
+    bt: &BatchTensors,
+    pg_advantages: &Tensor,
+    vs: &Tensor,
+    p: &ImpalaLossParams,
+) -> Result<(Tensor, LossTerms)> {
+    let lp_all = dist::masked_log_probs(logits, &bt.mask_bias, bt.heads)?;
+    let logp = dist::joint_log_prob(&lp_all, &bt.actions)?;
+    let pi_loss = (logp * pg_advantages)?.mean_all()?.neg()?;
+    let vf_loss = ((values - vs)?.sqr()?.mean_all()? * 0.5)?;
+    let entropy = dist::entropy(&lp_all)?.mean_all()?;
+    let total =
+        ((&pi_loss + (&vf_loss * p.vf_coeff as f64)?)? - (&entropy * p.entropy_coeff as f64)?)?;
+    let kl = dist::kl(&bt.behaviour_log_probs, &lp_all.detach())?.mean_all()?;
+    let terms = LossTerms {
+        total: total.to_scalar::<f32>()? as f64,
+        policy: pi_loss.to_scalar::<f32>()? as f64,
+        vf: vf_loss.to_scalar::<f32>()? as f64,
+        entropy: entropy.to_scalar::<f32>()? as f64,
+        kl: kl.to_scalar::<f32>()? as f64,
+    };
+    Ok((total, terms))
+}
+
+/// IMPALA hyperparameters used by [`Impala`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImpalaSettings {
+    /// Learning rate.
+    pub lr: f64,
+    /// Value loss coefficient.
+    pub vf_coeff: f32,
+    /// Entropy coefficient.
+    pub entropy_coeff: f32,
+    /// Global-norm gradient clip per weight set.
+    pub grad_clip: Option<f64>,
+    /// V-trace clipping and discounting.
+    pub vtrace: VTraceParams,
+    /// Truncated-BPTT length for recurrent nets.
+    pub max_seq_len: usize,
+}
+
+/// IMPALA learner state.
+pub struct Impala {
+    /// Settings.
+    pub settings: ImpalaSettings,
+    /// The optimiser over all weights.
+    pub adam: Adam,
+    groups: Vec<std::ops::Range<usize>>,
+}
+
+impl Impala {
+    /// An IMPALA learner for `policy`.
+    pub fn new(policy: &Policy, settings: ImpalaSettings) -> Self {
+        let (vars, groups) = net_var_groups(policy);
+        Self {
+            adam: Adam::new(vars, settings.lr),
+            settings,
+            groups,
+        }
+    }
+
+    /// One gradient step on a train batch of fragments.
+    pub fn update(
+        &mut self,
+        policy: &Policy,
+        fragments: &[buridan_policy::Fragment],
+    ) -> Result<UpdateStats> {
+        let batches = build_net_batches(fragments, policy.spec())?;
+        self.update_batches(policy, &batches)
+    }
+
+    /// One gradient step on prepared per-net batches.
+    pub fn update_batches(&mut self, policy: &Policy, batches: &[NetBatch]) -> Result<UpdateStats> {
+        let s = self.settings.clone();
+        let dev = Device::Cpu;
+        let mut total: Option<Tensor> = None;
+        let mut terms = Vec::new();
+        let mut rho_mean = 0.0;
+        for (k, b) in batches.iter().enumerate() {
+            let bt = BatchTensors::new(b, &dev)?;
+            let ev = evaluate(policy.net(k), b, &bt, s.max_seq_len, &dev)?;
+            let lp_all = dist::masked_log_probs(&ev.logits.detach(), &bt.mask_bias, bt.heads)?;
+            let target_logp = dist::joint_log_prob(&lp_all, &bt.actions)?;
+            let log_rhos: Vec<f32> = (target_logp - &bt.behaviour_logp)?.to_vec1()?;
+            let vt = vtrace(
+                &log_rhos,
+                &b.rewards,
+                &ev.values_vec,
+                &ev.next_values,
+                &b.terminated,
+                &b.truncated,
+                b.t,
+                b.rows,
+                s.vtrace,
+            );
+            rho_mean +=
+                vt.rhos.iter().map(|&x| x as f64).sum::<f64>() / vt.rhos.len().max(1) as f64;
+            let n = b.len();
+            let pg = Tensor::from_vec(vt.pg_advantages, n, &dev)?;
+            let vs = Tensor::from_vec(vt.vs, n, &dev)?;
+            let p = ImpalaLossParams {
+                vf_coeff: s.vf_coeff,
+                entropy_coeff: s.entropy_coeff,
+            };
+            let (loss, t) = impala_loss(&ev.logits, &ev.values, &bt, &pg, &vs, &p)?;
+            terms.push(t);
+            total = Some(match total {
+                None => loss,
+                Some(x) => (x + loss)?,
+            });
+        }
+        let mut stats = UpdateStats::default();
+        if let Some(total) = total {
+            let grads = total.backward()?;
+            let mut g = collect_grads(&grads, self.adam.vars())?;
+            let mut norm_sq = 0.0;
+            for range in &self.groups {
+                let n = match s.grad_clip {
+                    Some(c) => clip_global_norm(&mut g[range.clone()], c),
+                    None => global_norm(
+                        &g[range.clone()]
+                            .iter()
+                            .map(|x| x.as_slice())
+                            .collect::<Vec<_>>(),
+                    ),
+                };
+                norm_sq += n * n;
+            }
+            self.adam.step(&g)?;
+            stats.add_minibatch(&terms, norm_sq.sqrt());
+        }
+        stats.finish();
+        stats.mean_rho = rho_mean / batches.len().max(1) as f64;
+        stats.samples = batches.iter().map(|b| b.len()).sum();
+        Ok(stats)
+    }
+}
