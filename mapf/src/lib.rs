@@ -1,1 +1,96 @@
-//! Classical MAPF baselines: filled by the baselines issue.
+//! Classical multi-agent pathfinding baselines for the reference models
+//! (SPEC §5): MA-A* and CBS, an independent plan validator, and a replay of
+//! plans through the environment.
+//!
+//! - [`plan`]: [`Plan`], one timed path per agent; makespan and sum of costs.
+//! - [`validate`](mod@validate): [`validate()`] / [`validate_with`], typed [`PlanError`]s.
+//! - [`replay`](mod@replay): [`replay()`] a plan step by step in a [`buridan_env::GridEnv`].
+//! - [`maastar`]: [`MaAstar`], A* over joint states.
+//! - [`cbs`]: [`Cbs`], conflict-based search.
+//! - [`planner`]: the [`Planner`] trait (`Send + Sync`), [`Solution`], [`Stats`].
+//! - [`limits`]: [`Limits`] (time, memory, nodes, makespan cap), [`SolveError`].
+//! - [`rules`]: [`Rules`], the conflict model.
+//!
+//! # Simultaneous plans and the sequential environment: following moves
+//!
+//! A plan is a set of timed paths executed **simultaneously**: between `t`
+//! and `t + 1` all agents move at once, and SPEC §5 forbids vertex
+//! conflicts (two agents in one cell at one time, including an agent resting
+//! on its goal after its path ended) and swap conflicts (two agents
+//! exchanging cells).
+//!
+//! The environment (SPEC §2) moves agents **one after the other in index
+//! order**, and a move succeeds only if its target is free *at that moment*.
+//! A **following move** is agent `i` entering, at `t + 1`, the cell that
+//! agent `j` occupies at `t` and leaves in the same step. Under simultaneous
+//! moves it is legal. In the environment it succeeds only if `j < i`
+//! (`j` has already moved out when `i`'s turn comes); if `j > i`, `i` finds
+//! the cell still occupied, stays where it is, and the rest of the plan no
+//! longer matches the world. Rotations of three or more agents along a cycle
+//! fail in the same way.
+//!
+//! Therefore every planner takes [`Rules`], whose `forbid_following` option
+//! is **on by default**: "agent `i` enters at `t + 1` the cell agent `j > i`
+//! occupies at `t`" is then a third kind of conflict (a *following
+//! conflict*), and every plan replays exactly in the environment
+//! (termination with success after exactly `makespan` steps — [`replay()`]
+//! checks this). With it **off** ([`Rules::SIMULTANEOUS`]) plans are pure
+//! SPEC §5 and can be shorter (rm-1.1: makespan 9 instead of 10, as in the
+//! dissertation), but may not replay; [`ReplayResult::blocked_following`]
+//! lists the following moves the env would block.
+//!
+//! ```
+//! use std::sync::Arc;
+//! use buridan_env::Map;
+//! use buridan_mapf::{replay, validate_with, Cbs, Limits, Planner, Rules};
+//! let map = Arc::new(Map::load("rm-1.1").unwrap());
+//! let scen = map.scenario.clone().unwrap();
+//! let (s, g) = (&scen.starts, &scen.goals);
+//!
+//! let sol = Cbs::default().solve(&map.grid, s, g, &Limits::default()).unwrap();
+//! validate_with(&map.grid, s, g, &sol.plan, Rules::ENV_EXECUTABLE).unwrap();
+//! let r = replay(&map, s, g, &sol.plan, 100).unwrap();
+//! assert!(r.is_exact(sol.plan.makespan()));
+//! assert_eq!(r.terminated_at, Some(10));
+//!
+//! // Pure simultaneous semantics: makespan 9, but agent 0 follows agent 1.
+//! let fast = Cbs { rules: Rules::SIMULTANEOUS, ..Cbs::default() };
+//! let sol = fast.solve(&map.grid, s, g, &Limits::default()).unwrap();
+//! let r = replay(&map, s, g, &sol.plan, 100).unwrap();
+//! if sol.plan.makespan() == 9 {
+//!     assert!(!r.blocked_following.is_empty() && !r.is_exact(9));
+//! }
+//! ```
+//!
+//! # Limits
+//!
+//! Every solve call gets [`Limits`] (default: 60 s, 2 GiB estimated from
+//! node counts, no node or makespan cap) and returns
+//! [`SolveError::TimeLimit`], [`SolveError::MemoryLimit`],
+//! [`SolveError::NodeLimit`], [`SolveError::NoSolution`] or
+//! [`SolveError::NoSolutionWithin`] instead of running on. CBS does not
+//! terminate on unsolvable instances by itself (its constraint tree is
+//! infinite); set [`Limits::max_makespan`] to make it end with
+//! `NoSolutionWithin`, otherwise it ends at the time or memory limit.
+
+#![warn(missing_docs)]
+
+pub mod cbs;
+mod graph;
+pub mod limits;
+mod lowlevel;
+pub mod maastar;
+pub mod plan;
+pub mod planner;
+pub mod replay;
+pub mod rules;
+pub mod validate;
+
+pub use cbs::{Cbs, LowLevelHeuristic};
+pub use limits::{InstanceError, Limits, SolveError};
+pub use maastar::{Heuristic, MaAstar};
+pub use plan::Plan;
+pub use planner::{planner_by_name, Planner, Solution, Stats};
+pub use replay::{replay, BlockedFollowing, Divergence, ReplayError, ReplayResult};
+pub use rules::Rules;
+pub use validate::{validate, validate_with, PlanError};
