@@ -249,7 +249,7 @@ impl Budget {
                 });
             }
         }
-        if self.expanded % 256 == 0 {
+        if self.expanded & 255 == 0 {
             self.check_time()?;
             self.check_memory(bytes_in_use())?;
         }

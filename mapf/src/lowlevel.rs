@@ -153,7 +153,7 @@ pub(crate) fn space_time_astar(
             continue; // reached earlier (or as early with fewer conflicts)
         }
         budget.low_expanded += 1;
-        if budget.low_expanded % 4096 == 0 {
+        if budget.low_expanded & 4095 == 0 {
             budget.check_time()?;
             budget.check_memory(base_bytes + nodes.len() * LOW_NODE_BYTES)?;
         }

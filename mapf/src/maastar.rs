@@ -304,7 +304,7 @@ impl Search<'_> {
         index: &mut FastMap<K, u32>,
     ) -> Result<(), SolveError> {
         self.budget.generated += 1;
-        if self.budget.generated % 4096 == 0 {
+        if self.budget.generated & 4095 == 0 {
             self.budget.check_time()?;
             self.budget.check_memory(self.bytes::<K>(index.len()))?;
         }

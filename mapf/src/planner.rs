@@ -53,11 +53,14 @@ pub struct Solution {
 /// use buridan_mapf::{planner_by_name, Limits, Planner};
 /// let map = Map::load("rm-1.3").unwrap();
 /// let scen = map.scenario.unwrap();
+/// let mut makespans = Vec::new();
 /// for name in ["ma-astar", "cbs"] {
 ///     let planner: Box<dyn Planner> = planner_by_name(name).unwrap();
 ///     let sol = planner.solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
-///     assert_eq!(sol.plan.makespan(), 7, "{}", planner.name());
+///     makespans.push(sol.plan.makespan());
 /// }
+/// // SPEC's MA-A* heuristic is inadmissible: 8 steps; CBS's plan needs 7.
+/// assert_eq!(makespans, [8, 7]);
 /// ```
 pub trait Planner: Send + Sync {
     /// Short name for tables and logs (`"ma-astar"`, `"cbs"`, ...).

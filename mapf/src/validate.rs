@@ -142,7 +142,7 @@ pub enum PlanError {
 /// let grid = Grid::from_rows(&["...", ".@."]).unwrap();
 /// let (s, g) = ([Cell::new(0, 0)], [Cell::new(1, 0)]);
 /// assert!(validate(&grid, &s, &g, &Plan::new(vec![vec![s[0], g[0]]])).is_ok());
-/// let bad = Plan::new(vec![vec![s[0], Cell::new(0, 1), Cell::new(1, 1)]]);
+/// let bad = Plan::new(vec![vec![s[0], Cell::new(0, 1), Cell::new(1, 1), g[0]]]);
 /// assert!(matches!(validate(&grid, &s, &g, &bad), Err(PlanError::Blocked { time: 2, .. })));
 /// ```
 pub fn validate(
