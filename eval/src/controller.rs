@@ -76,7 +76,11 @@ pub struct RandomController {
 impl RandomController {
     /// A random controller whose draws in episode `e` depend only on `(seed, e)`.
     pub fn new(seed: u64) -> Self {
-        Self { seed, rng: ChaCha8Rng::seed_from_u64(seed), mask: [1; NUM_ACTIONS] }
+        Self {
+            seed,
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            mask: [1; NUM_ACTIONS],
+        }
     }
 }
 
@@ -92,10 +96,14 @@ impl Controller for RandomController {
 
     fn act(&mut self, env: &GridEnv, actions: &mut [u8]) {
         for (i, a) in actions.iter_mut().enumerate() {
-            env.write_action_mask(i, &mut self.mask).expect("mask buffer has 5 bytes");
+            env.write_action_mask(i, &mut self.mask)
+                .expect("mask buffer has 5 bytes");
             let legal = self.mask.iter().filter(|&&m| m == 1).count();
             let pick = self.rng.random_range(0..legal);
-            *a = (0..NUM_ACTIONS as u8).filter(|&k| self.mask[k as usize] == 1).nth(pick).unwrap_or(0);
+            *a = (0..NUM_ACTIONS as u8)
+                .filter(|&k| self.mask[k as usize] == 1)
+                .nth(pick)
+                .unwrap_or(0);
         }
     }
 }

@@ -34,30 +34,49 @@ pub enum OutputError {
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
-    move |source| OutputError::Io { path: path.to_path_buf(), source }
+    move |source| OutputError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
 }
 
 /// Writes all files of one evaluation into `dir` (created if missing) and
 /// returns their paths.
-pub fn write_report(dir: &Path, report: &EvalReport, grid: &Grid) -> Result<Vec<PathBuf>, OutputError> {
+pub fn write_report(
+    dir: &Path,
+    report: &EvalReport,
+    grid: &Grid,
+) -> Result<Vec<PathBuf>, OutputError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let s = &report.summary;
     let csv_path = dir.join("episodes.csv");
-    let mut w = csv::Writer::from_path(&csv_path).map_err(|source| OutputError::Csv { path: csv_path.clone(), source })?;
+    let mut w = csv::Writer::from_path(&csv_path).map_err(|source| OutputError::Csv {
+        path: csv_path.clone(),
+        source,
+    })?;
     for r in &report.records {
-        w.serialize(r).map_err(|source| OutputError::Csv { path: csv_path.clone(), source })?;
+        w.serialize(r).map_err(|source| OutputError::Csv {
+            path: csv_path.clone(),
+            source,
+        })?;
     }
     w.flush().map_err(io(&csv_path))?;
     let json_path = dir.join("summary.json");
     let json = serde_json::to_string_pretty(s).expect("summary serialises");
     std::fs::write(&json_path, json + "\n").map_err(io(&json_path))?;
     let heat_path = dir.join("heatmap.png");
-    let title = format!("{} on {}: cell visits over {} episodes", s.controller, s.map, s.episodes);
+    let title = format!(
+        "{} on {}: cell visits over {} episodes",
+        s.controller, s.map, s.episodes
+    );
     plot::heatmap(&heat_path, &title, grid, &report.visits)?;
     let mut paths = vec![csv_path, json_path, heat_path];
     if let Some(b) = s.timesteps_box {
         let box_path = dir.join("timesteps_boxplot.png");
-        let title = format!("{} on {}, {} agents: timesteps of solved episodes", s.controller, s.map, s.agents);
+        let title = format!(
+            "{} on {}, {} agents: timesteps of solved episodes",
+            s.controller, s.map, s.agents
+        );
         plot::boxplot(&box_path, &title, "timesteps", &[(s.controller.clone(), b)])?;
         paths.push(box_path);
     }
@@ -68,9 +87,24 @@ pub fn write_report(dir: &Path, report: &EvalReport, grid: &Grid) -> Result<Vec<
 pub fn write_sweep(dir: &Path, summaries: &[EvalSummary]) -> Result<Vec<PathBuf>, OutputError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let csv_path = dir.join("sweep.csv");
-    let mut w = csv::Writer::from_path(&csv_path).map_err(|source| OutputError::Csv { path: csv_path.clone(), source })?;
-    w.write_record(["controller", "map", "agents", "episodes", "success_rate", "planned_rate", "timesteps_median", "compute_ms_median"])
-        .map_err(|source| OutputError::Csv { path: csv_path.clone(), source })?;
+    let mut w = csv::Writer::from_path(&csv_path).map_err(|source| OutputError::Csv {
+        path: csv_path.clone(),
+        source,
+    })?;
+    w.write_record([
+        "controller",
+        "map",
+        "agents",
+        "episodes",
+        "success_rate",
+        "planned_rate",
+        "timesteps_median",
+        "compute_ms_median",
+    ])
+    .map_err(|source| OutputError::Csv {
+        path: csv_path.clone(),
+        source,
+    })?;
     let opt = |v: Option<f64>| v.map_or(String::new(), |x| x.to_string());
     for s in summaries {
         w.write_record([
@@ -83,15 +117,29 @@ pub fn write_sweep(dir: &Path, summaries: &[EvalSummary]) -> Result<Vec<PathBuf>
             opt(s.timesteps_median),
             opt(s.compute_ms_median),
         ])
-        .map_err(|source| OutputError::Csv { path: csv_path.clone(), source })?;
+        .map_err(|source| OutputError::Csv {
+            path: csv_path.clone(),
+            source,
+        })?;
     }
     w.flush().map_err(io(&csv_path))?;
     let png_path = dir.join("sweep_success.png");
-    let name = summaries.first().map_or_else(String::new, |s| format!("{} on {}", s.controller, s.map));
+    let name = summaries
+        .first()
+        .map_or_else(String::new, |s| format!("{} on {}", s.controller, s.map));
     let series = Series {
         label: name.clone(),
-        points: summaries.iter().map(|s| (s.agents as f64, s.success_rate * 100.0)).collect(),
+        points: summaries
+            .iter()
+            .map(|s| (s.agents as f64, s.success_rate * 100.0))
+            .collect(),
     };
-    plot::line_chart(&png_path, &format!("{name}: success vs agents"), "agents", "success rate (%)", &[series])?;
+    plot::line_chart(
+        &png_path,
+        &format!("{name}: success vs agents"),
+        "agents",
+        "success rate (%)",
+        &[series],
+    )?;
     Ok(vec![csv_path, png_path])
 }

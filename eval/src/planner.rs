@@ -31,13 +31,21 @@ pub struct PlannerController {
 impl PlannerController {
     /// Wraps `planner`, which gets `limits` per instance.
     pub fn new(planner: Arc<dyn Planner>, limits: Limits) -> Self {
-        Self { planner, limits, plan: None, notes: PlanNotes::default() }
+        Self {
+            planner,
+            limits,
+            plan: None,
+            notes: PlanNotes::default(),
+        }
     }
 }
 
 /// The action that moves from `from` to the adjacent (or same) cell `to`.
 fn action_between(from: Cell, to: Cell) -> u8 {
-    match (to.row as isize - from.row as isize, to.col as isize - from.col as isize) {
+    match (
+        to.row as isize - from.row as isize,
+        to.col as isize - from.col as isize,
+    ) {
         (-1, 0) => 1,
         (0, 1) => 2,
         (1, 0) => 3,
@@ -54,7 +62,12 @@ impl Controller for PlannerController {
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
         self.plan = None;
         self.notes = PlanNotes::default();
-        let solved = self.planner.solve(&env.map().grid, &env.positions(), &env.goals(), &self.limits);
+        let solved = self.planner.solve(
+            &env.map().grid,
+            &env.positions(),
+            &env.goals(),
+            &self.limits,
+        );
         match solved {
             Ok(solution) => {
                 self.notes = PlanNotes {
@@ -67,7 +80,9 @@ impl Controller for PlannerController {
             }
             Err(SolveError::TimeLimit { .. }) => Err(GiveUp::TimeLimit),
             Err(SolveError::MemoryLimit { .. }) => Err(GiveUp::MemoryLimit),
-            Err(SolveError::NoSolution | SolveError::NoSolutionWithin { .. }) => Err(GiveUp::NoSolution),
+            Err(SolveError::NoSolution | SolveError::NoSolutionWithin { .. }) => {
+                Err(GiveUp::NoSolution)
+            }
             Err(other) => Err(GiveUp::Other(other.to_string())),
         }
     }
@@ -80,7 +95,9 @@ impl Controller for PlannerController {
         let t = env.t() as usize;
         for (i, a) in actions.iter_mut().enumerate() {
             // Agents stay on their goals once their path ends.
-            *a = plan.position(i, t + 1).map_or(0, |next| action_between(env.position(i), next));
+            *a = plan
+                .position(i, t + 1)
+                .map_or(0, |next| action_between(env.position(i), next));
         }
     }
 

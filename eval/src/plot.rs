@@ -27,13 +27,20 @@ fn register_fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // Registering a valid embedded TTF cannot fail; ignore the unit result.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            dejavu::sans::regular(),
+        );
         let _ = plotters::style::register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold());
     });
 }
 
 fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
-    PlotError { path: path.display().to_string(), message: e.to_string() }
+    PlotError {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    }
 }
 
 /// Draws per-cell visit counts over the layout: walls black, free cells
@@ -59,15 +66,22 @@ pub fn heatmap(path: &Path, title: &str, grid: &Grid, visits: &[u64]) -> Result<
         .map_err(|e| err(path, e))?;
     let max = visits.iter().copied().max().unwrap_or(0).max(1) as f64;
     chart
-        .draw_series((0..h).flat_map(|r| (0..w).map(move |c| (r, c))).map(|(r, c)| {
-            let color = if grid.walls()[r * w + c] {
-                RGBColor(30, 30, 30)
-            } else {
-                let v = visits.get(r * w + c).copied().unwrap_or(0) as f64;
-                ViridisRGB::get_color((v / max).sqrt() as f32)
-            };
-            Rectangle::new([(c as i32, r as i32), (c as i32 + 1, r as i32 + 1)], color.filled())
-        }))
+        .draw_series(
+            (0..h)
+                .flat_map(|r| (0..w).map(move |c| (r, c)))
+                .map(|(r, c)| {
+                    let color = if grid.walls()[r * w + c] {
+                        RGBColor(30, 30, 30)
+                    } else {
+                        let v = visits.get(r * w + c).copied().unwrap_or(0) as f64;
+                        ViridisRGB::get_color((v / max).sqrt() as f32)
+                    };
+                    Rectangle::new(
+                        [(c as i32, r as i32), (c as i32 + 1, r as i32 + 1)],
+                        color.filled(),
+                    )
+                }),
+        )
         .map_err(|e| err(path, e))?;
     // Colour bar.
     let steps = 50;
@@ -77,13 +91,22 @@ pub fn heatmap(path: &Path, title: &str, grid: &Grid, visits: &[u64]) -> Result<
         let y1 = 50 + bar_h * (k + 1) / steps;
         let frac = 1.0 - k as f32 / steps as f32;
         legend
-            .draw(&Rectangle::new([(10, y0), (30, y1)], ViridisRGB::get_color(frac).filled()))
+            .draw(&Rectangle::new(
+                [(10, y0), (30, y1)],
+                ViridisRGB::get_color(frac).filled(),
+            ))
             .map_err(|e| err(path, e))?;
     }
     let style = ("sans-serif", 13).into_font();
-    legend.draw(&Text::new(format!("{max:.0}"), (34, 45), style.clone())).map_err(|e| err(path, e))?;
-    legend.draw(&Text::new("0", (34, 45 + bar_h), style.clone())).map_err(|e| err(path, e))?;
-    legend.draw(&Text::new("visits", (5, 25), style)).map_err(|e| err(path, e))?;
+    legend
+        .draw(&Text::new(format!("{max:.0}"), (34, 45), style.clone()))
+        .map_err(|e| err(path, e))?;
+    legend
+        .draw(&Text::new("0", (34, 45 + bar_h), style.clone()))
+        .map_err(|e| err(path, e))?;
+    legend
+        .draw(&Text::new("visits", (5, 25), style))
+        .map_err(|e| err(path, e))?;
     root.present().map_err(|e| err(path, e))
 }
 
@@ -93,14 +116,31 @@ pub fn heatmap(path: &Path, title: &str, grid: &Grid, visits: &[u64]) -> Result<
 /// let b = buridan_eval::stats::BoxStats::of(&[20.0, 22.0, 25.0, 31.0]).unwrap();
 /// buridan_eval::plot::boxplot(std::path::Path::new("b.png"), "timesteps", "timesteps", &[("cbs".into(), b)]).unwrap();
 /// ```
-pub fn boxplot(path: &Path, title: &str, y_label: &str, boxes: &[(String, BoxStats)]) -> Result<(), PlotError> {
+pub fn boxplot(
+    path: &Path,
+    title: &str,
+    y_label: &str,
+    boxes: &[(String, BoxStats)],
+) -> Result<(), PlotError> {
     register_fonts();
-    let root = BitMapBackend::new(path, (160 + 140 * boxes.len().max(1) as u32, 480)).into_drawing_area();
+    let root =
+        BitMapBackend::new(path, (160 + 140 * boxes.len().max(1) as u32, 480)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(path, e))?;
-    let hi = boxes.iter().map(|(_, b)| b.whisker_high).fold(1.0, f64::max) * 1.1;
-    let lo = boxes.iter().map(|(_, b)| b.whisker_low).fold(hi, f64::min).min(0.0);
+    let hi = boxes
+        .iter()
+        .map(|(_, b)| b.whisker_high)
+        .fold(1.0, f64::max)
+        * 1.1;
+    let lo = boxes
+        .iter()
+        .map(|(_, b)| b.whisker_low)
+        .fold(hi, f64::min)
+        .min(0.0);
     let n = boxes.len().max(1);
-    let labels: Vec<String> = boxes.iter().map(|(l, b)| format!("{l} (n={})", b.count)).collect();
+    let labels: Vec<String> = boxes
+        .iter()
+        .map(|(l, b)| format!("{l} (n={})", b.count))
+        .collect();
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 18))
         .margin(15)
@@ -130,15 +170,27 @@ pub fn boxplot(path: &Path, title: &str, y_label: &str, boxes: &[(String, BoxSta
         let series: Vec<PathElement<(f64, f64)>> = vec![
             PathElement::new(vec![(x, b.whisker_low), (x, b.q1)], BLACK),
             PathElement::new(vec![(x, b.q3), (x, b.whisker_high)], BLACK),
-            PathElement::new(vec![(x - 0.1, b.whisker_low), (x + 0.1, b.whisker_low)], BLACK),
-            PathElement::new(vec![(x - 0.1, b.whisker_high), (x + 0.1, b.whisker_high)], BLACK),
+            PathElement::new(
+                vec![(x - 0.1, b.whisker_low), (x + 0.1, b.whisker_low)],
+                BLACK,
+            ),
+            PathElement::new(
+                vec![(x - 0.1, b.whisker_high), (x + 0.1, b.whisker_high)],
+                BLACK,
+            ),
             PathElement::new(vec![(l, b.median), (r, b.median)], BLACK.stroke_width(3)),
         ];
         chart
-            .draw_series(std::iter::once(Rectangle::new([(l, b.q1), (r, b.q3)], color.mix(0.4).filled())))
+            .draw_series(std::iter::once(Rectangle::new(
+                [(l, b.q1), (r, b.q3)],
+                color.mix(0.4).filled(),
+            )))
             .map_err(|e| err(path, e))?;
         chart
-            .draw_series(std::iter::once(Rectangle::new([(l, b.q1), (r, b.q3)], BLACK)))
+            .draw_series(std::iter::once(Rectangle::new(
+                [(l, b.q1), (r, b.q3)],
+                BLACK,
+            )))
             .map_err(|e| err(path, e))?;
         chart.draw_series(series).map_err(|e| err(path, e))?;
     }
@@ -160,7 +212,13 @@ pub struct Series {
 /// let s = Series { label: "cbs".into(), points: vec![(4.0, 1.0), (8.0, 0.5)] };
 /// line_chart(std::path::Path::new("l.png"), "success", "agents", "success rate", &[s]).unwrap();
 /// ```
-pub fn line_chart(path: &Path, title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Result<(), PlotError> {
+pub fn line_chart(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+) -> Result<(), PlotError> {
     register_fonts();
     let root = BitMapBackend::new(path, (900, 540)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(path, e))?;
@@ -181,14 +239,24 @@ pub fn line_chart(path: &Path, title: &str, x_label: &str, y_label: &str, series
         .y_label_area_size(60)
         .build_cartesian_2d((x0 - pad_x)..(x1 + pad_x), (y0 - pad_y)..(y1 + pad_y))
         .map_err(|e| err(path, e))?;
-    chart.configure_mesh().x_desc(x_label).y_desc(y_label).draw().map_err(|e| err(path, e))?;
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .draw()
+        .map_err(|e| err(path, e))?;
     for (k, s) in series.iter().enumerate() {
         let color = Palette99::pick(k).to_rgba();
         chart
-            .draw_series(LineSeries::new(s.points.iter().copied(), color.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                s.points.iter().copied(),
+                color.stroke_width(2),
+            ))
             .map_err(|e| err(path, e))?
             .label(s.label.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+            });
         if s.points.len() <= 40 {
             chart
                 .draw_series(s.points.iter().map(|&p| Circle::new(p, 3, color.filled())))

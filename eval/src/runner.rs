@@ -28,7 +28,14 @@ pub struct EvalSpec {
 
 impl Default for EvalSpec {
     fn default() -> Self {
-        Self { agents: 4, episodes: 100, seed: 42, starts: Starts::Random, t_max: 100, jobs: 1 }
+        Self {
+            agents: 4,
+            episodes: 100,
+            seed: 42,
+            starts: Starts::Random,
+            t_max: 100,
+            jobs: 1,
+        }
     }
 }
 
@@ -131,7 +138,13 @@ pub fn evaluate(
     on_episode: &(dyn Fn(&EpisodeRecord) + Sync),
 ) -> Result<EvalReport, EnvError> {
     let started = Instant::now();
-    let cfg = EnvConfig { agents: spec.agents, t_max: spec.t_max, starts: spec.starts, seed: spec.seed, ..EnvConfig::default() };
+    let cfg = EnvConfig {
+        agents: spec.agents,
+        t_max: spec.t_max,
+        starts: spec.starts,
+        seed: spec.seed,
+        ..EnvConfig::default()
+    };
     // Fail early, on the caller's thread, for bad configurations.
     GridEnv::new(map.clone(), cfg.clone())?;
     let next = AtomicUsize::new(0);
@@ -153,7 +166,10 @@ pub fn evaluate(
                         }
                         let record = run_episode(&mut env, controller.as_mut(), e as u64)?;
                         on_episode(&record);
-                        results.lock().expect("no panics while holding the lock").push(record);
+                        results
+                            .lock()
+                            .expect("no panics while holding the lock")
+                            .push(record);
                     }
                     let mut v = visits.lock().expect("no panics while holding the lock");
                     for (t, &x) in v.iter_mut().zip(env.visits()) {
@@ -171,11 +187,19 @@ pub fn evaluate(
     let mut records = results.into_inner().expect("lock not poisoned");
     records.sort_by_key(|r| r.episode);
     let summary = summarize(&name, &map.name, spec, &records, started.elapsed());
-    Ok(EvalReport { records, summary, visits: visits.into_inner().expect("lock not poisoned") })
+    Ok(EvalReport {
+        records,
+        summary,
+        visits: visits.into_inner().expect("lock not poisoned"),
+    })
 }
 
 /// Plays one episode with `controller`, timing its calls.
-pub fn run_episode(env: &mut GridEnv, controller: &mut dyn Controller, episode: u64) -> Result<EpisodeRecord, EnvError> {
+pub fn run_episode(
+    env: &mut GridEnv,
+    controller: &mut dyn Controller,
+    episode: u64,
+) -> Result<EpisodeRecord, EnvError> {
     env.reset_to(episode)?;
     let n = env.agents();
     let mut compute = Duration::ZERO;
@@ -209,7 +233,8 @@ pub fn run_episode(env: &mut GridEnv, controller: &mut dyn Controller, episode: 
         let out = env.step(&actions, &mut rewards)?;
         for (i, a) in arrival.iter_mut().enumerate() {
             if !env.at_goal(i) {
-                *a = env.t();
+                // Still off its goal after step t: it arrives at t + 1 at the earliest.
+                *a = env.t() + 1;
             }
         }
         if out.done() {
@@ -234,18 +259,34 @@ pub fn run_episode(env: &mut GridEnv, controller: &mut dyn Controller, episode: 
     })
 }
 
-fn summarize(controller: &str, map: &str, spec: &EvalSpec, records: &[EpisodeRecord], wall: Duration) -> EvalSummary {
+fn summarize(
+    controller: &str,
+    map: &str,
+    spec: &EvalSpec,
+    records: &[EpisodeRecord],
+    wall: Duration,
+) -> EvalSummary {
     let n = records.len().max(1) as f64;
     let solved: Vec<&EpisodeRecord> = records.iter().filter(|r| r.success).collect();
     let steps: Vec<f64> = solved.iter().map(|r| f64::from(r.timesteps)).collect();
     let timesteps_box = BoxStats::of(&steps);
     let compute: Vec<f64> = records.iter().map(|r| r.compute_ms).collect();
-    let soc: Vec<f64> = solved.iter().filter_map(|r| r.sum_of_costs).map(f64::from).collect();
+    let soc: Vec<f64> = solved
+        .iter()
+        .filter_map(|r| r.sum_of_costs)
+        .map(f64::from)
+        .collect();
     let mut gave_up = std::collections::BTreeMap::new();
     for why in records.iter().filter_map(|r| r.gave_up.clone()) {
         *gave_up.entry(why).or_insert(0) += 1;
     }
-    let mean = |v: &[f64]| if v.is_empty() { None } else { Some(v.iter().sum::<f64>() / v.len() as f64) };
+    let mean = |v: &[f64]| {
+        if v.is_empty() {
+            None
+        } else {
+            Some(v.iter().sum::<f64>() / v.len() as f64)
+        }
+    };
     EvalSummary {
         controller: controller.to_string(),
         map: map.to_string(),
@@ -263,7 +304,11 @@ fn summarize(controller: &str, map: &str, spec: &EvalSpec, records: &[EpisodeRec
         compute_ms_mean: mean(&compute).unwrap_or(0.0),
         reward_mean: records.iter().map(|r| f64::from(r.reward)).sum::<f64>() / n,
         gave_up,
-        deadlock_steps_mean: records.iter().map(|r| f64::from(r.deadlock_steps)).sum::<f64>() / n,
+        deadlock_steps_mean: records
+            .iter()
+            .map(|r| f64::from(r.deadlock_steps))
+            .sum::<f64>()
+            / n,
         wall_seconds: wall.as_secs_f64(),
     }
 }

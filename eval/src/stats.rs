@@ -50,8 +50,24 @@ impl BoxStats {
         v.sort_by(f64::total_cmp);
         let (q1, median, q3) = (quantile(&v, 0.25)?, quantile(&v, 0.5)?, quantile(&v, 0.75)?);
         let iqr = q3 - q1;
-        let whisker_low = v.iter().copied().find(|&x| x >= q1 - 1.5 * iqr).unwrap_or(q1);
-        let whisker_high = v.iter().rev().copied().find(|&x| x <= q3 + 1.5 * iqr).unwrap_or(q3);
-        Some(BoxStats { whisker_low, q1, median, q3, whisker_high, count: v.len() })
+        let whisker_low = v
+            .iter()
+            .copied()
+            .find(|&x| x >= q1 - 1.5 * iqr)
+            .unwrap_or(q1);
+        let whisker_high = v
+            .iter()
+            .rev()
+            .copied()
+            .find(|&x| x <= q3 + 1.5 * iqr)
+            .unwrap_or(q3);
+        Some(BoxStats {
+            whisker_low,
+            q1,
+            median,
+            q3,
+            whisker_high,
+            count: v.len(),
+        })
     }
 }
