@@ -21,6 +21,7 @@
 //! assert!(actions.iter().all(|&a| a < 5));
 //! ```
 
+pub mod activation;
 pub mod dist;
 pub mod error;
 pub mod fragment;

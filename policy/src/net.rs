@@ -105,7 +105,7 @@ impl Mlp {
         for l in &self.layers {
             h = l.forward(&h)?;
             h = match self.act {
-                Activation::Tanh => h.tanh()?,
+                Activation::Tanh => crate::activation::tanh(&h)?,
                 Activation::Relu => h.relu()?,
             };
         }

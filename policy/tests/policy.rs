@@ -471,3 +471,25 @@ fn dte_uses_one_weight_set_per_agent() {
         assert!((logits[5 + j] - l1[0][j]).abs() < 1e-6);
     }
 }
+
+#[test]
+fn fast_tanh_matches_libm_and_has_the_right_gradient() {
+    use buridan_policy::activation::{fast_tanh, tanh};
+    let mut worst = 0.0f64;
+    let mut x = -12.0f32;
+    while x <= 12.0 {
+        let err = (fast_tanh(x) as f64 - (x as f64).tanh()).abs();
+        worst = worst.max(err);
+        x += 0.001;
+    }
+    assert!(worst < 2e-6, "max error {worst}");
+    assert_eq!(fast_tanh(1e-5), 1e-5);
+    let v = candle_core::Var::from_vec(vec![-2.0f32, 0.0, 0.5, 3.0], 4, &Device::Cpu).unwrap();
+    let y = tanh(v.as_tensor()).unwrap();
+    let g = y.sum_all().unwrap().backward().unwrap();
+    let g: Vec<f32> = g.get(v.as_tensor()).unwrap().to_vec1().unwrap();
+    for (gi, xi) in g.iter().zip([-2.0f32, 0.0, 0.5, 3.0]) {
+        let expected = 1.0 - xi.tanh().powi(2);
+        assert!((gi - expected).abs() < 1e-5);
+    }
+}
