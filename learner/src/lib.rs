@@ -1,3 +1,4 @@
 //! Learner library.
 
 pub mod algo;
+pub mod train;

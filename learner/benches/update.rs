@@ -1,0 +1,103 @@
+//! Learner update throughput on one thread: a PPO epoch over a 4000
+//! env-step train batch (rm-1.1, CTDE, 2 agents → 8000 samples, one
+//! minibatch) and an IMPALA gradient step on the same batch.
+//!
+//! `cargo bench -p buridan-learner --bench update`
+
+use std::sync::Arc;
+
+use buridan_env::{Map, ObsKind, Starts, VecEnv};
+use buridan_learner::algo::impala::{Impala, ImpalaSettings};
+use buridan_learner::algo::ppo::{Ppo, PpoSettings};
+use buridan_learner::algo::vtrace::VTraceParams;
+use buridan_learner::train::{env_config, Actor, TrainConfig};
+use buridan_policy::{Fragment, Inference, Mode, Policy};
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use rand::SeedableRng;
+
+fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
+    let map = Arc::new(Map::load(&cfg.map).unwrap());
+    let venv = VecEnv::new(
+        map,
+        env_config(cfg, 0),
+        cfg.envs_per_actor,
+        ObsKind::Local,
+        1,
+    )
+    .unwrap();
+    let spec = cfg.model_spec(venv.obs_dim());
+    let policy = Policy::new(spec.clone(), 0).unwrap();
+    let rows = venv.obs().len() / venv.obs_dim();
+    let mut actor = Actor {
+        id: 0,
+        inference: Inference::new(Policy::new(spec, 0).unwrap(), rows, 1),
+        venv,
+        fragment_len: cfg.fragment_len,
+        version: 0,
+    };
+    let frags = (0..count).map(|_| actor.collect().unwrap()).collect();
+    (policy, frags)
+}
+
+fn bench(c: &mut Criterion) {
+    buridan_policy::threads::pin_threads(1);
+    let cfg = TrainConfig {
+        map: "rm-1.1".into(),
+        agents: 2,
+        starts: Starts::Fixed,
+        mode: Mode::Ctde,
+        ..TrainConfig::default()
+    };
+    // 5 fragments × 50 steps × 16 envs = 4000 env steps = 8000 samples.
+    let (policy, frags) = fragments(&cfg, 5);
+    let samples: usize = frags.iter().map(|f| f.len * f.rows).sum();
+    let mut g = c.benchmark_group("learner");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(samples as u64));
+    let mut ppo = Ppo::new(
+        &policy,
+        PpoSettings {
+            lr: 1e-3,
+            epochs: 1,
+            minibatches: 1,
+            clip: 0.05,
+            vf_coeff: 1.0,
+            vf_clip: 10.0,
+            entropy_coeff: 0.001,
+            kl_coeff: 0.2,
+            kl_target: 0.01,
+            gamma: 0.99,
+            lambda: 0.95,
+            grad_clip: None,
+            standardize_advantages: true,
+            max_seq_len: 32,
+        },
+    );
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+    g.bench_function("ppo_update_1_epoch_8000_samples", |b| {
+        b.iter(|| ppo.update(&policy, &frags, &mut rng).unwrap())
+    });
+    let icfg = TrainConfig {
+        algo: buridan_learner::train::Algo::Impala,
+        ..cfg.clone()
+    };
+    let ipolicy = Policy::new(icfg.model_spec(policy.spec().obs_dim), 0).unwrap();
+    let mut impala = Impala::new(
+        &ipolicy,
+        ImpalaSettings {
+            lr: 1e-3,
+            vf_coeff: 0.5,
+            entropy_coeff: 0.0,
+            grad_clip: Some(40.0),
+            vtrace: VTraceParams::default(),
+            max_seq_len: 32,
+        },
+    );
+    g.bench_function("impala_update_8000_samples", |b| {
+        b.iter(|| impala.update(&ipolicy, &frags).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

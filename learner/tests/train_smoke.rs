@@ -1,0 +1,162 @@
+//! The trainer's plumbing: outputs, checkpoints, resume, every algorithm ×
+//! mode (× LSTM) end to end on tiny budgets.
+
+use buridan_env::Starts;
+use buridan_learner::train::{
+    final_checkpoint, train, Algo, MetricsRow, NoProgress, Progress, Summary, TrainConfig,
+    METRICS_COLUMNS,
+};
+use buridan_policy::{Mode, Policy};
+
+fn tiny(algo: Algo, mode: Mode) -> TrainConfig {
+    let mut cfg = TrainConfig {
+        algo,
+        mode,
+        map: "rm-1.1".into(),
+        agents: 2,
+        starts: Starts::Fixed,
+        steps: 800,
+        envs_per_actor: 4,
+        fragment_len: 20,
+        hidden: vec![16, 16],
+        lstm_cells: 8,
+        max_seq_len: 8,
+        checkpoint_every: 2,
+        ..TrainConfig::default()
+    };
+    cfg.ppo.train_batch = 160;
+    cfg.ppo.minibatch = 80;
+    cfg.ppo.epochs = 2;
+    cfg.impala.train_batch = 160;
+    cfg
+}
+
+#[derive(Default)]
+struct Record {
+    rows: Vec<MetricsRow>,
+    checkpoints: usize,
+    finished: Option<Summary>,
+    started: Option<(u64, u64)>,
+}
+
+impl Progress for Record {
+    fn on_start(&mut self, _cfg: &TrainConfig, total: u64, done: u64) {
+        self.started = Some((total, done));
+    }
+    fn on_update(&mut self, row: &MetricsRow) {
+        self.rows.push(row.clone());
+    }
+    fn on_checkpoint(&mut self, _dir: &std::path::Path) {
+        self.checkpoints += 1;
+    }
+    fn on_finish(&mut self, s: &Summary) {
+        self.finished = Some(s.clone());
+    }
+}
+
+#[test]
+fn ppo_writes_metrics_checkpoints_summary_and_resumes() {
+    buridan_policy::threads::pin_threads(1);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let cfg = tiny(Algo::Ppo, Mode::Ctde);
+    let mut rec = Record::default();
+    let s = train(&cfg, &out, &mut rec).unwrap();
+    // 160 env steps per update (2 fragments of 20 steps × 4 envs), 800 steps → 5 updates.
+    assert_eq!(s.env_steps, 800);
+    assert_eq!(s.agent_steps, 1600);
+    assert_eq!(s.updates, 5);
+    assert_eq!(rec.rows.len(), 5);
+    assert_eq!(rec.started, Some((800, 0)));
+    assert!(rec
+        .rows
+        .windows(2)
+        .all(|w| w[1].env_steps == w[0].env_steps + 160));
+    assert_eq!(rec.checkpoints, 3); // updates 2, 4 and the final one
+    assert_eq!(rec.finished.as_ref().unwrap().env_steps, 800);
+    let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next().unwrap(), METRICS_COLUMNS.join(","));
+    assert_eq!(lines.count(), 5);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for key in [
+        "env_steps",
+        "wall_seconds",
+        "episode_return_mean",
+        "success_rate",
+    ] {
+        assert!(summary.get(key).is_some(), "summary lacks {key}");
+    }
+    for ck in ["update-000002", "update-000004", "final"] {
+        let d = out.join("checkpoints").join(ck);
+        for f in [
+            "spec.json",
+            "model.safetensors",
+            "optimizer.safetensors",
+            "trainer.json",
+            "config.toml",
+        ] {
+            assert!(d.join(f).is_file(), "{} lacks {f}", d.display());
+        }
+    }
+    let p = Policy::load(&final_checkpoint(&out)).unwrap();
+    assert_eq!(p.spec().mode, Mode::Ctde);
+
+    // Resume from the final checkpoint to 1600 steps: counters continue,
+    // metrics.csv grows, weights start where they stopped.
+    let resumed_cfg = TrainConfig {
+        steps: 1600,
+        resume: Some(final_checkpoint(&out)),
+        ..cfg.clone()
+    };
+    let mut rec2 = Record::default();
+    let s2 = train(&resumed_cfg, &out, &mut rec2).unwrap();
+    assert_eq!(rec2.started, Some((1600, 800)));
+    assert_eq!(s2.env_steps, 1600);
+    assert_eq!(s2.updates, 10);
+    assert_eq!(rec2.rows.first().unwrap().update, 6);
+    let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 10);
+    assert!(s2.wall_seconds >= s.wall_seconds);
+
+    // Resuming with a different architecture is refused.
+    let bad = TrainConfig {
+        hidden: vec![8],
+        ..resumed_cfg
+    };
+    let err = train(&bad, &dir.path().join("bad"), &mut NoProgress).unwrap_err();
+    assert!(format!("{err:#}").contains("does not match"), "{err:#}");
+}
+
+#[test]
+fn every_algorithm_and_mode_trains_end_to_end() {
+    buridan_policy::threads::pin_threads(1);
+    let dir = tempfile::tempdir().unwrap();
+    for algo in [Algo::Ppo, Algo::Impala] {
+        for mode in [Mode::Cte, Mode::Ctde, Mode::Dte] {
+            for lstm in [false, true] {
+                let mut cfg = tiny(algo, mode);
+                cfg.lstm = lstm;
+                cfg.steps = 480;
+                cfg.checkpoint_every = 0;
+                if algo == Algo::Impala {
+                    cfg.num_actors = 2;
+                }
+                let out = dir.path().join(format!("{algo}-{mode}-{lstm}"));
+                let mut rec = Record::default();
+                let s = train(&cfg, &out, &mut rec)
+                    .unwrap_or_else(|e| panic!("{algo} {mode} lstm={lstm}: {e:#}"));
+                assert!(s.env_steps >= 480);
+                for r in &rec.rows {
+                    assert!(r.total_loss.is_finite(), "{algo} {mode} {lstm}: {r:?}");
+                    assert!(r.entropy > 0.0 && r.entropy <= 5f64.ln() * cfg.agents as f64 + 1e-6);
+                }
+                let p = Policy::load(&final_checkpoint(&out)).unwrap();
+                assert_eq!(p.spec().is_recurrent(), lstm);
+                assert_eq!(p.nets().len(), if mode == Mode::Dte { 2 } else { 1 });
+                assert_eq!(p.spec().heads, if mode == Mode::Cte { 2 } else { 1 });
+            }
+        }
+    }
+}
