@@ -37,6 +37,15 @@ use crate::world::{GridEnv, NUM_ACTIONS};
 /// Number of cell codes in the local window.
 pub const NUM_LOCAL_CODES: usize = 5;
 
+/// The one-hot row of each code.
+const ONE_HOT: [[f32; NUM_LOCAL_CODES]; NUM_LOCAL_CODES] = [
+    [1.0, 0.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 0.0, 1.0],
+];
+
 /// Floats in one local observation for sensor range `r`.
 ///
 /// ```
@@ -98,19 +107,47 @@ impl GridEnv {
         let r = self.config().sensor_range;
         let side = 2 * r + 1;
         check_len("window codes", side * side, out.len())?;
-        self.for_each_window_code(agent, |k, code| out[k] = code);
+        let raw = self.raw();
+        let mut start = raw.pos[agent] - r * raw.padded_width - r;
+        for out_row in out.chunks_exact_mut(side) {
+            out_row.copy_from_slice(&raw.shared_code[start..start + side]);
+            start += raw.padded_width;
+        }
+        for (k, code) in self.window_fixups(agent) {
+            out[k] = code;
+        }
         Ok(())
     }
 
     /// Writes agent `i`'s local observation (layout in the module docs).
     pub fn write_local_obs(&self, agent: usize, out: &mut [f32]) -> Result<(), EnvError> {
         check_len("observation floats", self.local_obs_dim(), out.len())?;
-        let cells = out.len() - 4;
-        let (window, tail) = out.split_at_mut(cells);
-        window.fill(0.0);
-        self.for_each_window_code(agent, |k, code| {
-            window[k * NUM_LOCAL_CODES + code as usize] = 1.0
-        });
+        let side = 2 * self.config().sensor_range + 1;
+        let (window, tail) = out.split_at_mut(side * side * NUM_LOCAL_CODES);
+        // One 5-float one-hot row per cell, written whole (no memset, no
+        // scatter); the usual window sizes get fully unrolled copies.
+        match side {
+            1 => self.write_shared_window::<1>(agent, window),
+            3 => self.write_shared_window::<3>(agent, window),
+            5 => self.write_shared_window::<5>(agent, window),
+            7 => self.write_shared_window::<7>(agent, window),
+            _ => {
+                let raw = self.raw();
+                let r = side / 2;
+                let mut start = raw.pos[agent] - r * raw.padded_width - r;
+                for out_row in window.chunks_exact_mut(side * NUM_LOCAL_CODES) {
+                    let codes = &raw.shared_code[start..start + side];
+                    for (cell, &code) in out_row.chunks_exact_mut(NUM_LOCAL_CODES).zip(codes) {
+                        cell.copy_from_slice(&ONE_HOT[code as usize]);
+                    }
+                    start += raw.padded_width;
+                }
+            }
+        }
+        for (k, code) in self.window_fixups(agent) {
+            window[k * NUM_LOCAL_CODES..(k + 1) * NUM_LOCAL_CODES]
+                .copy_from_slice(&ONE_HOT[code as usize]);
+        }
         let grid = &self.map().grid;
         let sy = (grid.height().max(2) - 1) as f32;
         let sx = (grid.width().max(2) - 1) as f32;
@@ -129,8 +166,10 @@ impl GridEnv {
         let p = raw.pos[agent];
         out[0] = 1;
         for a in 1..NUM_ACTIONS {
+            // The neighbour is never the agent itself: legal iff its shared
+            // code is 0 (empty) or 4 (a goal, possibly the agent's own).
             let q = p.wrapping_add_signed(raw.step_offsets[a]);
-            out[a] = u8::from(raw.blocked[q] == 0 && raw.occupant[q] == 0);
+            out[a] = u8::from(raw.shared_code[q] & 3 == 0);
         }
         Ok(())
     }
@@ -181,32 +220,50 @@ impl GridEnv {
         Ok(())
     }
 
-    fn for_each_window_code(&self, agent: usize, mut emit: impl FnMut(usize, u8)) {
+    /// The one-hot floats of the shared codes of `agent`'s window (before
+    /// the fix-ups), for a window side `S` known at compile time.
+    #[inline(always)]
+    fn write_shared_window<const S: usize>(&self, agent: usize, window: &mut [f32]) {
+        let raw = self.raw();
+        let r = S / 2;
+        let mut start = raw.pos[agent] - r * raw.padded_width - r;
+        for out_row in window.chunks_exact_mut(S * NUM_LOCAL_CODES) {
+            let codes: &[u8; S] = raw.shared_code[start..start + S].try_into().unwrap();
+            for (cell, &code) in out_row.chunks_exact_mut(NUM_LOCAL_CODES).zip(codes) {
+                cell.copy_from_slice(&ONE_HOT[code as usize]);
+            }
+            start += raw.padded_width;
+        }
+    }
+
+    /// Where `agent`'s window differs from the shared codes, as (window
+    /// cell index, code): the centre is the agent itself (3 on its own goal,
+    /// 4 on another's, else 0, never 2), and the agent's own goal reads 3
+    /// instead of 4 unless another agent stands on it.
+    #[inline(always)]
+    fn window_fixups(&self, agent: usize) -> impl Iterator<Item = (usize, u8)> {
         let raw = self.raw();
         let r = self.config().sensor_range;
+        let side = 2 * r + 1;
+        let centre = r * side + r;
         let me = agent as u16 + 1;
-        let centre = raw.pos[agent];
-        let mut k = 0;
-        for dr in 0..=2 * r {
-            // The padding is at least R wide, so the window never leaves the padded grid.
-            let row_start = centre + dr * raw.padded_width - r * raw.padded_width - r;
-            for q in row_start..=row_start + 2 * r {
-                let occ = raw.occupant[q];
-                let owner = raw.goal_owner[q];
-                let code = if raw.blocked[q] != 0 {
-                    1
-                } else if occ != 0 && occ != me {
-                    2
-                } else if owner == me {
-                    3
-                } else if owner != 0 {
-                    4
-                } else {
-                    0
-                };
-                emit(k, code);
-                k += 1;
-            }
-        }
+        let owner = raw.goal_owner[raw.pos[agent]];
+        let centre_code = if owner == me {
+            3
+        } else if owner != 0 {
+            4
+        } else {
+            0
+        };
+        let (p, g) = (raw.cells[agent], raw.goal_cells[agent]);
+        let dr = g.row as isize - p.row as isize;
+        let dc = g.col as isize - p.col as isize;
+        let r = r as isize;
+        let own_goal = (dr.abs() <= r
+            && dc.abs() <= r
+            && (dr, dc) != (0, 0)
+            && raw.shared_code[raw.goal_pos[agent]] == 4)
+            .then(|| (((dr + r) * side as isize + dc + r) as usize, 3));
+        std::iter::once((centre, centre_code)).chain(own_goal)
     }
 }

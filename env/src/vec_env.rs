@@ -147,35 +147,47 @@ impl VecEnv {
         let (o, m) = (rows * self.obs_dim, rows * self.mask_dim);
         let stride = self.envs.len() as u64;
         let kind = self.kind;
-        let work = (
-            self.envs.par_iter_mut(),
-            actions.par_chunks(n),
-            self.rewards.par_chunks_mut(n),
-            self.obs.par_chunks_mut(o),
-            self.final_obs.par_chunks_mut(o),
-            self.masks.par_chunks_mut(m),
-            self.terminated.par_iter_mut(),
-            self.truncated.par_iter_mut(),
-            self.finished.par_iter_mut(),
-        );
-        let run = move || {
-            work.into_par_iter().try_for_each(
-                |(env, act, rew, obs, final_obs, mask, term, trunc, finished)| {
-                    let out = env.step(act, rew)?;
-                    *term = u8::from(out.terminated);
-                    *trunc = u8::from(out.truncated);
-                    if out.done() {
-                        write_obs(env, kind, final_obs, mask)?;
-                        *finished = Some(env.stats());
-                        env.reset_next(stride)?;
-                    }
-                    write_obs(env, kind, obs, mask)
-                },
+        let step_one = |(env, act, rew, obs, final_obs, mask, term, trunc, finished): EnvSlot| {
+            step_env(
+                env, kind, stride, act, rew, obs, final_obs, mask, term, trunc, finished,
             )
         };
         match &self.pool {
-            Some(pool) => pool.install(run)?,
-            None => run()?,
+            Some(pool) => pool.install(|| {
+                (
+                    self.envs.par_iter_mut(),
+                    actions.par_chunks(n),
+                    self.rewards.par_chunks_mut(n),
+                    self.obs.par_chunks_mut(o),
+                    self.final_obs.par_chunks_mut(o),
+                    self.masks.par_chunks_mut(m),
+                    self.terminated.par_iter_mut(),
+                    self.truncated.par_iter_mut(),
+                    self.finished.par_iter_mut(),
+                )
+                    .into_par_iter()
+                    .try_for_each(step_one)
+            })?,
+            // One thread: a plain loop on the caller's thread (a parallel
+            // iterator here would run on rayon's global pool instead).
+            None => {
+                let per_env = self
+                    .envs
+                    .iter_mut()
+                    .zip(actions.chunks(n))
+                    .zip(self.rewards.chunks_mut(n))
+                    .zip(self.obs.chunks_mut(o))
+                    .zip(self.final_obs.chunks_mut(o))
+                    .zip(self.masks.chunks_mut(m))
+                    .zip(self.terminated.iter_mut())
+                    .zip(self.truncated.iter_mut())
+                    .zip(self.finished.iter_mut());
+                for ((((((((env, act), rew), obs), final_obs), mask), term), trunc), finished) in
+                    per_env
+                {
+                    step_one((env, act, rew, obs, final_obs, mask, term, trunc, finished))?;
+                }
+            }
         }
         self.episodes
             .extend(self.finished.iter_mut().filter_map(Option::take));
@@ -257,6 +269,46 @@ impl VecEnv {
         }
         totals
     }
+}
+
+/// One env's share of the batch buffers.
+type EnvSlot<'a> = (
+    &'a mut GridEnv,
+    &'a [u8],
+    &'a mut [f32],
+    &'a mut [f32],
+    &'a mut [f32],
+    &'a mut [u8],
+    &'a mut u8,
+    &'a mut u8,
+    &'a mut Option<EpisodeStats>,
+);
+
+/// Steps one env, records its episode end, auto-resets it and writes its
+/// observations.
+#[allow(clippy::too_many_arguments)]
+fn step_env(
+    env: &mut GridEnv,
+    kind: ObsKind,
+    stride: u64,
+    actions: &[u8],
+    rewards: &mut [f32],
+    obs: &mut [f32],
+    final_obs: &mut [f32],
+    mask: &mut [u8],
+    terminated: &mut u8,
+    truncated: &mut u8,
+    finished: &mut Option<EpisodeStats>,
+) -> Result<(), EnvError> {
+    let out = env.step(actions, rewards)?;
+    *terminated = u8::from(out.terminated);
+    *truncated = u8::from(out.truncated);
+    if out.done() {
+        write_obs(env, kind, final_obs, mask)?;
+        *finished = Some(env.stats());
+        env.reset_next(stride)?;
+    }
+    write_obs(env, kind, obs, mask)
 }
 
 fn write_obs(

@@ -42,6 +42,9 @@ fn lifelong_rng(seed: u64, episode: u64) -> ChaCha8Rng {
     episode_rng(seed ^ 0x6c69_6665_6c6f_6e67, episode)
 }
 
+/// `(row, col)` change of each action.
+const MOVE_DELTAS: [(isize, isize); NUM_ACTIONS] = [(0, 0), (-1, 0), (0, 1), (1, 0), (0, -1)];
+
 /// Sentinel for "no agent" in the per-cell arrays.
 const NOBODY: u16 = 0;
 
@@ -88,10 +91,20 @@ pub struct GridEnv {
     occupant: Vec<u16>,
     /// Per padded cell: index + 1 of the agent whose goal it is, or 0.
     goal_owner: Vec<u16>,
+    /// Per padded cell, the local code as any agent *not* involved sees it:
+    /// 1 wall or outside, 2 agent, 4 goal, 0 empty (agent over goal). An
+    /// observer's window is these codes with two fix-ups: its own cell and
+    /// its own goal (see `obs.rs`). Kept in step with `occupant` and
+    /// `goal_owner` by [`Self::refresh_code`].
+    shared_code: Vec<u8>,
     /// Padded index of each agent.
     pos: Vec<usize>,
     /// Padded index of each agent's goal.
     goal: Vec<usize>,
+    /// Each agent's cell (kept beside `pos` so that no hot path divides).
+    cells: Vec<Cell>,
+    /// Each agent's goal cell.
+    goal_cells: Vec<Cell>,
     /// Goal distance maps (unpadded, row-major) of each agent's goal.
     goal_distance: Vec<Arc<[u16]>>,
     reached: Vec<bool>,
@@ -133,6 +146,7 @@ impl GridEnv {
                     u8::from(map.grid.is_wall(Cell::new(r, c)));
             }
         }
+        let shared_code = blocked.clone();
         let pw = padded_width as isize;
         let n = cfg.agents;
         let mut env = Self {
@@ -141,8 +155,11 @@ impl GridEnv {
             blocked,
             occupant: vec![NOBODY; padded_cells],
             goal_owner: vec![NOBODY; padded_cells],
+            shared_code,
             pos: vec![0; n],
             goal: vec![0; n],
+            cells: vec![Cell::new(0, 0); n],
+            goal_cells: vec![Cell::new(0, 0); n],
             goal_distance: Vec::with_capacity(n),
             reached: vec![false; n],
             step_offsets: [0, -pw, 1, pw, -1],
@@ -244,17 +261,28 @@ impl GridEnv {
             }
         }
         for i in 0..n {
-            self.occupant[self.pos[i]] = NOBODY;
-            self.goal_owner[self.goal[i]] = NOBODY;
+            let (p, g) = (self.pos[i], self.goal[i]);
+            self.occupant[p] = NOBODY;
+            self.goal_owner[g] = NOBODY;
+            self.shared_code[p] = self.blocked[p];
+            self.shared_code[g] = self.blocked[g];
         }
         self.goal_distance.clear();
         for i in 0..n {
             self.pos[i] = self.padded(starts[i]);
             self.goal[i] = self.padded(goals[i]);
+            self.cells[i] = starts[i];
+            self.goal_cells[i] = goals[i];
             self.occupant[self.pos[i]] = i as u16 + 1;
             self.goal_owner[self.goal[i]] = i as u16 + 1;
-            self.goal_distance.push(grid.distances_to(goals[i]));
+            self.goal_distance
+                .push(self.map.grid.distances_to(goals[i]));
         }
+        for i in 0..n {
+            self.refresh_code(self.pos[i]);
+            self.refresh_code(self.goal[i]);
+        }
+        let grid = &self.map.grid;
         self.reached.iter_mut().for_each(|r| *r = false);
         self.t = 0;
         self.episode = episode;
@@ -263,8 +291,7 @@ impl GridEnv {
         self.episode_reward = 0.0;
         self.blocked_moves = 0;
         self.goals_reached = 0;
-        for i in 0..n {
-            let cell = self.unpadded(self.pos[i]);
+        for &cell in &self.cells {
             self.visits[grid.index(cell)] += 1;
         }
         self.fill_scratch();
@@ -311,7 +338,18 @@ impl GridEnv {
             if self.blocked[to] == 0 && self.occupant[to] == NOBODY {
                 self.occupant[from] = NOBODY;
                 self.occupant[to] = i as u16 + 1;
+                self.shared_code[from] = if self.goal_owner[from] != NOBODY {
+                    4
+                } else {
+                    0
+                };
+                self.shared_code[to] = 2;
                 self.pos[i] = to;
+                // The target is inside the grid (not blocked), so no wrap.
+                let (dr, dc) = MOVE_DELTAS[action as usize];
+                let cell = &mut self.cells[i];
+                cell.row = cell.row.wrapping_add_signed(dr);
+                cell.col = cell.col.wrapping_add_signed(dc);
             } else {
                 outcome.blocked_moves += 1;
             }
@@ -322,11 +360,8 @@ impl GridEnv {
         let grid_width = self.map.grid.width();
         for i in 0..n {
             let p = self.pos[i];
-            let (r, c) = (
-                p / self.padded_width - self.pad,
-                p % self.padded_width - self.pad,
-            );
-            self.visits[r * grid_width + c] += 1;
+            let cell = self.cells[i];
+            self.visits[cell.row * grid_width + cell.col] += 1;
             // Collision check: under sequential moves the occupant array has one
             // agent per cell, so a mismatch would mean two agents in one cell.
             if self.occupant[p] != i as u16 + 1 {
@@ -392,31 +427,41 @@ impl GridEnv {
                 break cand;
             }
         };
-        self.goal_owner[self.goal[agent]] = NOBODY;
+        let old = self.goal[agent];
+        self.goal_owner[old] = NOBODY;
+        self.refresh_code(old);
         self.goal[agent] = self.padded(cell);
+        self.goal_cells[agent] = cell;
         self.goal_owner[self.goal[agent]] = agent as u16 + 1;
+        self.refresh_code(self.goal[agent]);
         self.goal_distance[agent] = self.map.grid.distances_to(cell);
     }
 
+    /// Recomputes the shared code of padded cell `p` from the cell arrays.
+    fn refresh_code(&mut self, p: usize) {
+        self.shared_code[p] = if self.blocked[p] != 0 {
+            1
+        } else if self.occupant[p] != NOBODY {
+            2
+        } else if self.goal_owner[p] != NOBODY {
+            4
+        } else {
+            0
+        };
+    }
+
     fn fill_scratch(&mut self) {
-        let grid = &self.map.grid;
+        let width = self.map.grid.width();
         for i in 0..self.cfg.agents {
-            let cell = self.unpadded(self.pos[i]);
+            let cell = self.cells[i];
             self.scratch_cell[i] = (cell.row, cell.col);
-            self.scratch_distance[i] = self.goal_distance[i][grid.index(cell)];
+            self.scratch_distance[i] = self.goal_distance[i][cell.row * width + cell.col];
             self.scratch_at_goal[i] = self.pos[i] == self.goal[i];
         }
     }
 
     fn padded(&self, cell: Cell) -> usize {
         (cell.row + self.pad) * self.padded_width + cell.col + self.pad
-    }
-
-    fn unpadded(&self, p: usize) -> Cell {
-        Cell::new(
-            p / self.padded_width - self.pad,
-            p % self.padded_width - self.pad,
-        )
     }
 
     /// The map.
@@ -451,22 +496,22 @@ impl GridEnv {
 
     /// Agent `i`'s cell.
     pub fn position(&self, agent: usize) -> Cell {
-        self.unpadded(self.pos[agent])
+        self.cells[agent]
     }
 
     /// Agent `i`'s goal.
     pub fn goal(&self, agent: usize) -> Cell {
-        self.unpadded(self.goal[agent])
+        self.goal_cells[agent]
     }
 
     /// All agents' cells.
     pub fn positions(&self) -> Vec<Cell> {
-        (0..self.cfg.agents).map(|i| self.position(i)).collect()
+        self.cells.clone()
     }
 
     /// All agents' goals.
     pub fn goals(&self) -> Vec<Cell> {
-        (0..self.cfg.agents).map(|i| self.goal(i)).collect()
+        self.goal_cells.clone()
     }
 
     /// Whether agent `i` stands on its goal.
@@ -511,10 +556,12 @@ impl GridEnv {
     pub(crate) fn raw(&self) -> RawView<'_> {
         RawView {
             padded_width: self.padded_width,
-            blocked: &self.blocked,
-            occupant: &self.occupant,
             goal_owner: &self.goal_owner,
+            shared_code: &self.shared_code,
             pos: &self.pos,
+            goal_pos: &self.goal,
+            cells: &self.cells,
+            goal_cells: &self.goal_cells,
             step_offsets: &self.step_offsets,
         }
     }
@@ -530,9 +577,11 @@ impl GridEnv {
 /// Borrowed internals for the observation encoders.
 pub(crate) struct RawView<'a> {
     pub padded_width: usize,
-    pub blocked: &'a [u8],
-    pub occupant: &'a [u16],
     pub goal_owner: &'a [u16],
+    pub shared_code: &'a [u8],
     pub pos: &'a [usize],
+    pub goal_pos: &'a [usize],
+    pub cells: &'a [Cell],
+    pub goal_cells: &'a [Cell],
     pub step_offsets: &'a [isize; NUM_ACTIONS],
 }

@@ -160,10 +160,33 @@ fn check_observations(env: &GridEnv) -> Result<(), TestCaseError> {
         env.write_local_obs(i, &mut obs).unwrap();
         env.write_action_mask(i, &mut mask).unwrap();
         prop_assert!(codes.iter().all(|&c| c <= 4));
+        // Every code from first principles: walls/outside 1, another agent 2,
+        // own goal 3, another's goal 4, agents beat goals, else 0.
+        let me = env.position(i);
+        for (k, &code) in codes.iter().enumerate() {
+            let row = me.row as isize + (k / side) as isize - r as isize;
+            let col = me.col as isize + (k % side) as isize - r as isize;
+            let inside = row >= 0
+                && col >= 0
+                && (row as usize) < grid.height()
+                && (col as usize) < grid.width();
+            let q = Cell::new(row.max(0) as usize, col.max(0) as usize);
+            let want = if !inside || grid.is_wall(q) {
+                1
+            } else if (0..n).any(|j| j != i && env.position(j) == q) {
+                2
+            } else if env.goal(i) == q {
+                3
+            } else if (0..n).any(|j| env.goal(j) == q) {
+                4
+            } else {
+                0
+            };
+            prop_assert_eq!(code, want, "agent {} window cell {}", i, k);
+        }
         prop_assert_eq!(codes[centre] == 3, env.at_goal(i));
         prop_assert!(codes[centre] != 1 && codes[centre] != 2);
         // Other agents appear as 2 exactly where they stand inside the window.
-        let me = env.position(i);
         let visible_others = (0..n)
             .filter(|&j| j != i)
             .filter(|&j| {
