@@ -46,6 +46,18 @@ const ONE_HOT: [[f32; NUM_LOCAL_CODES]; NUM_LOCAL_CODES] = [
     [0.0, 0.0, 0.0, 0.0, 1.0],
 ];
 
+/// [`ONE_HOT`] padded to 8 rows, for lookups indexed by `code & 7`.
+const ONE_HOT_PADDED: [[f32; NUM_LOCAL_CODES]; 8] = [
+    ONE_HOT[0],
+    ONE_HOT[1],
+    ONE_HOT[2],
+    ONE_HOT[3],
+    ONE_HOT[4],
+    [0.0; NUM_LOCAL_CODES],
+    [0.0; NUM_LOCAL_CODES],
+    [0.0; NUM_LOCAL_CODES],
+];
+
 /// Floats in one local observation for sensor range `r`.
 ///
 /// ```
@@ -127,10 +139,10 @@ impl GridEnv {
         // One 5-float one-hot row per cell, written whole (no memset, no
         // scatter); the usual window sizes get fully unrolled copies.
         match side {
-            1 => self.write_shared_window::<1>(agent, window),
-            3 => self.write_shared_window::<3>(agent, window),
-            5 => self.write_shared_window::<5>(agent, window),
-            7 => self.write_shared_window::<7>(agent, window),
+            1 => self.write_shared_window::<1, 5>(agent, window),
+            3 => self.write_shared_window::<3, 15>(agent, window),
+            5 => self.write_shared_window::<5, 25>(agent, window),
+            7 => self.write_shared_window::<7, 35>(agent, window),
             _ => {
                 let raw = self.raw();
                 let r = side / 2;
@@ -221,16 +233,26 @@ impl GridEnv {
     }
 
     /// The one-hot floats of the shared codes of `agent`'s window (before
-    /// the fix-ups), for a window side `S` known at compile time.
+    /// the fix-ups), for a window side `S` known at compile time; `F` = 5·S
+    /// floats per window row. Fully unrolled, no bounds checks per cell.
     #[inline(always)]
-    fn write_shared_window<const S: usize>(&self, agent: usize, window: &mut [f32]) {
+    fn write_shared_window<const S: usize, const F: usize>(
+        &self,
+        agent: usize,
+        window: &mut [f32],
+    ) {
+        debug_assert_eq!(F, S * NUM_LOCAL_CODES);
         let raw = self.raw();
         let r = S / 2;
         let mut start = raw.pos[agent] - r * raw.padded_width - r;
-        for out_row in window.chunks_exact_mut(S * NUM_LOCAL_CODES) {
+        for out_row in window.chunks_exact_mut(F) {
+            let out_row: &mut [f32; F] = out_row.try_into().unwrap();
             let codes: &[u8; S] = raw.shared_code[start..start + S].try_into().unwrap();
-            for (cell, &code) in out_row.chunks_exact_mut(NUM_LOCAL_CODES).zip(codes) {
-                cell.copy_from_slice(&ONE_HOT[code as usize]);
+            for k in 0..S {
+                // Shared codes are 0, 1, 2 or 4; `& 7` lets the table lookup
+                // go unchecked (rows 5..8 are never used).
+                let one_hot = &ONE_HOT_PADDED[(codes[k] & 7) as usize];
+                out_row[k * NUM_LOCAL_CODES..(k + 1) * NUM_LOCAL_CODES].copy_from_slice(one_hot);
             }
             start += raw.padded_width;
         }

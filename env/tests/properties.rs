@@ -38,7 +38,7 @@ fn case() -> impl Strategy<Value = Case> {
         2usize..=7,
         2usize..=8,
         1usize..=4,
-        0usize..=3,
+        0usize..=4,
         1u32..=25,
         any::<u64>(),
         prop::bool::weighted(0.2),
