@@ -1,5 +1,7 @@
 //! SPEC §3: local windows, masks, central codes and planes, checked by hand.
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the rules as written
+
 mod common;
 
 use std::sync::Arc;

@@ -12,6 +12,8 @@
 //! and was truncated), and the episode reward summed over n agents lies in
 //! [−n, 1.5n]. In lifelong mode a step reward is 0 or 0.5.
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the rules as written
+
 mod common;
 
 use std::collections::HashSet;

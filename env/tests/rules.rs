@@ -447,12 +447,11 @@ fn random_actions(rng: &mut ChaCha8Rng, n: usize) -> Vec<u8> {
     (0..n).map(|_| rng.random_range(0..5u8)).collect()
 }
 
+/// Starts, goals, and per step the positions and rewards of one episode.
+type Trajectory = (Vec<Cell>, Vec<Cell>, Vec<Vec<Cell>>, Vec<Vec<f32>>);
+
 /// Positions and rewards of one episode driven by a seeded action stream.
-fn trajectory(
-    map: &Arc<Map>,
-    cfg: &EnvConfig,
-    episode: u64,
-) -> (Vec<Cell>, Vec<Cell>, Vec<Vec<Cell>>, Vec<Vec<f32>>) {
+fn trajectory(map: &Arc<Map>, cfg: &EnvConfig, episode: u64) -> Trajectory {
     let mut env = GridEnv::with_episode(map.clone(), cfg.clone(), episode).unwrap();
     let (starts, goals) = (env.positions(), env.goals());
     let mut rng = ChaCha8Rng::seed_from_u64(99);

@@ -115,11 +115,11 @@ fn two_threads_match_plain_envs_too() {
     mirror(ObsKind::Central, 2);
 }
 
-/// Everything a VecEnv exposes after each of `steps` random steps.
-fn record(
-    threads: usize,
-    kind: ObsKind,
-) -> Vec<(Vec<f32>, Vec<f32>, Vec<u8>, Vec<f32>, Vec<u8>, Vec<u8>)> {
+/// Observations, final observations, masks, rewards, terminated, truncated.
+type Snapshot = (Vec<f32>, Vec<f32>, Vec<u8>, Vec<f32>, Vec<u8>, Vec<u8>);
+
+/// Everything a VecEnv exposes after each of 50 random steps.
+fn record(threads: usize, kind: ObsKind) -> Vec<Snapshot> {
     let map = Arc::new(Map::load("rm-2.1").unwrap());
     let cfg = EnvConfig {
         t_max: 20,
