@@ -48,6 +48,9 @@ pub trait Controller: Send {
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp>;
     /// Writes one action per agent for the env's current state.
     fn act(&mut self, env: &GridEnv, actions: &mut [u8]);
+    /// Sees the per-agent rewards of the step just taken (recurrent policies
+    /// feed them back as inputs).
+    fn after_step(&mut self, _rewards: &[f32]) {}
     /// Extra per-episode facts (e.g. a planner's makespan), reported in the CSV.
     fn episode_notes(&self) -> PlanNotes {
         PlanNotes::default()

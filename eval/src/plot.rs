@@ -123,45 +123,33 @@ pub fn boxplot(
     boxes: &[(String, BoxStats)],
 ) -> Result<(), PlotError> {
     register_fonts();
-    let root =
-        BitMapBackend::new(path, (160 + 140 * boxes.len().max(1) as u32, 480)).into_drawing_area();
+    let width = 560.max(160 + 160 * boxes.len() as u32);
+    let root = BitMapBackend::new(path, (width, 480)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(path, e))?;
-    let hi = boxes
-        .iter()
-        .map(|(_, b)| b.whisker_high)
-        .fold(1.0, f64::max)
-        * 1.1;
-    let lo = boxes
-        .iter()
-        .map(|(_, b)| b.whisker_low)
-        .fold(hi, f64::min)
-        .min(0.0);
+    let hi = boxes.iter().map(|(_, b)| b.whisker_high).fold(1.0, f64::max) * 1.15;
+    let lo = boxes.iter().map(|(_, b)| b.whisker_low).fold(hi, f64::min).min(0.0);
     let n = boxes.len().max(1);
-    let labels: Vec<String> = boxes
-        .iter()
-        .map(|(l, b)| format!("{l} (n={})", b.count))
-        .collect();
     let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 18))
+        .caption(title, ("sans-serif", 16))
         .margin(15)
-        .x_label_area_size(35)
+        .x_label_area_size(10)
         .y_label_area_size(50)
         .build_cartesian_2d(0f64..n as f64, lo..hi)
         .map_err(|e| err(path, e))?;
     chart
         .configure_mesh()
         .disable_x_mesh()
-        .x_labels(n + 1)
-        .x_label_formatter(&|x| {
-            let k = (x - 0.5).round();
-            if (x - 0.5 - k).abs() < 1e-6 && k >= 0.0 && (k as usize) < labels.len() {
-                labels[k as usize].clone()
-            } else {
-                String::new()
-            }
-        })
+        .x_labels(0)
         .y_desc(y_label)
         .draw()
+        .map_err(|e| err(path, e))?;
+    // Labels inside the plot, above each box: the x axis is categorical.
+    let label_style = ("sans-serif", 14).into_font();
+    chart
+        .draw_series(boxes.iter().enumerate().map(|(k, (label, b))| {
+            let text = format!("{label} (n={})", b.count);
+            Text::new(text, (k as f64 + 0.2, hi * 0.97), label_style.clone())
+        }))
         .map_err(|e| err(path, e))?;
     for (k, (_, b)) in boxes.iter().enumerate() {
         let x = k as f64 + 0.5;

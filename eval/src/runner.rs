@@ -231,6 +231,7 @@ pub fn run_episode(
         controller.act(env, &mut actions);
         compute += t0.elapsed();
         let out = env.step(&actions, &mut rewards)?;
+        controller.after_step(&rewards);
         for (i, a) in arrival.iter_mut().enumerate() {
             if !env.at_goal(i) {
                 // Still off its goal after step t: it arrives at t + 1 at the earliest.
