@@ -59,7 +59,7 @@ fn bench(c: &mut Criterion) {
         PpoSettings {
             lr: 1e-3,
             epochs: 1,
-            minibatches: 1,
+            minibatch_size: 8000,
             clip: 0.05,
             vf_coeff: 1.0,
             vf_clip: 10.0,

@@ -7,7 +7,8 @@
 //! layout, gates i, f, g, o), `logits.weight|bias`, `value.weight|bias`.
 
 use candle_core::{Tensor, D};
-use candle_nn::{Linear, Module};
+
+use crate::activation::Dense;
 
 use crate::error::PolicyError;
 use crate::spec::{Activation, LstmSpec, ModelSpec, ValueHead};
@@ -72,7 +73,7 @@ pub(crate) fn lstm_extra_inputs(spec: &ModelSpec, l: &LstmSpec) -> usize {
 
 #[derive(Debug, Clone)]
 struct Mlp {
-    layers: Vec<Linear>,
+    layers: Vec<Dense>,
     act: Activation,
 }
 
@@ -91,7 +92,7 @@ impl Mlp {
                 Init::NormC(1.0),
             )?;
             let b = src.param(&format!("{prefix}.{i}.bias"), &[h], Init::Zeros)?;
-            layers.push(Linear::new(w, Some(b)));
+            layers.push(Dense { weight: w, bias: b });
             fan_in = h;
         }
         Ok(Self {
@@ -126,8 +127,10 @@ struct LstmCell {
 impl LstmCell {
     /// Input projection `x W_ihᵀ + b_ih + b_hh` (can be batched over time).
     fn project_input(&self, x: &Tensor) -> Result<Tensor, PolicyError> {
-        Ok(x.matmul(&self.w_ih.t()?)?
-            .broadcast_add(&(&self.b_ih + &self.b_hh)?)?)
+        Ok(crate::activation::bias_add(
+            &x.matmul(&self.w_ih.t()?)?,
+            &(&self.b_ih + &self.b_hh)?,
+        )?)
     }
 
     /// One step from a projected input: returns `(h', c')`.
@@ -183,8 +186,8 @@ pub struct Net {
     pi: Mlp,
     vf: Option<Mlp>,
     lstm: Option<(LstmCell, LstmSpec)>,
-    logits: Linear,
-    value: Linear,
+    logits: Dense,
+    value: Dense,
     logits_dim: usize,
 }
 
@@ -230,27 +233,27 @@ impl Net {
         } else if spec.value == ValueHead::Separate {
             vf = Some(Mlp::build(spec, &format!("{p}vf"), src)?);
         }
-        let logits = Linear::new(
-            src.param(
+        let logits = Dense {
+            weight: src.param(
                 &format!("{p}logits.weight"),
                 &[spec.logits_dim(), feat],
                 Init::NormC(0.01),
             )?,
-            Some(src.param(
+            bias: src.param(
                 &format!("{p}logits.bias"),
                 &[spec.logits_dim()],
                 Init::Zeros,
-            )?),
-        );
+            )?,
+        };
         let vf_in = if vf.is_some() {
             *spec.hidden.last().expect("validated")
         } else {
             feat
         };
-        let value = Linear::new(
-            src.param(&format!("{p}value.weight"), &[1, vf_in], Init::NormC(0.01))?,
-            Some(src.param(&format!("{p}value.bias"), &[1], Init::Zeros)?),
-        );
+        let value = Dense {
+            weight: src.param(&format!("{p}value.weight"), &[1, vf_in], Init::NormC(0.01))?,
+            bias: src.param(&format!("{p}value.bias"), &[1], Init::Zeros)?,
+        };
         Ok(Self {
             pi,
             vf,

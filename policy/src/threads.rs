@@ -35,5 +35,21 @@ pub fn pin_threads(n: usize) -> usize {
             std::env::set_var(var, &n);
         }
     }
+    tune_allocator();
     candle_threads()
+}
+
+/// Keeps freed tensor buffers in the process instead of returning them to
+/// the OS after every operation (glibc: `M_MMAP_THRESHOLD` 32 MiB,
+/// `M_TRIM_THRESHOLD` 256 MiB). Training allocates and frees buffers of
+/// hundreds of KiB per op; with glibc's defaults a quarter of a PPO update
+/// went to page faults. Safe to call at any time; a no-op elsewhere.
+pub fn tune_allocator() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: mallopt only adjusts allocator parameters; it takes the
+    // allocator's own lock and is safe to call from any thread.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 32 << 20);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, 256 << 20);
+    }
 }

@@ -112,8 +112,10 @@ pub struct PpoSettings {
     pub lr: f64,
     /// Passes over each train batch.
     pub epochs: usize,
-    /// Minibatches per epoch (train batch / minibatch size).
-    pub minibatches: usize,
+    /// Samples (agent steps of one weight set) per minibatch; each weight
+    /// set's batch is split into `ceil(samples / minibatch_size)` shuffled
+    /// minibatches per epoch (whole sequences for recurrent nets).
+    pub minibatch_size: usize,
     /// Surrogate clip ε.
     pub clip: f32,
     /// Value loss coefficient.
@@ -223,15 +225,26 @@ impl Ppo {
                     o
                 })
                 .collect();
-            let mbs = s.minibatches.max(1);
+            // Minibatches per net: its samples / minibatch_size, rounded up
+            // (RLlib splits each policy's batch by agent steps).
+            let chunks: Vec<usize> = batches
+                .iter()
+                .zip(&orders)
+                .map(|(b, o)| {
+                    b.len()
+                        .div_ceil(s.minibatch_size.max(1))
+                        .clamp(1, o.len().max(1))
+                })
+                .collect();
+            let mbs = chunks.iter().copied().max().unwrap_or(1);
             for mb in 0..mbs {
                 let mut total: Option<Tensor> = None;
                 let mut terms_mb = Vec::new();
                 for (k, (bt, adv, tgt)) in prepared.iter().enumerate() {
                     let units = orders[k].len();
-                    let lo = mb * units / mbs;
-                    let hi = (mb + 1) * units / mbs;
-                    if hi <= lo {
+                    let lo = mb * units / chunks[k];
+                    let hi = (mb + 1) * units / chunks[k];
+                    if mb >= chunks[k] || hi <= lo {
                         continue;
                     }
                     let idx = Tensor::from_slice(&orders[k][lo..hi], hi - lo, &dev)?;

@@ -55,9 +55,10 @@ pub struct PpoConfig {
     pub entropy_coeff: f32,
     /// Train batch in env steps (4000).
     pub train_batch: usize,
-    /// Minibatch in env steps (4000): each epoch is split into
-    /// `round(train_batch / minibatch)` shuffled minibatches of every weight
-    /// set's samples.
+    /// Minibatch size in samples of one weight set (4000). As in RLlib's
+    /// multi-agent PPO, each policy's share of the train batch (agent steps:
+    /// 8000 for CTDE with 2 agents and `train_batch` 4000) is split into
+    /// `ceil(samples / minibatch)` shuffled minibatches per epoch.
     pub minibatch: usize,
     /// GAE λ (0.95).
     pub lambda: f32,
@@ -306,11 +307,6 @@ impl TrainConfig {
             Algo::Impala => self.impala.train_batch,
         };
         batch.div_ceil(self.fragment_env_steps()).max(1)
-    }
-
-    /// PPO minibatches per epoch: `round(train_batch / minibatch)`, at least 1.
-    pub fn ppo_minibatches(&self) -> usize {
-        ((self.ppo.train_batch as f64 / self.ppo.minibatch as f64).round() as usize).max(1)
     }
 
     /// The network architecture for observations of `obs_dim` floats.

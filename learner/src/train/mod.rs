@@ -166,6 +166,7 @@ fn save_checkpoint(
 /// candle's thread count (1 is fastest for these small networks).
 pub fn train(cfg: &TrainConfig, out: &Path, progress: &mut dyn Progress) -> Result<Summary> {
     cfg.validate()?;
+    buridan_policy::threads::tune_allocator();
     let t_start = Instant::now();
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     std::fs::write(out.join("config.toml"), cfg.to_toml())?;
@@ -220,7 +221,7 @@ pub fn train(cfg: &TrainConfig, out: &Path, progress: &mut dyn Progress) -> Resu
             PpoSettings {
                 lr: cfg.ppo.lr,
                 epochs: cfg.ppo.epochs,
-                minibatches: cfg.ppo_minibatches(),
+                minibatch_size: cfg.ppo.minibatch,
                 clip: cfg.ppo.clip,
                 vf_coeff: cfg.ppo.vf_coeff,
                 vf_clip: cfg.ppo.vf_clip,
