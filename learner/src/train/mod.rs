@@ -24,6 +24,7 @@
 pub mod actor;
 pub mod config;
 pub mod metrics;
+pub mod rollout;
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{sync_channel, RecvTimeoutError};
