@@ -19,7 +19,8 @@ struct Lines {
 
 impl Progress for Lines {
     fn on_update(&mut self, r: &MetricsRow) {
-        if r.update % self.every == 0 {
+        let every = self.every.max(1);
+        if r.update / every * every == r.update {
             println!(
                 "update {:>5} steps {:>9} {:>7.1}s {:>7.0} st/s | return {:>6.3} success {:>5.3} len {:>6.2} | loss {:>8.4} pi {:>8.4} vf {:>8.4} ent {:>6.3} kl {:>7.4} β {:>6.3} |g| {:>6.2} learn {:.2}s",
                 r.update,

@@ -168,8 +168,8 @@ fn vtrace_on_policy_equals_n_step_bootstrapped_returns() {
     for t in 0..t_len {
         let (end, boot) = if t <= 4 { (5, 0.0) } else { (t_len, v_last) };
         let mut ret = 0.0f32;
-        for k in t..end {
-            ret += gamma.powi((k - t) as i32) * rewards[k];
+        for (k, &r) in rewards.iter().enumerate().take(end).skip(t) {
+            ret += gamma.powi((k - t) as i32) * r;
         }
         ret += gamma.powi((end - t) as i32) * boot;
         assert!((v.vs[t] - ret).abs() < 1e-5, "t={t}: {} vs {ret}", v.vs[t]);

@@ -448,17 +448,11 @@ pub fn evaluate(
         }
     };
     let values_vec: Vec<f32> = values.detach().to_vec1()?;
-    let mut next_values = vec![0.0f32; n];
-    for s in 0..t {
-        for j in 0..r {
-            let i = s * r + j;
-            next_values[i] = if s + 1 < t {
-                values_vec[i + r]
-            } else {
-                last_v[j]
-            };
-        }
-    }
+    // V(s_{t+1}): the next step's value inside the fragment, the bootstrap
+    // value of the last observation at its end.
+    let mut next_values = Vec::with_capacity(n);
+    next_values.extend_from_slice(&values_vec[r.min(n)..]);
+    next_values.extend_from_slice(&last_v);
     for (q, &idx) in b.final_index.iter().enumerate() {
         next_values[idx] = final_v[q];
     }
