@@ -48,9 +48,7 @@ fn bench(c: &mut Criterion) {
                 planner.name().to_string(),
                 format!("{agents} agents x {} episodes", set.len()),
             );
-            group.bench_with_input(id, set, |b, set| {
-                b.iter(|| solve_all(&planner, &map, set))
-            });
+            group.bench_with_input(id, set, |b, set| b.iter(|| solve_all(&planner, &map, set)));
         }
     }
     group.finish();
