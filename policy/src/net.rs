@@ -137,12 +137,13 @@ impl LstmCell {
     fn step(&self, xp: &Tensor, h: &Tensor, c: &Tensor) -> Result<(Tensor, Tensor), PolicyError> {
         let gates = (xp + h.matmul(&self.w_hh.t()?)?)?;
         let n = self.cells;
-        let i = candle_nn::ops::sigmoid(&gates.narrow(1, 0, n)?)?;
-        let f = candle_nn::ops::sigmoid(&gates.narrow(1, n, n)?)?;
-        let g = gates.narrow(1, 2 * n, n)?.tanh()?;
-        let o = candle_nn::ops::sigmoid(&gates.narrow(1, 3 * n, n)?)?;
+        use crate::activation::{sigmoid, tanh};
+        let i = sigmoid(&gates.narrow(1, 0, n)?)?;
+        let f = sigmoid(&gates.narrow(1, n, n)?)?;
+        let g = tanh(&gates.narrow(1, 2 * n, n)?)?;
+        let o = sigmoid(&gates.narrow(1, 3 * n, n)?)?;
         let c2 = ((f * c)? + (i * g)?)?;
-        let h2 = (o * c2.tanh()?)?;
+        let h2 = (o * tanh(&c2)?)?;
         Ok((h2, c2))
     }
 }

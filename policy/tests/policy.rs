@@ -492,4 +492,14 @@ fn fast_tanh_matches_libm_and_has_the_right_gradient() {
         let expected = 1.0 - xi.tanh().powi(2);
         assert!((gi - expected).abs() < 1e-5);
     }
+    // Sigmoid through the same approximation: value and gradient σ(1 − σ).
+    let y = buridan_policy::activation::sigmoid(v.as_tensor()).unwrap();
+    let vals: Vec<f32> = y.to_vec1().unwrap();
+    let g = y.sum_all().unwrap().backward().unwrap();
+    let g: Vec<f32> = g.get(v.as_tensor()).unwrap().to_vec1().unwrap();
+    for ((yi, gi), xi) in vals.iter().zip(&g).zip([-2.0f32, 0.0, 0.5, 3.0]) {
+        let s = 1.0 / (1.0 + (-xi).exp());
+        assert!((yi - s).abs() < 1e-6);
+        assert!((gi - s * (1.0 - s)).abs() < 1e-5);
+    }
 }
