@@ -34,7 +34,7 @@
 //! occupies at `t`" is then a third kind of conflict (a *following
 //! conflict*), and every plan replays exactly in the environment
 //! (termination with success after exactly `makespan` steps — [`replay()`]
-//! checks this). With it **off** ([`Rules::SIMULTANEOUS`]) plans are pure
+//! reports it, [`replay_exact`] insists on it). With it **off** ([`Rules::SIMULTANEOUS`]) plans are pure
 //! SPEC §5 and can be shorter (rm-1.1: makespan 9 instead of 10, as in the
 //! dissertation), but may not replay; [`ReplayResult::blocked_following`]
 //! lists the following moves the env would block.
@@ -53,13 +53,14 @@
 //! assert!(r.is_exact(sol.plan.makespan()));
 //! assert_eq!(r.terminated_at, Some(10));
 //!
-//! // Pure simultaneous semantics: makespan 9, but agent 0 follows agent 1.
+//! // Pure simultaneous semantics: makespan 9, but agent 0 follows agent 1
+//! // (whichever agent ducks into the aisle), which the env blocks.
 //! let fast = Cbs { rules: Rules::SIMULTANEOUS, ..Cbs::default() };
 //! let sol = fast.solve(&map.grid, s, g, &Limits::default()).unwrap();
+//! assert_eq!((sol.plan.makespan(), sol.plan.sum_of_costs()), (9, 17));
 //! let r = replay(&map, s, g, &sol.plan, 100).unwrap();
-//! if sol.plan.makespan() == 9 {
-//!     assert!(!r.blocked_following.is_empty() && !r.is_exact(9));
-//! }
+//! assert_eq!((r.blocked_following[0].follower, r.blocked_following[0].leader), (0, 1));
+//! assert!(!r.success && !r.is_exact(9));
 //! ```
 //!
 //! # Limits
@@ -91,6 +92,6 @@ pub use limits::{InstanceError, Limits, SolveError};
 pub use maastar::{Heuristic, MaAstar};
 pub use plan::Plan;
 pub use planner::{planner_by_name, Planner, Solution, Stats};
-pub use replay::{replay, BlockedFollowing, Divergence, ReplayError, ReplayResult};
+pub use replay::{replay, replay_exact, BlockedFollowing, Divergence, ReplayError, ReplayResult};
 pub use rules::Rules;
 pub use validate::{validate, validate_with, PlanError};

@@ -58,6 +58,14 @@ pub enum ReplayError {
     /// The environment rejected the configuration or the instance.
     #[error("environment: {0}")]
     Env(#[from] EnvError),
+    /// ([`replay_exact`] only.) The env did not execute the plan exactly.
+    #[error("the env did not execute the plan of makespan {makespan} exactly: {result:?}")]
+    Inexact {
+        /// The plan's makespan.
+        makespan: usize,
+        /// What happened instead.
+        result: Box<ReplayResult>,
+    },
 }
 
 /// A following move the environment blocks: `follower` plans to enter
@@ -331,4 +339,39 @@ pub fn replay(
     }
     result.final_positions = env.positions();
     Ok(result)
+}
+
+/// [`replay`], then insists that the env executed the plan exactly:
+/// termination with success after exactly `max(makespan, 1)` steps, never
+/// off the plan. Guaranteed for valid plans under
+/// [`Rules::ENV_EXECUTABLE`](crate::Rules::ENV_EXECUTABLE) whose makespan
+/// is at most `t_max`.
+///
+/// ```
+/// use buridan_env::{Cell, Map};
+/// use buridan_mapf::{replay::replay_exact, Plan, ReplayError};
+/// let map = std::sync::Arc::new(Map::load("rm-1.1").unwrap());
+/// let (s, g) = ([Cell::new(1, 0)], [Cell::new(1, 2)]);
+/// let plan = Plan::new(vec![vec![s[0], Cell::new(1, 1), g[0]]]);
+/// assert_eq!(replay_exact(&map, &s, &g, &plan, 100).unwrap().terminated_at, Some(2));
+/// let err = replay_exact(&map, &s, &g, &plan, 1).unwrap_err();
+/// assert!(matches!(err, ReplayError::Inexact { makespan: 2, .. }));
+/// ```
+pub fn replay_exact(
+    map: &Arc<Map>,
+    starts: &[Cell],
+    goals: &[Cell],
+    plan: &Plan,
+    t_max: u32,
+) -> Result<ReplayResult, ReplayError> {
+    let result = replay(map, starts, goals, plan, t_max)?;
+    let makespan = plan.makespan();
+    if result.is_exact(makespan) {
+        Ok(result)
+    } else {
+        Err(ReplayError::Inexact {
+            makespan,
+            result: Box::new(result),
+        })
+    }
 }
