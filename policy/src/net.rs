@@ -138,10 +138,13 @@ impl LstmCell {
         let gates = (xp + h.matmul(&self.w_hh.t()?)?)?;
         let n = self.cells;
         use crate::activation::{sigmoid, tanh};
-        let i = sigmoid(&gates.narrow(1, 0, n)?)?;
-        let f = sigmoid(&gates.narrow(1, n, n)?)?;
-        let g = tanh(&gates.narrow(1, 2 * n, n)?)?;
-        let o = sigmoid(&gates.narrow(1, 3 * n, n)?)?;
+        // One contiguous (vectorised) sigmoid over all gates; the g block
+        // of it is unused.
+        let sig = sigmoid(&gates)?;
+        let i = sig.narrow(1, 0, n)?;
+        let f = sig.narrow(1, n, n)?;
+        let g = tanh(&gates.narrow(1, 2 * n, n)?.contiguous()?)?;
+        let o = sig.narrow(1, 3 * n, n)?;
         let c2 = ((f * c)? + (i * g)?)?;
         let h2 = (o * tanh(&c2)?)?;
         Ok((h2, c2))
