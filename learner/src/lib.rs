@@ -1,4 +1,6 @@
-//! Learner library.
+//! The learner: training (PPO, IMPALA), evaluation and the `learner` command line.
 
 pub mod algo;
+pub mod cli;
+pub mod policy_controller;
 pub mod train;

@@ -1,1 +1,52 @@
-fn main() {}
+//! `learner`: train, evaluate and serve Buridan policies.
+
+use anyhow::Result;
+use buridan_learner::cli;
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "learner",
+    version,
+    about = "Buridan: multi-agent RL for deadlock handling among mobile robots"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Train a policy: learner and actors in one process (the embedded default).
+    Train(cli::train::TrainArgs),
+    /// Evaluate a controller (planner, random or trained policy) on seeded episodes.
+    Eval(cli::eval::EvalArgs),
+    /// List the bundled reference models.
+    Maps,
+}
+
+fn main() -> Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    match Cli::parse().command {
+        Command::Train(args) => cli::train::run(&args).map(|_| ()),
+        Command::Eval(args) => cli::eval::run(&args).map(|_| ()),
+        Command::Maps => {
+            for m in buridan_env::REFERENCE_MODELS {
+                let map = m.load();
+                println!(
+                    "{:8} {:>3}x{:<3} {}",
+                    m.id,
+                    map.grid.height(),
+                    map.grid.width(),
+                    m.description
+                );
+            }
+            Ok(())
+        }
+    }
+}

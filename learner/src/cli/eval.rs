@@ -1,0 +1,227 @@
+//! `learner eval`: one harness for every controller on identical episodes.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::{bail, Context, Result};
+use buridan_env::{Map, Starts};
+use buridan_eval::output::{write_report, write_sweep};
+use buridan_eval::planner::PlannerController;
+use buridan_eval::{evaluate, Controller, EvalSpec, EvalSummary, RandomController};
+use buridan_policy::ActMode;
+
+use crate::policy_controller::PolicyController;
+use buridan_mapf::{planner_by_name, Limits, Planner};
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// Arguments of `learner eval`.
+#[derive(Debug, clap::Args)]
+pub struct EvalArgs {
+    /// Reference model id (`rm-2.1`) or path to a MovingAI `.map` file.
+    #[arg(long)]
+    pub map: String,
+    /// Agents: a number (`4`), an inclusive range (`4..20`, `4..20:2`) or a list (`4,8,12`).
+    #[arg(long, default_value = "4")]
+    pub agents: String,
+    /// Episodes per agent count: indices 0..N of the seeded generator.
+    #[arg(long, default_value_t = 100)]
+    pub episodes: usize,
+    /// Seed of the episode generator (42 as in the dissertation).
+    #[arg(long, default_value_t = 42)]
+    pub seed: u64,
+    /// `ma-astar`, `cbs`, `random` or `checkpoint:DIR`.
+    #[arg(long)]
+    pub controller: String,
+    /// `random` starts and goals, or `fixed` (the map's `.scen`).
+    #[arg(long, default_value = "random")]
+    pub starts: Starts,
+    /// Truncation step count T_max.
+    #[arg(long, default_value_t = 100)]
+    pub t_max: u32,
+    /// Per-instance planning time limit in seconds (planners).
+    #[arg(long, default_value_t = 60.0)]
+    pub time_limit: f64,
+    /// Per-instance memory cap of a planner's search, in MiB.
+    #[arg(long, default_value_t = 2048)]
+    pub memory_limit: usize,
+    /// Episodes run in parallel (1 keeps compute times comparable).
+    #[arg(long, default_value_t = 1)]
+    pub jobs: usize,
+    /// Output directory (CSV, JSON, PNG).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Print the JSON summary (an array for a sweep) to stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Trained policies: sample actions instead of taking the most probable.
+    #[arg(long)]
+    pub sample: bool,
+}
+
+/// Parses `4`, `4..20`, `4..20:2` or `4,8,12` into agent counts.
+///
+/// ```
+/// use buridan_learner::cli::eval::parse_agent_counts;
+/// assert_eq!(parse_agent_counts("4").unwrap(), vec![4]);
+/// assert_eq!(parse_agent_counts("4..8:2").unwrap(), vec![4, 6, 8]);
+/// assert_eq!(parse_agent_counts("2,5").unwrap(), vec![2, 5]);
+/// assert!(parse_agent_counts("8..4").is_err());
+/// ```
+pub fn parse_agent_counts(text: &str) -> Result<Vec<usize>> {
+    let num = |s: &str| -> Result<usize> {
+        let n: usize = s
+            .trim()
+            .parse()
+            .with_context(|| format!("'{s}' is not an agent count"))?;
+        if n == 0 {
+            bail!("agent counts must be at least 1");
+        }
+        Ok(n)
+    };
+    if let Some((lo, rest)) = text.split_once("..") {
+        let (hi, step) = rest.split_once(':').unwrap_or((rest, "1"));
+        let (lo, hi, step) = (num(lo)?, num(hi)?, num(step)?);
+        if lo > hi {
+            bail!("empty agent range {text}: {lo} > {hi}");
+        }
+        return Ok((lo..=hi).step_by(step).collect());
+    }
+    text.split(',').map(num).collect()
+}
+
+/// A factory of fresh controllers, one per evaluation thread.
+pub type ControllerFactory = Box<dyn Fn() -> Box<dyn Controller> + Sync>;
+
+/// Resolves `--controller` (`ma-astar`, `cbs`, `random`, `checkpoint:DIR`) to
+/// a factory for episodes with `agents` agents.
+pub fn controller_factory(
+    name: &str,
+    agents: usize,
+    seed: u64,
+    limits: Limits,
+    act_mode: ActMode,
+) -> Result<ControllerFactory> {
+    if let Some(dir) = name.strip_prefix("checkpoint:") {
+        let dir = PathBuf::from(dir);
+        // Load once here so that a bad checkpoint fails with its reason.
+        PolicyController::load(&dir, agents, act_mode, seed)?;
+        return Ok(Box::new(move || {
+            Box::new(
+                PolicyController::load(&dir, agents, act_mode, seed).expect("loaded once already"),
+            )
+        }));
+    }
+    if name == "random" {
+        return Ok(Box::new(move || Box::new(RandomController::new(seed))));
+    }
+    let planner: Arc<dyn Planner> = planner_by_name(name)
+        .with_context(|| {
+            format!("unknown controller '{name}': expected ma-astar, cbs, random or checkpoint:DIR")
+        })?
+        .into();
+    Ok(Box::new(move || {
+        Box::new(PlannerController::new(planner.clone(), limits))
+    }))
+}
+
+/// Runs `learner eval`.
+pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
+    let map =
+        Arc::new(Map::load(&args.map).with_context(|| format!("loading map '{}'", args.map))?);
+    let counts = parse_agent_counts(&args.agents)?;
+    if !(args.time_limit > 0.0 && args.time_limit.is_finite()) {
+        bail!("--time-limit must be a positive number of seconds");
+    }
+    let limits = Limits {
+        time: Duration::from_secs_f64(args.time_limit),
+        memory_bytes: args.memory_limit << 20,
+        ..Limits::default()
+    };
+    let sweep = counts.len() > 1;
+    let act_mode = if args.sample {
+        ActMode::Sample
+    } else {
+        ActMode::Greedy
+    };
+    let mut summaries = Vec::new();
+    for &agents in &counts {
+        let make = controller_factory(&args.controller, agents, args.seed, limits, act_mode)?;
+        let spec = EvalSpec {
+            agents,
+            episodes: args.episodes,
+            seed: args.seed,
+            starts: args.starts,
+            t_max: args.t_max,
+            jobs: args.jobs.max(1),
+        };
+        let bar = ProgressBar::new(args.episodes as u64);
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed}, eta {eta})",
+            )
+            .expect("valid template")
+            .progress_chars("=> "),
+        );
+        bar.set_prefix(format!("{} {} agents={agents}", args.controller, map.name));
+        let solved = AtomicUsize::new(0);
+        let done = AtomicUsize::new(0);
+        let on_episode = |r: &buridan_eval::EpisodeRecord| {
+            let s = solved.fetch_add(usize::from(r.success), Ordering::Relaxed)
+                + usize::from(r.success);
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            bar.set_message(format!("success {:.1}%", 100.0 * s as f64 / d as f64));
+            bar.inc(1);
+        };
+        let report = evaluate(&map, &spec, &*make, &on_episode)
+            .with_context(|| format!("evaluating {} agents on {}", agents, map.name))?;
+        bar.finish();
+        let dir = if sweep {
+            args.out.join(format!("agents-{agents}"))
+        } else {
+            args.out.clone()
+        };
+        let files = write_report(&dir, &report, &map.grid)
+            .with_context(|| format!("writing results to {}", dir.display()))?;
+        let s = &report.summary;
+        tracing::info!(
+            controller = %s.controller, map = %s.map, agents, success_rate = s.success_rate,
+            timesteps_median = ?s.timesteps_median, compute_ms_median = ?s.compute_ms_median,
+            files = ?files, "evaluation done"
+        );
+        if !args.json {
+            eprintln!(
+                "{} on {} with {} agents: success {:.1}% ({} episodes), timesteps median {} [q1 {}, q3 {}], compute median {} ms -> {}",
+                s.controller,
+                s.map,
+                agents,
+                100.0 * s.success_rate,
+                s.episodes,
+                fmt_opt(s.timesteps_median),
+                fmt_opt(s.timesteps_q1),
+                fmt_opt(s.timesteps_q3),
+                fmt_opt(s.compute_ms_median),
+                dir.display()
+            );
+        }
+        summaries.push(report.summary);
+    }
+    if sweep {
+        write_sweep(&args.out, &summaries)
+            .with_context(|| format!("writing the sweep to {}", args.out.display()))?;
+    }
+    if args.json {
+        let text = if sweep {
+            serde_json::to_string_pretty(&summaries)?
+        } else {
+            serde_json::to_string_pretty(&summaries[0])?
+        };
+        println!("{text}");
+    }
+    Ok(summaries)
+}
+
+fn fmt_opt(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".into(), |x| format!("{x:.1}"))
+}

@@ -1,0 +1,4 @@
+//! The `learner` command line: each subcommand in its own module.
+
+pub mod eval;
+pub mod train;

@@ -1,0 +1,263 @@
+//! `learner train`: the embedded default — learner and actors in one process.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use buridan_env::Starts;
+use buridan_eval::plot::{line_chart, Series};
+use buridan_policy::Mode;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::train::{train, Algo, MetricsRow, Progress, Summary, TrainConfig};
+
+/// Arguments of `learner train`.
+#[derive(Debug, clap::Args)]
+pub struct TrainArgs {
+    /// Reference model id (`rm-2.1`) or path to a MovingAI `.map` file.
+    #[arg(long)]
+    pub map: Option<String>,
+    /// Agents per env.
+    #[arg(long)]
+    pub agents: Option<usize>,
+    /// `ppo` or `impala`.
+    #[arg(long)]
+    pub algo: Option<Algo>,
+    /// `ctde` (one shared policy), `dte` (one policy per agent) or `cte` (joint policy).
+    #[arg(long)]
+    pub mode: Option<Mode>,
+    /// `random` starts and goals, or `fixed` (the map's `.scen`).
+    #[arg(long)]
+    pub starts: Option<Starts>,
+    /// A TOML run configuration (see `learner config`); flags override it.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Env-step budget.
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Seed of envs, weights and sampling.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Continue from a checkpoint directory (or a previous `--out`).
+    #[arg(long)]
+    pub resume: Option<PathBuf>,
+    /// Override any configuration key, e.g. `--set ppo.lr=5e-4 --set hidden=[256,256]`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub overrides: Vec<String>,
+    /// Output directory: metrics.csv, checkpoints/, summary.json, curves.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// No progress bar (logs only).
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Sets the dotted `key` of a TOML table to `value` (parsed as TOML, else a string).
+///
+/// ```
+/// let mut t: toml::Table = toml::from_str("[ppo]\nlr = 0.001").unwrap();
+/// buridan_learner::cli::train::set_key(&mut t, "ppo.lr=5e-4").unwrap();
+/// assert_eq!(t["ppo"]["lr"].as_float(), Some(5e-4));
+/// assert!(buridan_learner::cli::train::set_key(&mut t, "no_equals_sign").is_err());
+/// ```
+pub fn set_key(table: &mut toml::Table, assignment: &str) -> Result<()> {
+    let (key, raw) = assignment
+        .split_once('=')
+        .with_context(|| format!("--set '{assignment}': expected KEY=VALUE"))?;
+    let value: toml::Value = toml::from_str::<toml::Table>(&format!("v = {raw}"))
+        .ok()
+        .and_then(|mut t| t.remove("v"))
+        .unwrap_or_else(|| toml::Value::String(raw.to_string()));
+    let mut parts: Vec<&str> = key.trim().split('.').collect();
+    let last = parts
+        .pop()
+        .filter(|k| !k.is_empty())
+        .with_context(|| format!("--set '{assignment}': empty key"))?;
+    let mut node = table;
+    for part in parts {
+        node = node
+            .entry(part)
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+            .as_table_mut()
+            .with_context(|| format!("--set '{assignment}': '{part}' is not a section"))?;
+    }
+    node.insert(last.to_string(), value);
+    Ok(())
+}
+
+/// The configuration of a run: defaults, then `--config`, then flags, then `--set`.
+pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
+    let mut cfg = match &args.config {
+        Some(path) => TrainConfig::from_toml_file(path)?,
+        None => TrainConfig::default(),
+    };
+    if let Some(v) = &args.map {
+        cfg.map = v.clone();
+    }
+    if let Some(v) = args.agents {
+        cfg.agents = v;
+    }
+    if let Some(v) = args.algo {
+        cfg.algo = v;
+    }
+    if let Some(v) = args.mode {
+        cfg.mode = v;
+    }
+    if let Some(v) = args.starts {
+        cfg.starts = v;
+    }
+    if let Some(v) = args.steps {
+        cfg.steps = v;
+    }
+    if let Some(v) = args.seed {
+        cfg.seed = v;
+    }
+    if let Some(v) = &args.resume {
+        cfg.resume = Some(v.clone());
+    }
+    if !args.overrides.is_empty() {
+        let mut table: toml::Table =
+            toml::from_str(&cfg.to_toml()).context("configuration round trip")?;
+        for o in &args.overrides {
+            set_key(&mut table, o)?;
+        }
+        cfg = table.try_into().context("invalid --set override")?;
+    }
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+/// Live terminal progress.
+struct TerminalProgress {
+    bar: ProgressBar,
+}
+
+impl Progress for TerminalProgress {
+    fn on_start(&mut self, cfg: &TrainConfig, total_steps: u64, env_steps: u64) {
+        self.bar.set_length(total_steps);
+        self.bar.set_position(env_steps);
+        self.bar.set_prefix(format!(
+            "{} {} {} n={}",
+            cfg.algo,
+            format!("{:?}", cfg.mode).to_lowercase(),
+            cfg.map,
+            cfg.agents
+        ));
+    }
+
+    fn on_update(&mut self, row: &MetricsRow) {
+        self.bar.set_position(row.env_steps);
+        self.bar.set_message(format!(
+            "{:>7.0} steps/s  return {:>6.2}  success {:>5.1}%  len {:>5.1}",
+            row.steps_per_s,
+            row.episode_return_mean,
+            100.0 * row.success_rate,
+            row.episode_len_mean
+        ));
+        tracing::info!(
+            update = row.update,
+            env_steps = row.env_steps,
+            steps_per_s = row.steps_per_s,
+            episode_return_mean = row.episode_return_mean,
+            success_rate = row.success_rate,
+            episode_len_mean = row.episode_len_mean,
+            "update"
+        );
+    }
+
+    fn on_checkpoint(&mut self, dir: &Path) {
+        tracing::info!(dir = %dir.display(), "checkpoint");
+    }
+
+    fn on_finish(&mut self, _summary: &Summary) {
+        self.bar.finish();
+    }
+}
+
+/// Writes `learning_curve.png` (return and length) and `success_curve.png`
+/// from the run's `metrics.csv` (all rows, resumed runs included).
+pub fn write_curves(out: &Path, title: &str) -> Result<()> {
+    let path = out.join("metrics.csv");
+    let rows: Vec<MetricsRow> = csv::Reader::from_path(&path)
+        .with_context(|| format!("reading {}", path.display()))?
+        .deserialize()
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("parsing {}", path.display()))?;
+    let pts = |f: fn(&MetricsRow) -> f64| {
+        rows.iter()
+            .filter(|r| r.episodes > 0)
+            .map(|r| (r.env_steps as f64, f(r)))
+            .collect()
+    };
+    line_chart(
+        &out.join("learning_curve.png"),
+        &format!("{title}: episode return and length (last 100 episodes)"),
+        "env steps",
+        "mean over the last 100 episodes",
+        &[
+            Series {
+                label: "episode return".into(),
+                points: pts(|r| r.episode_return_mean),
+            },
+            Series {
+                label: "episode length / 10".into(),
+                points: pts(|r| r.episode_len_mean / 10.0),
+            },
+        ],
+    )?;
+    line_chart(
+        &out.join("success_curve.png"),
+        &format!("{title}: success rate (last 100 episodes)"),
+        "env steps",
+        "success rate (%)",
+        &[Series {
+            label: "success".into(),
+            points: pts(|r| 100.0 * r.success_rate),
+        }],
+    )?;
+    Ok(())
+}
+
+/// Runs `learner train`.
+pub fn run(args: &TrainArgs) -> Result<Summary> {
+    let cfg = resolve_config(args)?;
+    if args.out.join("summary.json").exists() && cfg.resume.is_none() {
+        bail!(
+            "{} already holds a finished run; choose another --out or pass --resume {}",
+            args.out.display(),
+            args.out.display()
+        );
+    }
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(cfg.steps)
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{prefix} [{bar:25}] {human_pos}/{human_len} {msg} ({elapsed})",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    let mut progress = TerminalProgress { bar };
+    let summary = train(&cfg, &args.out, &mut progress)?;
+    let title = format!(
+        "{} {} on {}, {} agents",
+        cfg.algo,
+        format!("{:?}", cfg.mode).to_lowercase(),
+        cfg.map,
+        cfg.agents
+    );
+    write_curves(&args.out, &title).context("drawing the learning curves")?;
+    eprintln!(
+        "{title}: {} env steps in {:.0} s ({:.0} steps/s); last 100 episodes: return {:.2}, success {:.1}%, length {:.1} -> {}",
+        summary.env_steps,
+        summary.wall_seconds,
+        summary.steps_per_s,
+        summary.episode_return_mean,
+        100.0 * summary.success_rate,
+        summary.episode_len_mean,
+        args.out.display()
+    );
+    Ok(summary)
+}

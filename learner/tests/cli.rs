@@ -1,0 +1,186 @@
+//! The `learner train` and `learner eval` commands end to end, in process.
+
+use std::path::PathBuf;
+
+use buridan_env::Starts;
+use buridan_learner::cli::eval::{self, EvalArgs};
+use buridan_learner::cli::train::{self, TrainArgs};
+use buridan_learner::train::Algo;
+use buridan_policy::Mode;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("buridan-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn train_args(out: PathBuf) -> TrainArgs {
+    TrainArgs {
+        map: Some("rm-1.1".into()),
+        agents: Some(2),
+        algo: Some(Algo::Ppo),
+        mode: Some(Mode::Ctde),
+        starts: Some(Starts::Fixed),
+        config: None,
+        steps: Some(3000),
+        seed: Some(3),
+        resume: None,
+        overrides: vec![
+            "ppo.train_batch=1000".into(),
+            "ppo.minibatch=500".into(),
+            "ppo.epochs=2".into(),
+            "envs_per_actor=4".into(),
+        ],
+        out,
+        quiet: true,
+    }
+}
+
+fn eval_args(controller: String, out: PathBuf) -> EvalArgs {
+    EvalArgs {
+        map: "rm-1.1".into(),
+        agents: "2".into(),
+        episodes: 3,
+        seed: 42,
+        controller,
+        starts: Starts::Fixed,
+        t_max: 100,
+        time_limit: 10.0,
+        memory_limit: 256,
+        jobs: 1,
+        out,
+        json: false,
+        sample: false,
+    }
+}
+
+#[test]
+fn train_writes_its_outputs_and_eval_loads_the_checkpoint() {
+    let out = temp_dir("train");
+    let summary = train::run(&train_args(out.clone())).unwrap();
+    assert!(summary.env_steps >= 3000, "{}", summary.env_steps);
+    for file in [
+        "metrics.csv",
+        "summary.json",
+        "config.toml",
+        "learning_curve.png",
+        "success_curve.png",
+    ] {
+        assert!(out.join(file).is_file(), "missing {file}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for field in [
+        "env_steps",
+        "wall_seconds",
+        "episode_return_mean",
+        "success_rate",
+    ] {
+        assert!(json[field].is_number(), "summary.json lacks {field}");
+    }
+    let metrics = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
+    assert!(
+        metrics.lines().count() >= 3,
+        "header + one row per update (3 updates of 1000 steps)"
+    );
+    assert!(out.join("checkpoints/final/spec.json").is_file());
+    let png = std::fs::read(out.join("learning_curve.png")).unwrap();
+    assert_eq!(&png[..4], b"\x89PNG");
+
+    // The same directory is refused without --resume, so no run is overwritten.
+    let err = train::run(&train_args(out.clone())).unwrap_err();
+    assert!(err.to_string().contains("--resume"), "{err}");
+
+    let eval_out = temp_dir("eval-ckpt");
+    let summaries = eval::run(&eval_args(
+        format!("checkpoint:{}", out.display()),
+        eval_out.clone(),
+    ))
+    .unwrap();
+    assert_eq!(summaries[0].episodes, 3);
+    assert_eq!(summaries[0].controller, "ctde-policy");
+    assert!(eval_out.join("episodes.csv").is_file() && eval_out.join("heatmap.png").is_file());
+    // Greedy actions on the fixed scenario: every episode is identical.
+    let csv = std::fs::read_to_string(eval_out.join("episodes.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert!(rows.windows(2).all(|w| w[0][1..4] == w[1][1..4]), "{csv}");
+    // A CTDE policy runs with another agent count (the scalability sweep).
+    let sweep_out = temp_dir("eval-sweep");
+    let mut args = eval_args(format!("checkpoint:{}", out.display()), sweep_out.clone());
+    (args.agents, args.starts) = ("2..3".into(), Starts::Random);
+    let summaries = eval::run(&args).unwrap();
+    assert_eq!(
+        summaries.iter().map(|s| s.agents).collect::<Vec<_>>(),
+        [2, 3]
+    );
+    assert!(sweep_out.join("sweep.csv").is_file() && sweep_out.join("sweep_success.png").is_file());
+    for dir in [out, eval_out, sweep_out] {
+        std::fs::remove_dir_all(dir).ok();
+    }
+}
+
+#[test]
+fn bad_controllers_and_checkpoints_are_reported() {
+    let out = temp_dir("bad");
+    let err = eval::run(&eval_args("dijkstra".into(), out.clone())).unwrap_err();
+    assert!(
+        err.to_string().contains("unknown controller 'dijkstra'"),
+        "{err}"
+    );
+    let err = eval::run(&eval_args(
+        format!("checkpoint:{}", out.display()),
+        out.clone(),
+    ))
+    .unwrap_err();
+    assert!(format!("{err:#}").contains("no checkpoint"), "{err:#}");
+    let mut args = eval_args("cbs".into(), out.clone());
+    args.agents = "0".into();
+    assert!(eval::run(&args).is_err());
+    args.agents = "2".into();
+    args.map = "rm-7.7".into();
+    let err = eval::run(&args).unwrap_err();
+    assert!(
+        format!("{err:#}").contains("unknown map 'rm-7.7'"),
+        "{err:#}"
+    );
+}
+
+#[test]
+fn config_layers_defaults_file_flags_and_overrides() {
+    let dir = temp_dir("config");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("run.toml");
+    std::fs::write(
+        &file,
+        "map = \"rm-3.1\"\nagents = 6\n[ppo]\nlr = 0.0005\nepochs = 7\n",
+    )
+    .unwrap();
+    let mut args = train_args(dir.join("out"));
+    args.config = Some(file.clone());
+    args.map = None;
+    args.agents = None;
+    args.overrides = vec!["ppo.epochs=9".into(), "hidden=[32, 32]".into()];
+    let cfg = train::resolve_config(&args).unwrap();
+    assert_eq!(
+        (cfg.map.as_str(), cfg.agents),
+        ("rm-3.1", 6),
+        "file values stay where no flag overrides them"
+    );
+    assert_eq!(cfg.ppo.lr, 5e-4);
+    assert_eq!(cfg.ppo.epochs, 9, "--set beats the file");
+    assert_eq!(cfg.hidden, [32, 32]);
+    assert_eq!(cfg.steps, 3000, "flags beat defaults");
+    args.overrides = vec!["ppo.no_such_key=1".into()];
+    assert!(
+        train::resolve_config(&args).is_err(),
+        "unknown keys are rejected"
+    );
+    std::fs::write(&file, "agents = \"many\"\n").unwrap();
+    args.overrides.clear();
+    assert!(format!("{:#}", train::resolve_config(&args).unwrap_err()).contains("run.toml"));
+    std::fs::remove_dir_all(dir).ok();
+}
