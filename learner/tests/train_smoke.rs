@@ -160,3 +160,17 @@ fn every_algorithm_and_mode_trains_end_to_end() {
         }
     }
 }
+
+#[test]
+fn bundled_configs_parse() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            TrainConfig::from_toml_file(&path).unwrap();
+            n += 1;
+        }
+    }
+    assert!(n >= 4);
+}
