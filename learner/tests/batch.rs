@@ -166,8 +166,8 @@ fn recurrent_value_pass_bootstraps_from_the_actors_state() {
     let obs = Tensor::from_slice(&nb.last_obs, (r, nb.obs_dim), &dev).unwrap();
     let (out, _) = policy.net(0).step(&obs, &input).unwrap();
     let v: Vec<f32> = out.value.to_vec1().unwrap();
-    for j in 0..r {
+    for (j, vj) in v.iter().enumerate() {
         let got = ev.next_values[(nb.t - 1) * r + j];
-        assert!((got - v[j]).abs() < 1e-5, "row {j}: {got} vs {}", v[j]);
+        assert!((got - vj).abs() < 1e-5, "row {j}: {got} vs {vj}");
     }
 }
