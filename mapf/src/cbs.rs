@@ -84,12 +84,14 @@ impl Cbs {
     /// ```
     /// use buridan_env::Map;
     /// use buridan_mapf::{Cbs, Limits, Planner};
-    /// let map = Map::load("rm-1.4").unwrap();
+    /// let map = Map::load("rm-2.2").unwrap();
     /// let scen = map.scenario.unwrap();
     /// let cbs = Cbs::improved();
     /// assert_eq!(cbs.name(), "cbs-improved");
     /// let sol = cbs.solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
-    /// assert_eq!(sol.plan.sum_of_costs(), 36);
+    /// let plain = Cbs::default().solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+    /// assert_eq!(sol.plan.sum_of_costs(), plain.plan.sum_of_costs());
+    /// assert!(sol.stats.expanded < plain.stats.expanded);
     /// ```
     pub fn improved() -> Self {
         Self {
