@@ -126,8 +126,16 @@ pub fn boxplot(
     let width = 560.max(160 + 160 * boxes.len() as u32);
     let root = BitMapBackend::new(path, (width, 480)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(path, e))?;
-    let hi = boxes.iter().map(|(_, b)| b.whisker_high).fold(1.0, f64::max) * 1.15;
-    let lo = boxes.iter().map(|(_, b)| b.whisker_low).fold(hi, f64::min).min(0.0);
+    let hi = boxes
+        .iter()
+        .map(|(_, b)| b.whisker_high)
+        .fold(1.0, f64::max)
+        * 1.15;
+    let lo = boxes
+        .iter()
+        .map(|(_, b)| b.whisker_low)
+        .fold(hi, f64::min)
+        .min(0.0);
     let n = boxes.len().max(1);
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 16))

@@ -21,11 +21,23 @@ enum Command {
     Train(cli::train::TrainArgs),
     /// Evaluate a controller (planner, random or trained policy) on seeded episodes.
     Eval(cli::eval::EvalArgs),
+    /// Redraw a run's learning curves (PNG) from its metrics.csv.
+    Curves {
+        /// A `learner train --out` directory.
+        #[arg(long)]
+        out: std::path::PathBuf,
+        /// Chart title.
+        #[arg(long, default_value = "training run")]
+        title: String,
+    },
     /// List the bundled reference models.
     Maps,
 }
 
 fn main() -> Result<()> {
+    // candle reads its thread count once, before any other thread starts:
+    // actors and learner share the cores, so each candle call stays on one.
+    buridan_policy::threads::pin_threads(1);
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),
@@ -35,6 +47,7 @@ fn main() -> Result<()> {
     match Cli::parse().command {
         Command::Train(args) => cli::train::run(&args).map(|_| ()),
         Command::Eval(args) => cli::eval::run(&args).map(|_| ()),
+        Command::Curves { out, title } => cli::train::write_curves(&out, &title),
         Command::Maps => {
             for m in buridan_env::REFERENCE_MODELS {
                 let map = m.load();
