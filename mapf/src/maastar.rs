@@ -211,12 +211,14 @@ impl Search<'_> {
         }
     }
 
-    fn bytes<K: JointKey>(&self, index_len: usize) -> usize {
-        let per_node = 4 * self.n
-            + std::mem::size_of::<Node>()
-            + (std::mem::size_of::<K>() + 4 + 1) * 8 / 7
-            + K::heap_bytes(self.n);
-        index_len * per_node + self.open.len() * std::mem::size_of::<OpenEntry>()
+    /// Bytes held by the search, from the allocated capacities (a hash
+    /// table slot is a `(K, u32)` pair plus a control byte).
+    fn bytes<K: JointKey>(&self, index: &FastMap<K, u32>) -> usize {
+        self.states.capacity() * 4
+            + self.nodes.capacity() * std::mem::size_of::<Node>()
+            + self.open.capacity() * std::mem::size_of::<OpenEntry>()
+            + index.capacity() * (std::mem::size_of::<(K, u32)>() + 1) * 8 / 7
+            + index.len() * K::heap_bytes(self.n)
     }
 
     fn run<K: JointKey>(&mut self, start: &[u32]) -> Result<Plan, SolveError> {
@@ -241,7 +243,7 @@ impl Search<'_> {
                 continue;
             }
             self.nodes[id as usize].closed = true;
-            let bytes = self.bytes::<K>(index.len());
+            let bytes = self.bytes::<K>(&index);
             self.budget.on_expand(|| bytes)?;
             cur.copy_from_slice(&self.states[id as usize * n..(id as usize + 1) * n]);
             if cur == self.goals {
@@ -306,7 +308,7 @@ impl Search<'_> {
         self.budget.generated += 1;
         if self.budget.generated & 4095 == 0 {
             self.budget.check_time()?;
-            self.budget.check_memory(self.bytes::<K>(index.len()))?;
+            self.budget.check_memory(self.bytes::<K>(index))?;
         }
         match index.entry(K::pack(next, self.bits)) {
             Entry::Occupied(e) => {
