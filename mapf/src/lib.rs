@@ -65,8 +65,9 @@
 //!
 //! # Limits
 //!
-//! Every solve call gets [`Limits`] (default: 60 s, 2 GiB estimated from
-//! node counts, no node or makespan cap) and returns
+//! Every solve call gets [`Limits`] (default: 60 s of CPU time of the
+//! solving thread, 2 GiB estimated from the allocated search structures, no
+//! node or makespan cap) and returns
 //! [`SolveError::TimeLimit`], [`SolveError::MemoryLimit`],
 //! [`SolveError::NodeLimit`], [`SolveError::NoSolution`] or
 //! [`SolveError::NoSolutionWithin`] instead of running on. CBS does not

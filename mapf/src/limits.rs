@@ -22,7 +22,9 @@ use buridan_env::{Cell, Grid};
 pub struct Limits {
     /// CPU-time budget of the solving thread (SPEC §5: 60 s of CPU time).
     pub time: Duration,
-    /// Memory budget in bytes, estimated from the numbers of stored nodes.
+    /// Memory budget in bytes, estimated from the stored nodes (MA-A*: the
+    /// allocated capacities of its tables; CBS: constraint-tree nodes and
+    /// paths plus the current low-level search).
     pub memory_bytes: usize,
     /// Optional cap on expanded (high-level, for CBS) nodes.
     pub max_nodes: Option<u64>,
