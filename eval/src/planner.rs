@@ -4,6 +4,7 @@
 use std::sync::Arc;
 
 use buridan_env::{Cell, GridEnv};
+use buridan_mapf::replay::action_between;
 use buridan_mapf::{Limits, Plan, Planner, SolveError};
 
 use crate::controller::{Controller, GiveUp, PlanNotes};
@@ -37,20 +38,6 @@ impl PlannerController {
             plan: None,
             notes: PlanNotes::default(),
         }
-    }
-}
-
-/// The action that moves from `from` to the adjacent (or same) cell `to`.
-fn action_between(from: Cell, to: Cell) -> u8 {
-    match (
-        to.row as isize - from.row as isize,
-        to.col as isize - from.col as isize,
-    ) {
-        (-1, 0) => 1,
-        (0, 1) => 2,
-        (1, 0) => 3,
-        (0, -1) => 4,
-        _ => 0,
     }
 }
 
@@ -97,7 +84,7 @@ impl Controller for PlannerController {
             // Agents stay on their goals once their path ends.
             *a = plan
                 .position(i, t + 1)
-                .map_or(0, |next| action_between(env.position(i), next));
+                .map_or(0, |next| action_between(env.position(i), next).unwrap_or(0));
         }
     }
 
