@@ -28,7 +28,7 @@ pub mod world;
 
 pub use config::{episode_instance, episode_rng, EnvConfig, Starts};
 pub use error::{EnvError, MapError};
-pub use map::{Cell, Grid, Map, Scenario, REFERENCE_MODELS};
+pub use map::{Cell, Grid, Map, MapSource, Scenario, REFERENCE_MODELS};
 pub use obs::{central_obs_dim, local_obs_dim, ObsKind};
 pub use stats::EpisodeStats;
 pub use vec_env::VecEnv;

@@ -312,14 +312,7 @@ impl Map {
         if path.is_file() {
             return Map::from_file(path);
         }
-        Err(MapError::UnknownMap {
-            name: id_or_path.to_string(),
-            known: REFERENCE_MODELS
-                .iter()
-                .map(|m| m.id)
-                .collect::<Vec<_>>()
-                .join(", "),
-        })
+        Err(unknown_map(id_or_path))
     }
 
     /// Loads a `.map` file and, if present, the `.scen` beside it.
@@ -351,6 +344,81 @@ impl Map {
         let text = read(path)?;
         self.scenario = Some(parse_scen(&path.display().to_string(), &text, &self.grid)?);
         Ok(self)
+    }
+}
+
+/// The texts a [`Map`] is parsed from: what a learner sends to remote
+/// actors, which may not have the map file.
+///
+/// ```
+/// use buridan_env::map::MapSource;
+/// let src = MapSource::read("rm-1.1").unwrap();
+/// let map = src.parse().unwrap();
+/// assert_eq!(map.name, "rm-1.1");
+/// assert_eq!(map.grid.height(), buridan_env::Map::load("rm-1.1").unwrap().grid.height());
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MapSource {
+    /// The map's name (reference model id or file stem).
+    pub name: String,
+    /// The `.map` file's text.
+    pub map_text: String,
+    /// The `.scen` file's text, if the map has a fixed scenario.
+    pub scen_text: Option<String>,
+}
+
+impl MapSource {
+    /// Reads the texts of a bundled reference model or of a `.map` file (and
+    /// the `.scen` beside it), as [`Map::load`] resolves `id_or_path`.
+    pub fn read(id_or_path: &str) -> Result<MapSource, MapError> {
+        if let Some(model) = REFERENCE_MODELS.iter().find(|m| m.id == id_or_path) {
+            return Ok(MapSource {
+                name: model.id.to_string(),
+                map_text: model.map_text.to_string(),
+                scen_text: Some(model.scen_text.to_string()),
+            });
+        }
+        let path = Path::new(id_or_path);
+        if !path.is_file() {
+            return Err(unknown_map(id_or_path));
+        }
+        let scen_path = path.with_extension("scen");
+        Ok(MapSource {
+            name: path
+                .file_stem()
+                .map_or_else(|| "map".into(), |s| s.to_string_lossy().into_owned()),
+            map_text: read(path)?,
+            scen_text: if scen_path.is_file() {
+                Some(read(&scen_path)?)
+            } else {
+                None
+            },
+        })
+    }
+
+    /// Parses the texts; errors name the map as `<name>.map` / `<name>.scen`.
+    pub fn parse(&self) -> Result<Map, MapError> {
+        let grid = parse_map(&format!("{}.map", self.name), &self.map_text)?;
+        let scenario = match &self.scen_text {
+            Some(text) => Some(parse_scen(&format!("{}.scen", self.name), text, &grid)?),
+            None => None,
+        };
+        Ok(Map {
+            name: self.name.clone(),
+            grid,
+            scenario,
+        })
+    }
+}
+
+fn unknown_map(name: &str) -> MapError {
+    MapError::UnknownMap {
+        name: name.to_string(),
+        known: REFERENCE_MODELS
+            .iter()
+            .map(|m| m.id)
+            .collect::<Vec<_>>()
+            .join(", "),
     }
 }
 

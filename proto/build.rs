@@ -1,0 +1,11 @@
+//! Generates the gRPC code from `proto/buridan/v1/learner.proto` with the
+//! vendored `protoc`, so a fresh machine needs nothing but cargo.
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let protoc = protoc_bin_vendored::protoc_bin_path()?;
+    std::env::set_var("PROTOC", protoc);
+    println!("cargo:rerun-if-changed=proto/buridan/v1/learner.proto");
+    tonic_prost_build::configure()
+        .compile_protos(&["proto/buridan/v1/learner.proto"], &["proto"])?;
+    Ok(())
+}

@@ -1,0 +1,500 @@
+//! Messages ↔ crate types. Conversions move the buffers (no copies of
+//! observations), and everything arriving from the wire is checked: shapes,
+//! finite numbers, value ranges.
+//!
+//! ```
+//! use buridan_policy::Fragment;
+//! use buridan_proto::convert::{fragment_from_message, fragment_to_message, WireTag};
+//! let mut f = Fragment::with_capacity(0, 3, 1, 1, 1, 2, 1, 5);
+//! f.len = 1;
+//! f.obs = vec![0.5, 1.0];
+//! f.masks = vec![1; 5];
+//! f.actions = vec![2];
+//! f.behaviour_logits = vec![0.0; 5];
+//! f.behaviour_logp = vec![-1.6];
+//! f.rewards = vec![-0.1];
+//! f.terminated = vec![0];
+//! f.truncated = vec![0];
+//! f.last_obs = vec![0.5, 0.0];
+//! f.env_steps = 1;
+//! let tag = WireTag { run_id: "run".into(), session: 7, seq: 1 };
+//! let msg = fragment_to_message(f.clone(), &tag);
+//! let (back_tag, back) = fragment_from_message(msg).unwrap();
+//! assert_eq!((back_tag, back), (tag, f));
+//! ```
+
+use buridan_env::EpisodeStats;
+use buridan_policy::{Fragment, NamedTensor, PolicyError, RecurrentState, Weights};
+
+use crate::v1;
+
+/// What is wrong with a message received from the wire.
+#[derive(Debug, thiserror::Error)]
+pub enum ConvertError {
+    /// A buffer's length does not match the shape fields.
+    #[error(transparent)]
+    Shape(#[from] PolicyError),
+    /// A float is NaN or infinite.
+    #[error("{field}[{index}] is {value} (must be finite)")]
+    NonFinite {
+        /// The message field.
+        field: &'static str,
+        /// Position in the buffer.
+        index: usize,
+        /// The value found.
+        value: f32,
+    },
+    /// An integer outside its allowed range.
+    #[error("{field}[{index}] = {value} is out of range (must be < {limit})")]
+    OutOfRange {
+        /// The message field.
+        field: &'static str,
+        /// Position in the buffer.
+        index: usize,
+        /// The value found.
+        value: u64,
+        /// Exclusive upper bound.
+        limit: u64,
+    },
+    /// Something else that makes the message unusable.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Where a fragment comes from: the run, the actor's session and the
+/// fragment's sequence number within that session.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct WireTag {
+    /// The learner incarnation the actor joined.
+    pub run_id: String,
+    /// The actor's session.
+    pub session: u64,
+    /// Sequence number within the session.
+    pub seq: u64,
+}
+
+/// Wraps a fragment for the wire (moves its buffers).
+pub fn fragment_to_message(f: Fragment, tag: &WireTag) -> v1::Fragment {
+    v1::Fragment {
+        run_id: tag.run_id.clone(),
+        session: tag.session,
+        seq: tag.seq,
+        policy_version: f.policy_version,
+        len: f.len as u32,
+        rows: f.rows as u32,
+        rows_per_env: f.rows_per_env as u32,
+        obs_dim: f.obs_dim as u32,
+        heads: f.heads as u32,
+        actions_per_head: f.actions_per_head as u32,
+        obs: f.obs,
+        masks: f.masks,
+        actions: f.actions,
+        behaviour_logits: f.behaviour_logits,
+        behaviour_logp: f.behaviour_logp,
+        rewards: f.rewards,
+        terminated: f.terminated,
+        truncated: f.truncated,
+        final_obs: f.final_obs,
+        final_obs_index: f.final_obs_index,
+        last_obs: f.last_obs,
+        initial_state: f.initial_state.map(state_to_message),
+        episodes: f.episodes.iter().map(episode_to_message).collect(),
+        env_steps: f.env_steps,
+    }
+}
+
+/// Unwraps and checks a fragment from the wire: buffer lengths against the
+/// shape fields, finite floats, actions and flags in range, `env_steps`
+/// consistent with the shape. The actor id is left 0 (the learner knows it
+/// from the session).
+pub fn fragment_from_message(m: v1::Fragment) -> Result<(WireTag, Fragment), ConvertError> {
+    let tag = WireTag {
+        run_id: m.run_id,
+        session: m.session,
+        seq: m.seq,
+    };
+    let f = Fragment {
+        actor: 0,
+        policy_version: m.policy_version,
+        len: m.len as usize,
+        rows: m.rows as usize,
+        rows_per_env: m.rows_per_env as usize,
+        obs_dim: m.obs_dim as usize,
+        heads: m.heads as usize,
+        actions_per_head: m.actions_per_head as usize,
+        obs: m.obs,
+        masks: m.masks,
+        actions: m.actions,
+        behaviour_logits: m.behaviour_logits,
+        behaviour_logp: m.behaviour_logp,
+        rewards: m.rewards,
+        terminated: m.terminated,
+        truncated: m.truncated,
+        final_obs: m.final_obs,
+        final_obs_index: m.final_obs_index,
+        last_obs: m.last_obs,
+        initial_state: m.initial_state.map(state_from_message).transpose()?,
+        episodes: m.episodes.iter().map(episode_from_message).collect(),
+        env_steps: m.env_steps,
+    };
+    check_fragment(&f)?;
+    Ok((tag, f))
+}
+
+/// The checks [`fragment_from_message`] applies, for fragments from any source.
+pub fn check_fragment(f: &Fragment) -> Result<(), ConvertError> {
+    if f.len == 0 || f.rows == 0 || f.obs_dim == 0 || f.heads == 0 || f.actions_per_head == 0 {
+        return Err(ConvertError::Invalid(format!(
+            "empty shape: len {}, rows {}, obs_dim {}, heads {}, actions_per_head {}",
+            f.len, f.rows, f.obs_dim, f.heads, f.actions_per_head
+        )));
+    }
+    if f.rows_per_env == 0 || f.rows % f.rows_per_env != 0 {
+        return Err(ConvertError::Invalid(format!(
+            "rows {} is not a multiple of rows_per_env {}",
+            f.rows, f.rows_per_env
+        )));
+    }
+    f.validate()?;
+    let expected_steps = (f.len * f.envs()) as u64;
+    if f.env_steps != expected_steps {
+        return Err(ConvertError::Invalid(format!(
+            "env_steps {} does not match len × envs = {expected_steps}",
+            f.env_steps
+        )));
+    }
+    for (field, buf) in [
+        ("obs", &f.obs),
+        ("behaviour_logp", &f.behaviour_logp),
+        ("rewards", &f.rewards),
+        ("final_obs", &f.final_obs),
+        ("last_obs", &f.last_obs),
+    ] {
+        check_finite(field, buf)?;
+    }
+    // Masked logits may be −∞ in principle; NaN never.
+    if let Some(index) = f.behaviour_logits.iter().position(|x| x.is_nan()) {
+        return Err(ConvertError::NonFinite {
+            field: "behaviour_logits",
+            index,
+            value: f32::NAN,
+        });
+    }
+    check_below("actions", &f.actions, f.actions_per_head as u64)?;
+    check_below("masks", &f.masks, 2)?;
+    check_below("terminated", &f.terminated, 2)?;
+    check_below("truncated", &f.truncated, 2)?;
+    let cells = (f.len * f.rows) as u64;
+    let mut last = None;
+    for (i, &k) in f.final_obs_index.iter().enumerate() {
+        if u64::from(k) >= cells || f.truncated[k as usize] == 0 || last.is_some_and(|l| k <= l) {
+            return Err(ConvertError::Invalid(format!(
+                "final_obs_index[{i}] = {k} does not name a truncated step in increasing order"
+            )));
+        }
+        last = Some(k);
+    }
+    if let Some(s) = &f.initial_state {
+        if s.rows != f.rows || s.heads != f.heads {
+            return Err(ConvertError::Invalid(format!(
+                "initial_state has {} rows × {} heads, the fragment {} × {}",
+                s.rows, s.heads, f.rows, f.heads
+            )));
+        }
+        check_finite("initial_state.h", &s.h)?;
+        check_finite("initial_state.c", &s.c)?;
+        check_finite("initial_state.prev_rewards", &s.prev_rewards)?;
+    }
+    Ok(())
+}
+
+fn check_finite(field: &'static str, buf: &[f32]) -> Result<(), ConvertError> {
+    match buf.iter().position(|x| !x.is_finite()) {
+        None => Ok(()),
+        Some(index) => Err(ConvertError::NonFinite {
+            field,
+            index,
+            value: buf[index],
+        }),
+    }
+}
+
+fn check_below(field: &'static str, buf: &[u8], limit: u64) -> Result<(), ConvertError> {
+    match buf.iter().position(|&x| u64::from(x) >= limit) {
+        None => Ok(()),
+        Some(index) => Err(ConvertError::OutOfRange {
+            field,
+            index,
+            value: u64::from(buf[index]),
+            limit,
+        }),
+    }
+}
+
+fn state_to_message(s: RecurrentState) -> v1::RecurrentState {
+    v1::RecurrentState {
+        rows: s.rows as u32,
+        cells: s.cells as u32,
+        heads: s.heads as u32,
+        h: s.h,
+        c: s.c,
+        prev_actions: s.prev_actions,
+        prev_rewards: s.prev_rewards,
+    }
+}
+
+fn state_from_message(m: v1::RecurrentState) -> Result<RecurrentState, ConvertError> {
+    let (rows, cells, heads) = (m.rows as usize, m.cells as usize, m.heads as usize);
+    for (what, expected, got) in [
+        ("initial_state h", rows * cells, m.h.len()),
+        ("initial_state c", rows * cells, m.c.len()),
+        (
+            "initial_state prev_actions",
+            rows * heads,
+            m.prev_actions.len(),
+        ),
+        ("initial_state prev_rewards", rows, m.prev_rewards.len()),
+    ] {
+        if expected != got {
+            return Err(PolicyError::WrongLength {
+                what,
+                expected,
+                got,
+            }
+            .into());
+        }
+    }
+    Ok(RecurrentState {
+        rows,
+        cells,
+        heads,
+        h: m.h,
+        c: m.c,
+        prev_actions: m.prev_actions,
+        prev_rewards: m.prev_rewards,
+    })
+}
+
+fn episode_to_message(e: &EpisodeStats) -> v1::EpisodeStats {
+    v1::EpisodeStats {
+        episode: e.episode,
+        reward: e.reward,
+        length: e.length,
+        success: e.success,
+        agents_at_goal: e.agents_at_goal,
+        blocked_moves: e.blocked_moves,
+        goals_reached: e.goals_reached,
+        deadlock_steps: e.deadlock_steps,
+        livelock_steps: e.livelock_steps,
+        deadlock_events: e.deadlock_events,
+    }
+}
+
+fn episode_from_message(m: &v1::EpisodeStats) -> EpisodeStats {
+    EpisodeStats {
+        episode: m.episode,
+        reward: m.reward,
+        length: m.length,
+        success: m.success,
+        agents_at_goal: m.agents_at_goal,
+        blocked_moves: m.blocked_moves,
+        goals_reached: m.goals_reached,
+        deadlock_steps: m.deadlock_steps,
+        livelock_steps: m.livelock_steps,
+        deadlock_events: m.deadlock_events,
+    }
+}
+
+/// Weights for the wire.
+pub fn weights_to_message(w: &Weights, run_id: &str) -> v1::Parameters {
+    v1::Parameters {
+        run_id: run_id.to_string(),
+        version: w.version,
+        tensors: w
+            .tensors
+            .iter()
+            .map(|t| v1::Tensor {
+                name: t.name.clone(),
+                shape: t.shape.iter().map(|&d| d as u32).collect(),
+                data: t.data.clone(),
+            })
+            .collect(),
+        finished: false,
+    }
+}
+
+/// Weights from the wire, with each tensor's data checked against its shape
+/// and for finite values (names and shapes are checked against the model
+/// when the weights are loaded).
+pub fn weights_from_message(m: v1::Parameters) -> Result<Weights, ConvertError> {
+    let mut tensors = Vec::with_capacity(m.tensors.len());
+    for t in m.tensors {
+        let shape: Vec<usize> = t.shape.iter().map(|&d| d as usize).collect();
+        let expected: usize = shape.iter().product();
+        if expected != t.data.len() {
+            return Err(ConvertError::Invalid(format!(
+                "tensor '{}' has shape {shape:?} but {} values",
+                t.name,
+                t.data.len()
+            )));
+        }
+        if let Some(index) = t.data.iter().position(|x| !x.is_finite()) {
+            return Err(ConvertError::Invalid(format!(
+                "tensor '{}' value {index} is {}",
+                t.name, t.data[index]
+            )));
+        }
+        tensors.push(NamedTensor {
+            name: t.name,
+            shape,
+            data: t.data,
+        });
+    }
+    Ok(Weights {
+        version: m.version,
+        tensors,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fragment() -> Fragment {
+        // 2 steps, 1 env of 2 agents, obs_dim 3, 1 head of 5 actions; row 1
+        // truncated at t = 1.
+        let mut f = Fragment::with_capacity(0, 4, 2, 2, 2, 3, 1, 5);
+        f.len = 2;
+        f.obs = (0..12).map(|x| x as f32 / 12.0).collect();
+        f.masks = vec![1; 20];
+        f.actions = vec![0, 1, 2, 4];
+        f.behaviour_logits = vec![0.0; 20];
+        f.behaviour_logp = vec![-1.0; 4];
+        f.rewards = vec![-0.1, -0.1, 1.0, -0.1];
+        f.terminated = vec![0; 4];
+        f.truncated = vec![0, 0, 1, 1];
+        f.final_obs_index = vec![2, 3];
+        f.final_obs = vec![0.0; 6];
+        f.last_obs = vec![0.0; 6];
+        f.env_steps = 2;
+        f.episodes = vec![EpisodeStats {
+            episode: 3,
+            reward: 0.8,
+            length: 2,
+            ..EpisodeStats::default()
+        }];
+        f
+    }
+
+    fn tag() -> WireTag {
+        WireTag {
+            run_id: "r".into(),
+            session: 1,
+            seq: 9,
+        }
+    }
+
+    #[test]
+    fn round_trip_keeps_everything() {
+        let mut f = fragment();
+        f.initial_state = Some(RecurrentState::new(2, 4, 1));
+        let (t, back) = fragment_from_message(fragment_to_message(f.clone(), &tag())).unwrap();
+        assert_eq!(t, tag());
+        assert_eq!(back, f);
+    }
+
+    #[test]
+    fn nan_observation_is_named() {
+        let mut m = fragment_to_message(fragment(), &tag());
+        m.obs[5] = f32::NAN;
+        let err = fragment_from_message(m).unwrap_err();
+        assert!(matches!(
+            err,
+            ConvertError::NonFinite {
+                field: "obs",
+                index: 5,
+                ..
+            }
+        ));
+        assert_eq!(err.to_string(), "obs[5] is NaN (must be finite)");
+    }
+
+    #[test]
+    fn infinite_reward_is_refused() {
+        let mut m = fragment_to_message(fragment(), &tag());
+        m.rewards[1] = f32::INFINITY;
+        assert_eq!(
+            fragment_from_message(m).unwrap_err().to_string(),
+            "rewards[1] is inf (must be finite)"
+        );
+    }
+
+    #[test]
+    fn short_buffer_is_a_shape_error() {
+        let mut m = fragment_to_message(fragment(), &tag());
+        m.obs.pop();
+        assert_eq!(
+            fragment_from_message(m).unwrap_err().to_string(),
+            "fragment obs: expected 12 values, got 11"
+        );
+    }
+
+    #[test]
+    fn action_out_of_range_is_refused() {
+        let mut m = fragment_to_message(fragment(), &tag());
+        m.actions[3] = 5;
+        assert_eq!(
+            fragment_from_message(m).unwrap_err().to_string(),
+            "actions[3] = 5 is out of range (must be < 5)"
+        );
+    }
+
+    #[test]
+    fn env_steps_must_match_the_shape() {
+        let mut m = fragment_to_message(fragment(), &tag());
+        m.env_steps = 1_000_000;
+        assert!(fragment_from_message(m)
+            .unwrap_err()
+            .to_string()
+            .contains("env_steps 1000000 does not match len × envs = 2"));
+    }
+
+    #[test]
+    fn final_obs_must_point_at_truncations() {
+        let mut m = fragment_to_message(fragment(), &tag());
+        m.final_obs_index = vec![0, 3];
+        assert!(fragment_from_message(m)
+            .unwrap_err()
+            .to_string()
+            .contains("final_obs_index[0] = 0"));
+    }
+
+    #[test]
+    fn zero_shape_is_refused() {
+        let m = v1::Fragment::default();
+        assert!(fragment_from_message(m)
+            .unwrap_err()
+            .to_string()
+            .starts_with("empty shape"));
+    }
+
+    #[test]
+    fn weights_round_trip_and_checks() {
+        let w = Weights {
+            version: 3,
+            tensors: vec![NamedTensor {
+                name: "a".into(),
+                shape: vec![2, 1],
+                data: vec![1.0, 2.0],
+            }],
+        };
+        let m = weights_to_message(&w, "r");
+        assert_eq!(weights_from_message(m.clone()).unwrap(), w);
+        let mut bad = m.clone();
+        bad.tensors[0].data.push(3.0);
+        assert!(weights_from_message(bad).is_err());
+        let mut nan = m;
+        nan.tensors[0].data[0] = f32::NAN;
+        assert!(weights_from_message(nan).is_err());
+    }
+}
