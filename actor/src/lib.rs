@@ -1,1 +1,12 @@
-//! The actor process: filled by the distributed issue. Until then actors run in-process in the learner.
+//! The actor: runs env instances with the learner's policy and streams
+//! trajectory fragments to it.
+//!
+//! - [`Collector`]: envs + inference → [`buridan_policy::Fragment`]; used
+//!   in-process by `learner train` and here.
+//! - [`client`]: the stateless gRPC actor behind the `actor` binary — join,
+//!   receive weights, submit fragments, reconnect with backoff.
+
+pub mod client;
+pub mod collector;
+
+pub use collector::Collector;

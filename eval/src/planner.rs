@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use buridan_env::{Cell, GridEnv};
+use buridan_env::GridEnv;
 use buridan_mapf::replay::action_between;
 use buridan_mapf::{Limits, Plan, Planner, SolveError};
 

@@ -6,11 +6,12 @@
 
 use std::sync::Arc;
 
+use buridan_actor::Collector;
 use buridan_env::{Map, ObsKind, Starts, VecEnv};
 use buridan_learner::algo::impala::{Impala, ImpalaSettings};
 use buridan_learner::algo::ppo::{Ppo, PpoSettings};
 use buridan_learner::algo::vtrace::VTraceParams;
-use buridan_learner::train::{env_config, Actor, TrainConfig};
+use buridan_learner::train::{env_config, TrainConfig};
 use buridan_policy::{Fragment, Inference, Mode, Policy};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use rand::SeedableRng;
@@ -28,7 +29,7 @@ fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
     let spec = cfg.model_spec(venv.obs_dim());
     let policy = Policy::new(spec.clone(), 0).unwrap();
     let rows = venv.obs().len() / venv.obs_dim();
-    let mut actor = Actor {
+    let mut actor = Collector {
         id: 0,
         inference: Inference::new(Policy::new(spec, 0).unwrap(), rows, 1),
         venv,

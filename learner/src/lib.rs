@@ -3,4 +3,5 @@
 pub mod algo;
 pub mod cli;
 pub mod policy_controller;
+pub mod serve;
 pub mod train;

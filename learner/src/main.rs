@@ -19,6 +19,8 @@ struct Cli {
 enum Command {
     /// Train a policy: learner and actors in one process (the embedded default).
     Train(cli::train::TrainArgs),
+    /// Serve a run to `actor` processes over gRPC (same options and outputs as train).
+    Serve(cli::serve::ServeArgs),
     /// Evaluate a controller (planner, random or trained policy) on seeded episodes.
     Eval(cli::eval::EvalArgs),
     /// Redraw a run's learning curves (PNG) from its metrics.csv.
@@ -38,14 +40,22 @@ fn main() -> Result<()> {
     // candle reads its thread count once, before any other thread starts:
     // actors and learner share the cores, so each candle call stays on one.
     buridan_policy::threads::pin_threads(1);
+    let cli = Cli::parse();
+    // A server's joins and faults are worth seeing; elsewhere the progress bar says enough.
+    let default_level = match cli.command {
+        Command::Serve(_) => "info",
+        _ => "warn",
+    };
     tracing_subscriber::fmt()
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| default_level.into()),
         )
         .with_writer(std::io::stderr)
         .init();
-    match Cli::parse().command {
+    match cli.command {
         Command::Train(args) => cli::train::run(&args).map(|_| ()),
+        Command::Serve(args) => cli::serve::run(&args).map(|_| ()),
         Command::Eval(args) => cli::eval::run(&args).map(|_| ()),
         Command::Curves { out, title } => cli::train::write_curves(&out, &title),
         Command::Maps => {

@@ -4,19 +4,20 @@
 
 use std::sync::Arc;
 
+use buridan_actor::Collector;
 use buridan_env::{Map, ObsKind, Starts, VecEnv};
 use buridan_learner::algo::batch::{build_net_batches, evaluate, BatchTensors};
-use buridan_learner::train::{env_config, Actor, TrainConfig};
+use buridan_learner::train::{env_config, TrainConfig};
 use buridan_policy::{Inference, Mode, Policy};
 use candle_core::{Device, Tensor};
 
-fn actor(cfg: &TrainConfig, kind: ObsKind) -> (Actor, Policy) {
+fn actor(cfg: &TrainConfig, kind: ObsKind) -> (Collector, Policy) {
     let map = Arc::new(Map::load(&cfg.map).unwrap());
     let venv = VecEnv::new(map, env_config(cfg, 3), cfg.envs_per_actor, kind, 1).unwrap();
     let spec = cfg.model_spec(venv.obs_dim());
     let policy = Policy::new(spec.clone(), 5).unwrap();
     let rows = venv.obs().len() / venv.obs_dim();
-    let a = Actor {
+    let a = Collector {
         id: 0,
         inference: Inference::new(policy.clone(), rows, 9),
         venv,

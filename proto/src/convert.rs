@@ -23,7 +23,7 @@
 //! assert_eq!((back_tag, back), (tag, f));
 //! ```
 
-use buridan_env::EpisodeStats;
+use buridan_env::{EnvConfig, EpisodeStats, MapSource, Starts};
 use buridan_policy::{Fragment, NamedTensor, PolicyError, RecurrentState, Weights};
 
 use crate::v1;
@@ -354,6 +354,53 @@ pub fn weights_from_message(m: v1::Parameters) -> Result<Weights, ConvertError> 
         version: m.version,
         tensors,
     })
+}
+
+/// Env settings for the wire (the seed travels separately).
+pub fn env_to_message(e: &EnvConfig) -> v1::EnvSettings {
+    v1::EnvSettings {
+        agents: e.agents as u32,
+        t_max: e.t_max,
+        starts: match e.starts {
+            Starts::Random => "random".into(),
+            Starts::Fixed => "fixed".into(),
+        },
+        sensor_range: e.sensor_range as u32,
+        lifelong: e.lifelong,
+        stall_window: e.stall_window,
+    }
+}
+
+/// Env settings from the wire, with `seed`.
+pub fn env_from_message(m: &v1::EnvSettings, seed: u64) -> Result<EnvConfig, ConvertError> {
+    let starts = m.starts.parse::<Starts>().map_err(ConvertError::Invalid)?;
+    Ok(EnvConfig {
+        agents: m.agents as usize,
+        t_max: m.t_max,
+        starts,
+        seed,
+        sensor_range: m.sensor_range as usize,
+        lifelong: m.lifelong,
+        stall_window: m.stall_window,
+    })
+}
+
+/// A map's texts for the wire.
+pub fn map_to_message(m: &MapSource) -> v1::MapSource {
+    v1::MapSource {
+        name: m.name.clone(),
+        map_text: m.map_text.clone(),
+        scen_text: m.scen_text.clone(),
+    }
+}
+
+/// A map's texts from the wire.
+pub fn map_from_message(m: v1::MapSource) -> MapSource {
+    MapSource {
+        name: m.name,
+        map_text: m.map_text,
+        scen_text: m.scen_text,
+    }
 }
 
 #[cfg(test)]

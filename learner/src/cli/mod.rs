@@ -1,4 +1,5 @@
 //! The `learner` command line: each subcommand in its own module.
 
 pub mod eval;
+pub mod serve;
 pub mod train;

@@ -37,9 +37,14 @@ pub struct TrainArgs {
     /// Seed of envs, weights and sampling.
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Continue from a checkpoint directory (or a previous `--out`).
+    /// Continue from a checkpoint directory or a previous `--out` (its
+    /// newest checkpoint); `auto`: from `--out`'s newest checkpoint if it
+    /// has one, else start fresh (for restarts by a supervisor).
     #[arg(long)]
     pub resume: Option<PathBuf>,
+    /// Serve Prometheus metrics on this address (e.g. 0.0.0.0:9000).
+    #[arg(long, value_name = "ADDR")]
+    pub metrics: Option<std::net::SocketAddr>,
     /// Override any configuration key, e.g. `--set ppo.lr=5e-4 --set hidden=[256,256]`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub overrides: Vec<String>,
@@ -112,7 +117,11 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
         cfg.seed = v;
     }
     if let Some(v) = &args.resume {
-        cfg.resume = Some(v.clone());
+        cfg.resume = if v.as_os_str() == "auto" {
+            crate::policy_controller::resolve_checkpoint(&args.out).ok()
+        } else {
+            Some(crate::policy_controller::resolve_checkpoint(v)?)
+        };
     }
     if !args.overrides.is_empty() {
         let mut table: toml::Table =
@@ -126,9 +135,43 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
     Ok(cfg)
 }
 
-/// Live terminal progress.
-struct TerminalProgress {
+/// Live terminal progress: a bar with steps/s, return, success, length.
+pub struct TerminalProgress {
     bar: ProgressBar,
+}
+
+impl TerminalProgress {
+    /// A bar for a run of `steps` env steps (hidden if `quiet`).
+    pub fn new(steps: u64, quiet: bool) -> Self {
+        let bar = if quiet {
+            ProgressBar::hidden()
+        } else {
+            ProgressBar::new(steps)
+        };
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{prefix} [{bar:25}] {human_pos}/{human_len} {msg} ({elapsed})",
+            )
+            .expect("valid template")
+            .progress_chars("=> "),
+        );
+        Self { bar }
+    }
+}
+
+/// Installs the Prometheus exporter on `addr` (a `/metrics` endpoint).
+pub fn install_metrics(addr: std::net::SocketAddr) -> Result<()> {
+    metrics_exporter_prometheus::PrometheusBuilder::new()
+        .with_http_listener(addr)
+        .set_buckets_for_metric(
+            metrics_exporter_prometheus::Matcher::Full("buridan_policy_lag".into()),
+            &[0.0, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0],
+        )
+        .context("invalid histogram buckets")?
+        .install()
+        .with_context(|| format!("cannot serve metrics on {addr}"))?;
+    tracing::info!(%addr, "Prometheus metrics at http://{addr}/metrics");
+    Ok(())
 }
 
 impl Progress for TerminalProgress {
@@ -220,6 +263,18 @@ pub fn write_curves(out: &Path, title: &str) -> Result<()> {
 /// Runs `learner train`.
 pub fn run(args: &TrainArgs) -> Result<Summary> {
     let cfg = resolve_config(args)?;
+    check_out(args, &cfg)?;
+    if let Some(addr) = args.metrics {
+        install_metrics(addr)?;
+    }
+    let mut progress = TerminalProgress::new(cfg.steps, args.quiet);
+    let summary = train(&cfg, &args.out, &mut progress)?;
+    report(args, &cfg, &summary)?;
+    Ok(summary)
+}
+
+/// Refuses to overwrite a finished run.
+pub fn check_out(args: &TrainArgs, cfg: &TrainConfig) -> Result<()> {
     if args.out.join("summary.json").exists() && cfg.resume.is_none() {
         bail!(
             "{} already holds a finished run; choose another --out or pass --resume {}",
@@ -227,20 +282,11 @@ pub fn run(args: &TrainArgs) -> Result<Summary> {
             args.out.display()
         );
     }
-    let bar = if args.quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(cfg.steps)
-    };
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{prefix} [{bar:25}] {human_pos}/{human_len} {msg} ({elapsed})",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
-    let mut progress = TerminalProgress { bar };
-    let summary = train(&cfg, &args.out, &mut progress)?;
+    Ok(())
+}
+
+/// Draws the curves and prints the final line of a run.
+pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<()> {
     let title = format!(
         "{} {} on {}, {} agents",
         cfg.algo,
@@ -259,5 +305,5 @@ pub fn run(args: &TrainArgs) -> Result<Summary> {
         summary.episode_len_mean,
         args.out.display()
     );
-    Ok(summary)
+    Ok(())
 }

@@ -21,6 +21,21 @@ pub struct EpisodeWindow {
 }
 
 impl EpisodeWindow {
+    /// A window holding `recent` (the last episodes of a run that has seen
+    /// `total`), as saved by [`Self::recent`].
+    pub fn restore(total: u64, recent: &[EpisodeStats]) -> Self {
+        let skip = recent.len().saturating_sub(EPISODE_WINDOW);
+        Self {
+            recent: recent[skip..].iter().copied().collect(),
+            total,
+        }
+    }
+
+    /// The episodes in the window, oldest first.
+    pub fn recent(&self) -> Vec<EpisodeStats> {
+        self.recent.iter().copied().collect()
+    }
+
     /// Adds finished episodes.
     pub fn extend(&mut self, episodes: &[EpisodeStats]) {
         for e in episodes {

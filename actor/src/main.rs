@@ -1,0 +1,82 @@
+//! `actor --connect URL [--envs N]`: a stateless actor process.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::Result;
+use buridan_actor::client::{run, url_connector, ActorOptions};
+use clap::Parser;
+
+/// Runs env instances with the learner's policy and streams trajectory
+/// fragments to it. Config and weights come from the learner; on a lost
+/// connection the actor reconnects with backoff. Exits 0 when the learner
+/// finishes the run.
+#[derive(Debug, Parser)]
+#[command(name = "actor", version)]
+struct Args {
+    /// The learner's URL, e.g. http://127.0.0.1:50051 (https://… for TLS).
+    #[arg(long, env = "BURIDAN_LEARNER")]
+    connect: String,
+    /// Envs to run (default: the run's `envs_per_actor`).
+    #[arg(long)]
+    envs: Option<u32>,
+    /// Shared token, if the learner was started with one.
+    #[arg(long, env = "BURIDAN_TOKEN", hide_env_values = true)]
+    token: Option<String>,
+    /// CA certificate (PEM) to verify a TLS learner.
+    #[arg(long)]
+    tls_ca: Option<PathBuf>,
+    /// Name shown in the learner's logs (default: the host name).
+    #[arg(long)]
+    name: Option<String>,
+    /// Stop after this many seconds without reaching the learner (default: retry forever).
+    #[arg(long)]
+    give_up_after: Option<f64>,
+    /// Longest wait between reconnect attempts, in seconds.
+    #[arg(long, default_value_t = 5.0)]
+    backoff_max: f64,
+}
+
+fn main() -> Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    // One candle thread: the actor's batches are small (see README).
+    buridan_policy::threads::pin_threads(1);
+    let args = Args::parse();
+    let name = args.name.clone().unwrap_or_else(|| {
+        std::env::var("HOSTNAME")
+            .ok()
+            .filter(|h| !h.is_empty())
+            .or_else(|| {
+                std::fs::read_to_string("/etc/hostname")
+                    .ok()
+                    .map(|h| h.trim().to_string())
+            })
+            .unwrap_or_else(|| format!("actor-{}", std::process::id()))
+    });
+    let opts = ActorOptions {
+        name,
+        envs: args.envs,
+        token: args.token.clone(),
+        give_up_after: args.give_up_after.map(Duration::from_secs_f64),
+        backoff_max: Duration::from_secs_f64(args.backoff_max.max(0.1)),
+        ..ActorOptions::default()
+    };
+    let connector = url_connector(&args.connect, args.tls_ca.as_deref())?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .max_blocking_threads(1)
+        .enable_all()
+        .build()?;
+    let report = runtime.block_on(run(connector, opts))?;
+    eprintln!(
+        "run finished: {} fragments accepted, {} refused, {} lost, {} env steps, {} session(s)",
+        report.accepted, report.refused, report.lost, report.env_steps, report.sessions
+    );
+    Ok(())
+}

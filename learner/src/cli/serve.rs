@@ -1,0 +1,91 @@
+//! `learner serve`: the learner as a gRPC server for `actor` processes.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::{bail, Result};
+
+use crate::cli::train::{
+    check_out, install_metrics, report, resolve_config, TerminalProgress, TrainArgs,
+};
+use crate::serve::{serve, Listener, ServeOptions, DEFAULT_MAX_MESSAGE_BYTES};
+use crate::train::Summary;
+
+/// Arguments of `learner serve`: the run options of `learner train` plus
+/// the server's.
+#[derive(Debug, clap::Args)]
+pub struct ServeArgs {
+    /// Run options, as for `learner train`.
+    #[command(flatten)]
+    pub run: TrainArgs,
+    /// Address to accept actors on.
+    #[arg(long, default_value = "127.0.0.1:50051")]
+    pub listen: SocketAddr,
+    /// Require this shared token from actors (`actor --token`).
+    #[arg(long, env = "BURIDAN_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
+    /// PEM certificate for TLS (with --tls-key); actors then use https:// and --tls-ca.
+    #[arg(long, requires = "tls_key")]
+    pub tls_cert: Option<PathBuf>,
+    /// PEM private key for TLS.
+    #[arg(long, requires = "tls_cert")]
+    pub tls_key: Option<PathBuf>,
+    /// Largest message accepted, in bytes.
+    #[arg(long, default_value_t = DEFAULT_MAX_MESSAGE_BYTES)]
+    pub max_message_bytes: usize,
+    /// Fragments the learner queue holds (0: one train batch).
+    #[arg(long, default_value_t = 0)]
+    pub queue: usize,
+}
+
+/// Runs `learner serve`.
+pub fn run(args: &ServeArgs) -> Result<Summary> {
+    let cfg = resolve_config(&args.run)?;
+    check_out(&args.run, &cfg)?;
+    if !args.listen.ip().is_loopback() && args.token.is_none() && args.tls_cert.is_none() {
+        tracing::warn!(
+            listen = %args.listen,
+            "serving beyond loopback without --token or TLS: anyone who can reach this port can join"
+        );
+    }
+    if args.max_message_bytes < 1024 {
+        bail!(
+            "--max-message-bytes {} is too small for any fragment",
+            args.max_message_bytes
+        );
+    }
+    if let Some(addr) = args.run.metrics {
+        install_metrics(addr)?;
+    }
+    let opts = ServeOptions {
+        token: args.token.clone(),
+        tls: args.tls_cert.clone().zip(args.tls_key.clone()),
+        max_message_bytes: args.max_message_bytes,
+        queue_capacity: args.queue,
+        linger: Duration::from_secs(1),
+        ..ServeOptions::default()
+    };
+    let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+    let quiet = args.run.quiet;
+    std::thread::spawn(move || {
+        if let Ok(Some(addr)) = ready_rx.recv() {
+            if !quiet {
+                eprintln!(
+                    "learner listening on {addr}; start actors with: actor --connect http://{addr}"
+                );
+            }
+        }
+    });
+    let mut progress = TerminalProgress::new(cfg.steps, args.run.quiet);
+    let summary = serve(
+        &cfg,
+        &args.run.out,
+        &opts,
+        Listener::Tcp(args.listen),
+        Some(ready_tx),
+        &mut progress,
+    )?;
+    report(&args.run, &cfg, &summary)?;
+    Ok(summary)
+}

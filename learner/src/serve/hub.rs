@@ -1,0 +1,369 @@
+//! The run as the gRPC handlers see it: what joining actors are told, the
+//! sessions, the on-policy gate, the latest weights and the fragment
+//! queue. The learner loop reaches it through [`RemoteExchange`].
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use anyhow::{anyhow, Result};
+use buridan_policy::{Fragment, Weights};
+use buridan_proto::convert::weights_to_message;
+use buridan_proto::v1;
+use tokio::sync::{mpsc, watch};
+
+use crate::train::Exchange;
+
+/// What every joining actor is told (all but its session, id and seed).
+#[derive(Debug, Clone)]
+pub struct RunInfo {
+    /// This learner incarnation.
+    pub run_id: String,
+    /// The run's TrainConfig as TOML.
+    pub config_toml: String,
+    /// The model spec as JSON.
+    pub model_spec_json: String,
+    /// The map's texts.
+    pub map: v1::MapSource,
+    /// The env rules.
+    pub env: v1::EnvSettings,
+    /// Default envs per actor.
+    pub envs_per_actor: u32,
+    /// Largest envs an actor may ask for.
+    pub max_envs: u32,
+    /// Steps per fragment.
+    pub fragment_len: u32,
+    /// PPO (true) or IMPALA.
+    pub on_policy: bool,
+    /// IMPALA's largest accepted policy lag.
+    pub max_policy_lag: u64,
+    /// Base of the actors' env seeds.
+    pub seed_base: u64,
+    /// Observation floats per row.
+    pub obs_dim: u32,
+    /// Action heads per row.
+    pub heads: u32,
+    /// Actions per head.
+    pub actions_per_head: u32,
+    /// Rows per env (agents for local observations, 1 for central).
+    pub rows_per_env: u32,
+}
+
+/// One actor's session.
+#[derive(Debug, Clone)]
+pub struct Session {
+    /// Actor id.
+    pub actor_id: u32,
+    /// Name the actor gave.
+    pub name: String,
+    /// Envs it runs.
+    pub envs: u32,
+    /// Highest fragment sequence number received.
+    pub last_seq: Option<u64>,
+    /// Open parameter streams (its liveness).
+    pub watchers: usize,
+}
+
+/// On-policy gate: env steps still wanted for `version`.
+#[derive(Debug, Clone, Copy)]
+pub struct Gate {
+    /// The newest policy version.
+    pub version: u64,
+    /// Env steps still wanted with it (on-policy); unused off-policy.
+    pub remaining: u64,
+}
+
+/// Counters of what happened to submitted fragments.
+#[derive(Debug, Default)]
+pub struct FragmentCounters {
+    /// Queued for the learner.
+    pub accepted: AtomicU64,
+    /// Refused: collected with a policy too old.
+    pub stale: AtomicU64,
+    /// Refused: the on-policy batch of their version was already full.
+    pub surplus: AtomicU64,
+    /// Refused: malformed, wrong shape, unknown run, session or version.
+    pub invalid: AtomicU64,
+    /// Refused: sequence number already seen.
+    pub duplicate: AtomicU64,
+}
+
+/// The state shared by the gRPC handlers and the learner loop.
+pub struct Hub {
+    /// What joining actors are told.
+    pub info: RunInfo,
+    sessions: Mutex<HashMap<u64, Session>>,
+    next_session: AtomicU64,
+    gate: Mutex<Gate>,
+    params: watch::Sender<Arc<v1::Parameters>>,
+    queue: mpsc::Sender<Fragment>,
+    queued: AtomicUsize,
+    /// Outcome counters.
+    pub counters: FragmentCounters,
+}
+
+impl Hub {
+    /// A hub whose queue holds `capacity` fragments; returns the learner's
+    /// end of the queue.
+    pub fn new(info: RunInfo, capacity: usize) -> (Arc<Hub>, mpsc::Receiver<Fragment>) {
+        let (tx, rx) = mpsc::channel(capacity.max(1));
+        let (params, _) = watch::channel(Arc::new(v1::Parameters {
+            run_id: info.run_id.clone(),
+            ..Default::default()
+        }));
+        let hub = Hub {
+            info,
+            sessions: Mutex::new(HashMap::new()),
+            next_session: AtomicU64::new(1),
+            gate: Mutex::new(Gate {
+                version: 0,
+                remaining: 0,
+            }),
+            params,
+            queue: tx,
+            queued: AtomicUsize::new(0),
+            counters: FragmentCounters::default(),
+        };
+        (Arc::new(hub), rx)
+    }
+
+    /// Opens a session for an actor.
+    pub fn open_session(&self, name: String, envs: u32) -> (u64, Session) {
+        let id = self.next_session.fetch_add(1, Ordering::SeqCst);
+        let session = Session {
+            actor_id: (id - 1) as u32,
+            name,
+            envs,
+            last_seq: None,
+            watchers: 0,
+        };
+        self.sessions
+            .lock()
+            .expect("sessions lock")
+            .insert(id, session.clone());
+        (id, session)
+    }
+
+    /// The session `id`, if open.
+    pub fn session(&self, id: u64) -> Option<Session> {
+        self.sessions
+            .lock()
+            .expect("sessions lock")
+            .get(&id)
+            .cloned()
+    }
+
+    /// Records a parameter stream opening (`+1`) or closing (`-1`); a
+    /// session whose last stream closes is gone (its actor died or cut
+    /// the connection).
+    pub fn watcher(&self, id: u64, opened: bool) {
+        let mut sessions = self.sessions.lock().expect("sessions lock");
+        if let Some(s) = sessions.get_mut(&id) {
+            if opened {
+                s.watchers += 1;
+            } else {
+                s.watchers = s.watchers.saturating_sub(1);
+                if s.watchers == 0 {
+                    tracing::info!(session = id, actor = s.actor_id, name = %s.name, "actor left");
+                    sessions.remove(&id);
+                }
+            }
+        }
+        ::metrics::gauge!("buridan_connected_actors")
+            .set(sessions.values().filter(|s| s.watchers > 0).count() as f64);
+    }
+
+    /// Sessions with an open parameter stream.
+    pub fn connected(&self) -> usize {
+        self.sessions
+            .lock()
+            .expect("sessions lock")
+            .values()
+            .filter(|s| s.watchers > 0)
+            .count()
+    }
+
+    /// Marks `seq` of session `id` as received; `Err(last)` if it is not
+    /// newer than the last one, `None` if the session is unknown.
+    pub fn claim_seq(&self, id: u64, seq: u64) -> Option<Result<(), u64>> {
+        let mut sessions = self.sessions.lock().expect("sessions lock");
+        let s = sessions.get_mut(&id)?;
+        Some(match s.last_seq {
+            Some(last) if seq <= last => Err(last),
+            _ => {
+                s.last_seq = Some(seq);
+                Ok(())
+            }
+        })
+    }
+
+    /// A receiver of the weights: the latest at once, then each new one.
+    pub fn subscribe(&self) -> watch::Receiver<Arc<v1::Parameters>> {
+        self.params.subscribe()
+    }
+
+    /// The newest policy version.
+    pub fn version(&self) -> u64 {
+        self.gate.lock().expect("gate lock").version
+    }
+
+    /// On-policy admission of `env_steps` collected with `version`:
+    /// `Ok(wait_for_next)` if admitted, `Err(reason)` if refused. The
+    /// caller checked `version` is not newer than the learner's.
+    pub fn admit(&self, version: u64, env_steps: u64) -> Result<bool, Refusal> {
+        let mut g = self.gate.lock().expect("gate lock");
+        if self.info.on_policy {
+            if version < g.version {
+                return Err(Refusal::Stale {
+                    version,
+                    current: g.version,
+                });
+            }
+            if g.remaining == 0 {
+                return Err(Refusal::Surplus { version });
+            }
+            g.remaining = g.remaining.saturating_sub(env_steps);
+            Ok(g.remaining == 0)
+        } else {
+            if g.version - version > self.info.max_policy_lag {
+                return Err(Refusal::Stale {
+                    version,
+                    current: g.version,
+                });
+            }
+            Ok(false)
+        }
+    }
+
+    /// Queues a fragment for the learner, waiting while the queue is full.
+    pub async fn enqueue(&self, f: Fragment) -> Result<(), ()> {
+        self.queued.fetch_add(1, Ordering::SeqCst);
+        let sent = self.queue.send(f).await;
+        if sent.is_err() {
+            self.queued.fetch_sub(1, Ordering::SeqCst);
+        }
+        sent.map_err(|_| ())
+    }
+
+    /// Publishes weights to every parameter stream and resets the gate.
+    pub fn publish(&self, weights: &Weights, wanted_env_steps: Option<u64>) {
+        let msg = Arc::new(weights_to_message(weights, &self.info.run_id));
+        {
+            let mut g = self.gate.lock().expect("gate lock");
+            g.version = weights.version;
+            g.remaining = wanted_env_steps.unwrap_or(u64::MAX);
+        }
+        self.params.send_replace(msg);
+    }
+
+    /// Tells every actor the run is over.
+    pub fn finish(&self) {
+        {
+            let mut g = self.gate.lock().expect("gate lock");
+            g.remaining = 0;
+        }
+        let version = self.version();
+        self.params.send_replace(Arc::new(v1::Parameters {
+            run_id: self.info.run_id.clone(),
+            version,
+            tensors: Vec::new(),
+            finished: true,
+        }));
+    }
+
+    /// Whether [`Self::finish`] was called.
+    pub fn finished(&self) -> bool {
+        self.params.borrow().finished
+    }
+}
+
+/// Why a well-formed fragment was not queued.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Refusal {
+    /// Collected with a version the run no longer accepts.
+    Stale {
+        /// The fragment's version.
+        version: u64,
+        /// The learner's.
+        current: u64,
+    },
+    /// The on-policy batch of this version is already complete.
+    Surplus {
+        /// The fragment's version.
+        version: u64,
+    },
+}
+
+impl std::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Refusal::Stale { version, current } => write!(
+                f,
+                "stale: collected with policy version {version}, the learner is at {current}"
+            ),
+            Refusal::Surplus { version } => write!(
+                f,
+                "surplus: the train batch of policy version {version} is already full"
+            ),
+        }
+    }
+}
+
+/// The learner loop's [`Exchange`] over the hub.
+pub struct RemoteExchange {
+    hub: Arc<Hub>,
+    rx: mpsc::Receiver<Fragment>,
+    runtime: tokio::runtime::Handle,
+}
+
+impl RemoteExchange {
+    /// The learner's end of `hub`; `runtime` runs the gRPC server.
+    pub fn new(
+        hub: Arc<Hub>,
+        rx: mpsc::Receiver<Fragment>,
+        runtime: tokio::runtime::Handle,
+    ) -> Self {
+        Self { hub, rx, runtime }
+    }
+}
+
+impl Exchange for RemoteExchange {
+    fn publish(&mut self, weights: Weights, wanted_env_steps: Option<u64>) -> Result<()> {
+        self.hub.publish(&weights, wanted_env_steps);
+        Ok(())
+    }
+
+    fn next_fragment(&mut self, timeout: Duration) -> Result<Option<Fragment>> {
+        let rx = &mut self.rx;
+        let got = self
+            .runtime
+            .block_on(async { tokio::time::timeout(timeout, rx.recv()).await });
+        match got {
+            Ok(Some(f)) => {
+                self.hub.queued.fetch_sub(1, Ordering::SeqCst);
+                Ok(Some(f))
+            }
+            Ok(None) => Err(anyhow!("the fragment queue closed")),
+            Err(_) => Ok(None),
+        }
+    }
+
+    fn queue_depth(&self) -> usize {
+        self.hub.queued.load(Ordering::SeqCst)
+    }
+
+    fn connected_actors(&self) -> usize {
+        self.hub.connected()
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        self.hub.finish();
+        // Unblock handlers waiting on a full queue: they answer "finished".
+        self.rx.close();
+        while self.rx.try_recv().is_ok() {
+            self.hub.queued.fetch_sub(1, Ordering::SeqCst);
+        }
+        Ok(())
+    }
+}

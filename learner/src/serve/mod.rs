@@ -1,0 +1,275 @@
+//! `learner serve`: the learner as a gRPC server that actor processes join.
+//!
+//! ```text
+//! actor process ──Join──────────────▶ LearnerService ─▶ Hub (run info, sessions)
+//!               ◀─WatchParameters──── Hub::publish ◀── learner loop (Run::learn)
+//!               ──SubmitFragment───▶ checks ─▶ bounded queue ─▶ RemoteExchange
+//! ```
+//!
+//! The learner loop is the same [`Run::learn`] as in embedded training; only
+//! its [`crate::train::Exchange`] differs. One tokio worker thread serves
+//! gRPC, the calling thread learns.
+//!
+//! Rules for fragments (each outcome is counted in
+//! `buridan_fragments_total{outcome}` and logged):
+//! - malformed (shapes, NaN/Inf, ranges), wrong run, unknown session,
+//!   a policy version newer than the learner's → gRPC error, `invalid`;
+//! - a sequence number already seen in the session → `ALREADY_EXISTS`,
+//!   `duplicate` (a fragment is never used twice);
+//! - PPO: a fragment collected with an older version → refused, `stale`;
+//!   one of the current version after its train batch is full → refused,
+//!   `surplus`; the reply tells the actor to wait for the next version;
+//! - IMPALA: older than `impala.max_policy_lag` versions → refused, `stale`;
+//! - otherwise queued (`accepted`); the handler waits while the queue is
+//!   full, so actors slow down rather than the learner's memory growing.
+
+pub mod hub;
+pub mod service;
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::{bail, Context, Result};
+use buridan_env::{MapSource, ObsKind};
+use buridan_proto::convert::{env_to_message, map_to_message};
+use buridan_proto::v1::learner_server::LearnerServer;
+use rand::Rng;
+use tokio::io::DuplexStream;
+use tokio::sync::mpsc;
+use tokio_stream::wrappers::ReceiverStream;
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::{Identity, Server, ServerTlsConfig};
+use tonic::{Request, Status};
+
+use crate::train::{env_config, obs_kind, Algo, Progress, Run, Summary, TrainConfig};
+pub use hub::{Hub, RemoteExchange, RunInfo};
+pub use service::LearnerService;
+
+/// Largest message accepted by default (a fragment of 64 envs × 4 agents ×
+/// 50 steps of 129 floats is about 7 MB).
+pub const DEFAULT_MAX_MESSAGE_BYTES: usize = 64 * 1024 * 1024;
+
+/// Server settings beyond the run's config.
+#[derive(Debug, Clone)]
+pub struct ServeOptions {
+    /// If set, every call must carry `authorization: Bearer <token>`.
+    pub token: Option<String>,
+    /// PEM certificate and key: serve TLS (rustls) instead of plain HTTP/2.
+    pub tls: Option<(PathBuf, PathBuf)>,
+    /// Largest message accepted; larger ones get `OUT_OF_RANGE`.
+    pub max_message_bytes: usize,
+    /// Largest `--envs` an actor may ask for.
+    pub max_envs: u32,
+    /// Fragments the learner queue holds (0: one train batch's worth).
+    pub queue_capacity: usize,
+    /// How long to keep serving after the last update, so actors hear
+    /// that the run is finished.
+    pub linger: Duration,
+}
+
+impl Default for ServeOptions {
+    fn default() -> Self {
+        Self {
+            token: None,
+            tls: None,
+            max_message_bytes: DEFAULT_MAX_MESSAGE_BYTES,
+            max_envs: 256,
+            queue_capacity: 0,
+            linger: Duration::from_millis(500),
+        }
+    }
+}
+
+/// Where the server takes its connections from.
+pub enum Listener {
+    /// A TCP address.
+    Tcp(SocketAddr),
+    /// In-memory connections (tests): each item is the server's end of a
+    /// `tokio::io::duplex` pair.
+    InMemory(mpsc::Receiver<DuplexStream>),
+}
+
+/// Serves the run `cfg` until it has trained `cfg.steps` env steps, then
+/// writes the same outputs as [`crate::train::train`] into `out`. `ready`
+/// (if any) receives the bound address once the server accepts calls.
+pub fn serve(
+    cfg: &TrainConfig,
+    out: &Path,
+    opts: &ServeOptions,
+    listener: Listener,
+    ready: Option<std::sync::mpsc::Sender<Option<SocketAddr>>>,
+    progress: &mut dyn Progress,
+) -> Result<Summary> {
+    let run = Run::prepare(cfg, out)?;
+    let info = run_info(&run, opts)?;
+    let capacity = if opts.queue_capacity > 0 {
+        opts.queue_capacity
+    } else {
+        cfg.fragments_per_batch().max(2)
+    };
+    let (hub, rx) = Hub::new(info, capacity);
+    let on_policy = cfg.algo == Algo::Ppo;
+    let wanted = on_policy.then_some(cfg.ppo.train_batch as u64);
+    hub.publish(&run.weights()?, wanted);
+
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .thread_name("grpc")
+        .enable_all()
+        .build()
+        .context("cannot start the gRPC runtime")?;
+    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+    let server = match listener {
+        Listener::Tcp(addr) => {
+            let tcp = runtime
+                .block_on(tokio::net::TcpListener::bind(addr))
+                .with_context(|| format!("cannot listen on {addr}"))?;
+            let bound = tcp.local_addr()?;
+            tracing::info!(%bound, run_id = %hub.info.run_id, "learner serving");
+            if let Some(r) = &ready {
+                let _ = r.send(Some(bound));
+            }
+            let incoming = tokio_stream::wrappers::TcpListenerStream::new(tcp);
+            spawn_server(&runtime, hub.clone(), opts, incoming, stop_rx)?
+        }
+        Listener::InMemory(rx) => {
+            if let Some(r) = &ready {
+                let _ = r.send(None);
+            }
+            let incoming = ReceiverStream::new(rx);
+            let incoming = tokio_stream::StreamExt::map(incoming, Ok::<_, std::io::Error>);
+            spawn_server(&runtime, hub.clone(), opts, incoming, stop_rx)?
+        }
+    };
+    let mut exchange = RemoteExchange::new(hub.clone(), rx, runtime.handle().clone());
+    let result = run.learn(&mut exchange, progress);
+    // Let the actors hear that the run is over, then stop serving.
+    std::thread::sleep(opts.linger);
+    let _ = stop_tx.send(());
+    let served =
+        runtime.block_on(async { tokio::time::timeout(Duration::from_secs(2), server).await });
+    runtime.shutdown_timeout(Duration::from_secs(1));
+    let c = &hub.counters;
+    tracing::info!(
+        accepted = c.accepted.load(std::sync::atomic::Ordering::Relaxed),
+        stale = c.stale.load(std::sync::atomic::Ordering::Relaxed),
+        surplus = c.surplus.load(std::sync::atomic::Ordering::Relaxed),
+        invalid = c.invalid.load(std::sync::atomic::Ordering::Relaxed),
+        duplicate = c.duplicate.load(std::sync::atomic::Ordering::Relaxed),
+        "fragments"
+    );
+    let summary = result?;
+    if let Ok(Ok(Err(e))) = served {
+        tracing::warn!("gRPC server ended with an error: {e}");
+    }
+    Ok(summary)
+}
+
+fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo> {
+    let cfg = run.config();
+    let spec = run.spec();
+    let map = MapSource::read(&cfg.map)?;
+    let run_id = format!("{}-{:016x}", run.map().name, rand::rng().random::<u64>());
+    Ok(RunInfo {
+        run_id,
+        config_toml: cfg.to_toml(),
+        model_spec_json: serde_json::to_string(spec)?,
+        map: map_to_message(&map),
+        env: env_to_message(&env_config(cfg, 0)),
+        envs_per_actor: cfg.envs_per_actor as u32,
+        max_envs: opts.max_envs.max(cfg.envs_per_actor as u32),
+        fragment_len: cfg.fragment_len as u32,
+        on_policy: cfg.algo == Algo::Ppo,
+        max_policy_lag: cfg.impala.max_policy_lag,
+        seed_base: run.actor_seed(0),
+        obs_dim: spec.obs_dim as u32,
+        heads: spec.heads as u32,
+        actions_per_head: spec.actions as u32,
+        rows_per_env: match obs_kind(cfg.mode) {
+            ObsKind::Local => cfg.agents as u32,
+            ObsKind::Central => 1,
+        },
+    })
+}
+
+/// Counts every gRPC error status the server sends (whether from a
+/// handler or from tonic itself, e.g. an oversized message) by code.
+fn count_status(resp: http::Response<tonic::body::Body>) -> http::Response<tonic::body::Body> {
+    if let Some(code) = resp
+        .headers()
+        .get("grpc-status")
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<i32>().ok())
+    {
+        if code != 0 {
+            let name = format!("{:?}", tonic::Code::from_i32(code));
+            ::metrics::counter!("buridan_rpc_errors_total", "code" => name).increment(1);
+        }
+    }
+    resp
+}
+
+/// Starts the gRPC server on `runtime` over `incoming` until `shutdown`.
+fn spawn_server<I, IO, IE>(
+    runtime: &tokio::runtime::Runtime,
+    hub: Arc<Hub>,
+    opts: &ServeOptions,
+    incoming: I,
+    shutdown: tokio::sync::oneshot::Receiver<()>,
+) -> Result<tokio::task::JoinHandle<Result<(), tonic::transport::Error>>>
+where
+    I: tokio_stream::Stream<Item = Result<IO, IE>> + Send + 'static,
+    IO: tokio::io::AsyncRead
+        + tokio::io::AsyncWrite
+        + tonic::transport::server::Connected
+        + Unpin
+        + Send
+        + 'static,
+    IO::ConnectInfo: Clone + Send + Sync + 'static,
+    IE: Into<Box<dyn std::error::Error + Send + Sync>> + Send + 'static,
+{
+    let mut builder = Server::builder();
+    if let Some((cert, key)) = &opts.tls {
+        let cert = std::fs::read(cert)
+            .with_context(|| format!("cannot read TLS certificate {}", cert.display()))?;
+        let key =
+            std::fs::read(key).with_context(|| format!("cannot read TLS key {}", key.display()))?;
+        builder = builder
+            .tls_config(ServerTlsConfig::new().identity(Identity::from_pem(cert, key)))
+            .context("invalid TLS configuration")?;
+    }
+    let service = LearnerServer::new(LearnerService::new(hub))
+        .max_decoding_message_size(opts.max_message_bytes)
+        .max_encoding_message_size(opts.max_message_bytes);
+    if opts.token.as_deref() == Some("") {
+        bail!("an empty --token would accept everyone; leave it out instead");
+    }
+    let expected = opts.token.as_ref().map(|t| format!("Bearer {t}"));
+    let check = move |req: Request<()>| -> Result<Request<()>, Status> {
+        match &expected {
+            None => Ok(req),
+            Some(e) => match req.metadata().get("authorization") {
+                Some(v) if v.as_bytes() == e.as_bytes() => Ok(req),
+                Some(_) => Err(Status::unauthenticated("wrong token")),
+                None => Err(Status::unauthenticated(
+                    "this learner needs a token: pass --token (authorization: Bearer …)",
+                )),
+            },
+        }
+    };
+    let (health_reporter, health) = tonic_health::server::health_reporter();
+    runtime.block_on(health_reporter.set_serving::<LearnerServer<LearnerService>>());
+    let layer: fn(http::Response<tonic::body::Body>) -> http::Response<tonic::body::Body> =
+        count_status;
+    let router = builder
+        .layer(tower::util::MapResponseLayer::new(layer))
+        .add_service(health)
+        .add_service(InterceptedService::new(service, check));
+    Ok(
+        runtime.spawn(router.serve_with_incoming_shutdown(incoming, async {
+            let _ = shutdown.await;
+        })),
+    )
+}

@@ -1,0 +1,273 @@
+//! The `buridan.v1.Learner` gRPC service: joins, parameter streams and
+//! fragment submissions, each checked before it touches the run.
+
+use std::pin::Pin;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::task::{Context, Poll};
+
+use buridan_proto::convert::fragment_from_message;
+use buridan_proto::v1;
+use buridan_proto::v1::learner_server::Learner;
+use tokio_stream::wrappers::WatchStream;
+use tokio_stream::Stream;
+use tonic::{Request, Response, Status};
+
+use super::hub::Hub;
+
+/// The service over a [`Hub`].
+#[derive(Clone)]
+pub struct LearnerService {
+    hub: Arc<Hub>,
+}
+
+impl LearnerService {
+    /// A service for `hub`.
+    pub fn new(hub: Arc<Hub>) -> Self {
+        Self { hub }
+    }
+
+    fn check_run(&self, run_id: &str) -> Result<(), Status> {
+        if run_id != self.hub.info.run_id {
+            return Err(Status::not_found(format!(
+                "unknown run '{run_id}': this learner runs '{}'; join again",
+                self.hub.info.run_id
+            )));
+        }
+        Ok(())
+    }
+
+    fn refuse(&self, outcome: &'static str, status: Status) -> Status {
+        let c = &self.hub.counters;
+        match outcome {
+            "duplicate" => c.duplicate.fetch_add(1, Ordering::Relaxed),
+            _ => c.invalid.fetch_add(1, Ordering::Relaxed),
+        };
+        ::metrics::counter!("buridan_fragments_total", "outcome" => outcome).increment(1);
+        tracing::warn!(code = ?status.code(), message = status.message(), "fragment refused");
+        status
+    }
+}
+
+/// The learner's weights as a stream that tells the hub when it closes.
+pub struct ParameterStream {
+    inner: WatchStream<Arc<v1::Parameters>>,
+    hub: Arc<Hub>,
+    session: u64,
+    done: bool,
+}
+
+impl Stream for ParameterStream {
+    type Item = Result<v1::Parameters, Status>;
+
+    fn poll_next(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Option<Self::Item>> {
+        if self.done {
+            return Poll::Ready(None);
+        }
+        match Pin::new(&mut self.inner).poll_next(cx) {
+            Poll::Ready(Some(p)) => {
+                if p.finished {
+                    self.done = true;
+                }
+                Poll::Ready(Some(Ok(p.as_ref().clone())))
+            }
+            Poll::Ready(None) => Poll::Ready(None),
+            Poll::Pending => Poll::Pending,
+        }
+    }
+}
+
+impl Drop for ParameterStream {
+    fn drop(&mut self) {
+        self.hub.watcher(self.session, false);
+    }
+}
+
+#[tonic::async_trait]
+impl Learner for LearnerService {
+    async fn join(
+        &self,
+        request: Request<v1::JoinRequest>,
+    ) -> Result<Response<v1::JoinReply>, Status> {
+        let req = request.into_inner();
+        let info = &self.hub.info;
+        if req.api_version != v1::ApiVersion::V1 as u32 {
+            return Err(Status::failed_precondition(format!(
+                "API version {} is not supported: this learner speaks version {}",
+                req.api_version,
+                v1::ApiVersion::V1 as u32
+            )));
+        }
+        if self.hub.finished() {
+            return Err(Status::failed_precondition("the run is finished"));
+        }
+        let envs = if req.envs == 0 {
+            info.envs_per_actor
+        } else {
+            req.envs
+        };
+        if envs > info.max_envs {
+            return Err(Status::invalid_argument(format!(
+                "{envs} envs asked for; this learner allows at most {} per actor",
+                info.max_envs
+            )));
+        }
+        let name = if req.actor_name.is_empty() {
+            "actor".to_string()
+        } else {
+            req.actor_name.chars().take(128).collect()
+        };
+        let (session, s) = self.hub.open_session(name.clone(), envs);
+        tracing::info!(session, actor = s.actor_id, %name, envs, "actor joined");
+        Ok(Response::new(v1::JoinReply {
+            run_id: info.run_id.clone(),
+            session,
+            actor_id: s.actor_id,
+            config_toml: info.config_toml.clone(),
+            model_spec_json: info.model_spec_json.clone(),
+            map: Some(info.map.clone()),
+            envs,
+            seed: info
+                .seed_base
+                .wrapping_add(1000)
+                .wrapping_add(session.wrapping_mul(7919)),
+            fragment_len: info.fragment_len,
+            on_policy: info.on_policy,
+            max_policy_lag: info.max_policy_lag,
+            env: Some(info.env.clone()),
+        }))
+    }
+
+    type WatchParametersStream = ParameterStream;
+
+    async fn watch_parameters(
+        &self,
+        request: Request<v1::WatchRequest>,
+    ) -> Result<Response<Self::WatchParametersStream>, Status> {
+        let req = request.into_inner();
+        self.check_run(&req.run_id)?;
+        if self.hub.session(req.session).is_none() {
+            return Err(Status::not_found(format!(
+                "unknown session {}: join again",
+                req.session
+            )));
+        }
+        self.hub.watcher(req.session, true);
+        Ok(Response::new(ParameterStream {
+            inner: WatchStream::new(self.hub.subscribe()),
+            hub: self.hub.clone(),
+            session: req.session,
+            done: false,
+        }))
+    }
+
+    async fn submit_fragment(
+        &self,
+        request: Request<v1::Fragment>,
+    ) -> Result<Response<v1::SubmitReply>, Status> {
+        let info = &self.hub.info;
+        let (tag, mut f) = fragment_from_message(request.into_inner()).map_err(|e| {
+            self.refuse(
+                "invalid",
+                Status::invalid_argument(format!("malformed fragment: {e}")),
+            )
+        })?;
+        self.check_run(&tag.run_id)
+            .map_err(|s| self.refuse("invalid", s))?;
+        if self.hub.finished() {
+            return Err(Status::failed_precondition("the run is finished"));
+        }
+        let session = self.hub.session(tag.session).ok_or_else(|| {
+            self.refuse(
+                "invalid",
+                Status::not_found(format!("unknown session {}: join again", tag.session)),
+            )
+        })?;
+        for (what, got, expected) in [
+            ("obs_dim", f.obs_dim as u64, u64::from(info.obs_dim)),
+            ("heads", f.heads as u64, u64::from(info.heads)),
+            (
+                "actions_per_head",
+                f.actions_per_head as u64,
+                u64::from(info.actions_per_head),
+            ),
+            (
+                "rows_per_env",
+                f.rows_per_env as u64,
+                u64::from(info.rows_per_env),
+            ),
+            ("len", f.len as u64, u64::from(info.fragment_len)),
+            (
+                "rows",
+                f.rows as u64,
+                u64::from(session.envs) * u64::from(info.rows_per_env),
+            ),
+        ] {
+            if got != expected {
+                return Err(self.refuse(
+                    "invalid",
+                    Status::invalid_argument(format!(
+                        "fragment {what} is {got}; this run expects {expected}"
+                    )),
+                ));
+            }
+        }
+        let current = self.hub.version();
+        if f.policy_version > current {
+            return Err(self.refuse(
+                "invalid",
+                Status::invalid_argument(format!(
+                    "unknown policy version {}: the learner is at version {current}",
+                    f.policy_version
+                )),
+            ));
+        }
+        match self.hub.claim_seq(tag.session, tag.seq) {
+            None => {
+                return Err(self.refuse(
+                    "invalid",
+                    Status::not_found(format!("unknown session {}: join again", tag.session)),
+                ))
+            }
+            Some(Err(last)) => {
+                return Err(self.refuse(
+                    "duplicate",
+                    Status::already_exists(format!(
+                        "fragment {} of session {} already received (last was {last})",
+                        tag.seq, tag.session
+                    )),
+                ))
+            }
+            Some(Ok(())) => {}
+        }
+        let wait_for_next_version = match self.hub.admit(f.policy_version, f.env_steps) {
+            Ok(wait) => wait,
+            Err(refusal) => {
+                let (counter, outcome) = match refusal {
+                    super::hub::Refusal::Stale { .. } => (&self.hub.counters.stale, "stale"),
+                    super::hub::Refusal::Surplus { .. } => (&self.hub.counters.surplus, "surplus"),
+                };
+                counter.fetch_add(1, Ordering::Relaxed);
+                ::metrics::counter!("buridan_fragments_total", "outcome" => outcome).increment(1);
+                return Ok(Response::new(v1::SubmitReply {
+                    accepted: false,
+                    reason: refusal.to_string(),
+                    learner_version: self.hub.version(),
+                    wait_for_next_version: self.hub.info.on_policy,
+                }));
+            }
+        };
+        f.actor = session.actor_id;
+        if self.hub.enqueue(f).await.is_err() {
+            return Err(Status::failed_precondition("the run is finished"));
+        }
+        self.hub.counters.accepted.fetch_add(1, Ordering::Relaxed);
+        ::metrics::counter!("buridan_fragments_total", "outcome" => "accepted").increment(1);
+        Ok(Response::new(v1::SubmitReply {
+            accepted: true,
+            reason: String::new(),
+            learner_version: current,
+            wait_for_next_version,
+        }))
+    }
+}
