@@ -365,8 +365,8 @@ impl Drop for AbortOnDrop {
     }
 }
 
-/// Envs and policy as the learner described them.
-fn build_collector(join: &v1::JoinReply) -> Result<Collector> {
+/// Envs and policy as the learner described them in a join reply.
+pub fn build_collector(join: &v1::JoinReply) -> Result<Collector> {
     let spec: ModelSpec =
         serde_json::from_str(&join.model_spec_json).context("the model spec is not valid JSON")?;
     spec.validate()?;

@@ -2,6 +2,8 @@
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{bail, Result};
@@ -58,12 +60,15 @@ pub fn run(args: &ServeArgs) -> Result<Summary> {
     if let Some(addr) = args.run.metrics {
         install_metrics(addr)?;
     }
+    let interrupt = Arc::new(AtomicBool::new(false));
+    watch_signals(interrupt.clone());
     let opts = ServeOptions {
         token: args.token.clone(),
         tls: args.tls_cert.clone().zip(args.tls_key.clone()),
         max_message_bytes: args.max_message_bytes,
         queue_capacity: args.queue,
         linger: Duration::from_secs(1),
+        interrupt: Some(interrupt),
         ..ServeOptions::default()
     };
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
@@ -88,4 +93,39 @@ pub fn run(args: &ServeArgs) -> Result<Summary> {
     )?;
     report(&args.run, &cfg, &summary)?;
     Ok(summary)
+}
+
+/// Sets `flag` on Ctrl-C or SIGTERM (a supervisor stopping the learner):
+/// the run checkpoints and exits, actors wait for its restart.
+fn watch_signals(flag: Arc<AtomicBool>) {
+    std::thread::spawn(move || {
+        let Ok(rt) = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+        else {
+            return;
+        };
+        rt.block_on(async {
+            #[cfg(unix)]
+            {
+                let mut term =
+                    match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+                    {
+                        Ok(t) => t,
+                        Err(_) => {
+                            let _ = tokio::signal::ctrl_c().await;
+                            return;
+                        }
+                    };
+                tokio::select! {
+                    _ = tokio::signal::ctrl_c() => {}
+                    _ = term.recv() => {}
+                }
+            }
+            #[cfg(not(unix))]
+            let _ = tokio::signal::ctrl_c().await;
+        });
+        tracing::warn!("stopping: checkpointing after the current update");
+        flag.store(true, Ordering::SeqCst);
+    });
 }

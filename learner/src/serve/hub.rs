@@ -357,8 +357,10 @@ impl Exchange for RemoteExchange {
         self.hub.connected()
     }
 
-    fn finish(&mut self) -> Result<()> {
-        self.hub.finish();
+    fn finish(&mut self, complete: bool) -> Result<()> {
+        if complete {
+            self.hub.finish();
+        }
         // Unblock handlers waiting on a full queue: they answer "finished".
         self.rx.close();
         while self.rx.try_recv().is_ok() {

@@ -28,6 +28,7 @@ pub mod service;
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -67,6 +68,9 @@ pub struct ServeOptions {
     /// How long to keep serving after the last update, so actors hear
     /// that the run is finished.
     pub linger: Duration,
+    /// Once set, the learner checkpoints and stops without telling actors
+    /// the run is over (they reconnect to the restarted learner).
+    pub interrupt: Option<Arc<AtomicBool>>,
 }
 
 impl Default for ServeOptions {
@@ -78,6 +82,7 @@ impl Default for ServeOptions {
             max_envs: 256,
             queue_capacity: 0,
             linger: Duration::from_millis(500),
+            interrupt: None,
         }
     }
 }
@@ -102,7 +107,10 @@ pub fn serve(
     ready: Option<std::sync::mpsc::Sender<Option<SocketAddr>>>,
     progress: &mut dyn Progress,
 ) -> Result<Summary> {
-    let run = Run::prepare(cfg, out)?;
+    let mut run = Run::prepare(cfg, out)?;
+    if let Some(flag) = &opts.interrupt {
+        run.interrupt_on(flag.clone());
+    }
     let info = run_info(&run, opts)?;
     let capacity = if opts.queue_capacity > 0 {
         opts.queue_capacity
@@ -146,7 +154,9 @@ pub fn serve(
     let mut exchange = RemoteExchange::new(hub.clone(), rx, runtime.handle().clone());
     let result = run.learn(&mut exchange, progress);
     // Let the actors hear that the run is over, then stop serving.
-    std::thread::sleep(opts.linger);
+    if result.is_ok() {
+        std::thread::sleep(opts.linger);
+    }
     let _ = stop_tx.send(());
     let served =
         runtime.block_on(async { tokio::time::timeout(Duration::from_secs(2), server).await });

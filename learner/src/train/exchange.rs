@@ -29,8 +29,10 @@ pub trait Exchange {
     fn queue_depth(&self) -> usize;
     /// Actors currently connected.
     fn connected_actors(&self) -> usize;
-    /// Ends the run: actors are told to stop.
-    fn finish(&mut self) -> Result<()>;
+    /// Ends the learner's side. `complete`: the run reached its goal and
+    /// actors are told to stop; otherwise (interrupted) remote actors are
+    /// left to reconnect to a restarted learner.
+    fn finish(&mut self, complete: bool) -> Result<()>;
 }
 
 /// What the learner shares with its in-process actors.
@@ -206,7 +208,7 @@ impl Exchange for InProcess {
         self.handles.iter().filter(|h| !h.is_finished()).count()
     }
 
-    fn finish(&mut self) -> Result<()> {
+    fn finish(&mut self, _complete: bool) -> Result<()> {
         self.shared.stop();
         // Dropping the receiver unblocks actors waiting on a full queue.
         self.rx = None;
@@ -228,7 +230,7 @@ impl Exchange for InProcess {
 impl Drop for InProcess {
     fn drop(&mut self) {
         if !self.handles.is_empty() {
-            let _ = self.finish();
+            let _ = self.finish(false);
         }
     }
 }

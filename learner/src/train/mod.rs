@@ -30,6 +30,7 @@ pub mod metrics;
 pub mod rollout;
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -221,6 +222,18 @@ pub struct Run {
     window: EpisodeWindow,
     wall_offset: f64,
     t_start: Instant,
+    interrupt: Option<Arc<AtomicBool>>,
+}
+
+/// The run was interrupted (`Run::interrupt_on`); its last state is in the
+/// named checkpoint.
+#[derive(Debug, thiserror::Error)]
+#[error("interrupted after update {updates}; resume with --resume {}", checkpoint.display())]
+pub struct Interrupted {
+    /// Updates done.
+    pub updates: u64,
+    /// The checkpoint written on the way out.
+    pub checkpoint: PathBuf,
 }
 
 impl Run {
@@ -328,7 +341,33 @@ impl Run {
             wall_offset: state.wall_seconds,
             state,
             t_start,
+            interrupt: None,
         })
+    }
+
+    /// Stops the run (with a checkpoint, and without telling remote actors
+    /// the run is over) once `flag` is set — Ctrl-C, SIGTERM, tests.
+    pub fn interrupt_on(&mut self, flag: Arc<AtomicBool>) {
+        self.interrupt = Some(flag);
+    }
+
+    fn interrupted(&self) -> bool {
+        self.interrupt
+            .as_ref()
+            .is_some_and(|f| f.load(Ordering::SeqCst))
+    }
+
+    fn stop_interrupted(&mut self, ckpt_root: &Path) -> anyhow::Error {
+        let dir = ckpt_root.join(format!("update-{:06}", self.state.updates));
+        self.state.wall_seconds = self.wall();
+        if let Err(e) = save_checkpoint(&dir, &self.policy, &self.learner, &self.state, &self.cfg) {
+            return e.context("interrupted, and the checkpoint failed");
+        }
+        Interrupted {
+            updates: self.state.updates,
+            checkpoint: dir,
+        }
+        .into()
     }
 
     /// The run's configuration.
@@ -377,7 +416,7 @@ impl Run {
         progress: &mut dyn Progress,
     ) -> Result<Summary> {
         let result = self.learn_loop(exchange, progress);
-        let finished = exchange.finish();
+        let finished = exchange.finish(result.is_ok());
         let stopped_early = result?;
         finished?;
         let cfg = &self.cfg;
@@ -442,11 +481,17 @@ impl Run {
         let mut last_row_steps = self.state.env_steps;
         exchange.publish(self.weights()?, wanted)?;
         while self.state.env_steps < cfg.steps {
+            if self.interrupted() {
+                return Err(self.stop_interrupted(&ckpt_root));
+            }
             // Gather one train batch.
             let mut batch: Vec<Fragment> = Vec::with_capacity(cfg.fragments_per_batch());
             let mut batch_steps = 0u64;
             while batch_steps < target_steps {
                 let Some(f) = exchange.next_fragment(Duration::from_millis(200))? else {
+                    if self.interrupted() {
+                        return Err(self.stop_interrupted(&ckpt_root));
+                    }
                     continue;
                 };
                 let state = &mut self.state;
