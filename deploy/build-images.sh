@@ -1,0 +1,109 @@
+#!/usr/bin/env bash
+# Builds the release binaries and the FROM-scratch images
+#   buridan/learner:$TAG  and  buridan/actor:$TAG   (TAG defaults to "dev").
+#
+# No base image is pulled: the binaries and the shared libraries that `ldd`
+# lists for them (libc, libm, libgcc_s, the loader at its own path, ...) are
+# copied into a root filesystem staged under deploy/.build/, which is the
+# docker build context of deploy/Dockerfile. Safe to run again: the staging
+# directory is rebuilt from scratch each time and the tags are overwritten.
+#
+# Environment:
+#   TAG=dev              image tag
+#   IMAGE_PREFIX=buridan image names are $IMAGE_PREFIX/learner and $IMAGE_PREFIX/actor
+#   SKIP_CARGO=1         reuse the binaries already in the target directory
+#   CARGO_TARGET_DIR     where cargo puts them (default: <repo>/target)
+#   STRIP_DEBUG=0        keep the debug info in the image binaries (default: strip it)
+set -euo pipefail
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+DEPLOY="$ROOT/deploy"
+STAGE="$DEPLOY/.build"
+TAG="${TAG:-dev}"
+IMAGE_PREFIX="${IMAGE_PREFIX:-buridan}"
+TARGET_DIR="${CARGO_TARGET_DIR:-$ROOT/target}"
+BINS=(learner actor)
+
+say() { printf '==> %s\n' "$*" >&2; }
+die() { printf 'build-images: error: %s\n' "$*" >&2; exit 1; }
+
+for tool in docker ldd; do
+    command -v "$tool" >/dev/null || die "'$tool' not found on PATH"
+done
+docker info >/dev/null 2>&1 || die "cannot reach the Docker daemon (is it running? are you in the docker group?)"
+
+# 1. Release binaries.
+if [[ "${SKIP_CARGO:-0}" != 1 ]]; then
+    command -v cargo >/dev/null || die "'cargo' not found on PATH (or set SKIP_CARGO=1)"
+    say "cargo build --release -p buridan-learner -p buridan-actor (several minutes on a cold tree)"
+    (cd "$ROOT" && cargo build --release -p buridan-learner -p buridan-actor)
+fi
+for b in "${BINS[@]}"; do
+    [[ -x "$TARGET_DIR/release/$b" ]] || die "$TARGET_DIR/release/$b is missing; build it (or unset SKIP_CARGO)"
+done
+
+# 2. Staging context: bin/, rootfs/, data/.
+say "staging the root filesystem in ${STAGE#"$ROOT"/}"
+rm -rf "$STAGE"
+mkdir -p "$STAGE/bin" "$STAGE/rootfs/tmp" "$STAGE/rootfs/etc" "$STAGE/data"
+chmod 1777 "$STAGE/rootfs/tmp"
+chmod 0755 "$STAGE/data"
+# No /etc/passwd or /etc/group (the images run as a numeric uid). glibc reads
+# nsswitch.conf for name lookups; Docker/Kubernetes mount /etc/hosts and
+# /etc/resolv.conf at run time.
+printf 'hosts: files dns\n' > "$STAGE/rootfs/etc/nsswitch.conf"
+
+for b in "${BINS[@]}"; do
+    src="$TARGET_DIR/release/$b"
+    cp "$src" "$STAGE/bin/$b"
+    if [[ "${STRIP_DEBUG:-1}" == 1 ]] && command -v strip >/dev/null; then
+        strip --strip-debug "$STAGE/bin/$b"
+    fi
+    # ldd prints "libx.so => /path (0x..)" and "/lib64/ld-linux-x86-64.so.2 (0x..)".
+    if ! ldd_out="$(ldd "$src" 2>&1)"; then
+        if grep -q 'not a dynamic executable\|statically linked' <<<"$ldd_out"; then
+            say "$b is static: no libraries to copy"
+            continue
+        fi
+        die "ldd $src failed: $ldd_out"
+    fi
+    if grep -q 'not found' <<<"$ldd_out"; then
+        die "ldd $src: missing libraries:"$'\n'"$ldd_out"
+    fi
+    while read -r lib; do
+        # Same path in the image as on the build host (the loader path is
+        # baked into the binary's PT_INTERP); -L copies the file, not a symlink.
+        cp -L --parents "$lib" "$STAGE/rootfs/"
+    done < <(awk '{ for (i = 1; i <= NF; i++) if ($i ~ /^\//) print $i }' <<<"$ldd_out" | sort -u)
+done
+interp="$(readelf -l "$TARGET_DIR/release/learner" 2>/dev/null | sed -n 's/.*Requesting program interpreter: \(.*\)]/\1/p' || true)"
+if [[ -n "$interp" && ! -e "$STAGE/rootfs$interp" ]]; then
+    die "the loader $interp is not in the staged rootfs"
+fi
+say "libraries in the image:"
+(cd "$STAGE/rootfs" && find . -type f -name '*.so*' | sed 's/^\./    /' | sort) >&2
+
+# 3. Images. BuildKit needs the buildx plugin; without it use the classic builder.
+if docker buildx version >/dev/null 2>&1; then
+    export DOCKER_BUILDKIT="${DOCKER_BUILDKIT:-1}"
+else
+    export DOCKER_BUILDKIT=0
+fi
+revision="$(git -C "$ROOT" rev-parse --short HEAD 2>/dev/null || echo unknown)"
+for b in "${BINS[@]}"; do
+    image="$IMAGE_PREFIX/$b:$TAG"
+    say "docker build --target $b -t $image"
+    docker build -q \
+        -f "$DEPLOY/Dockerfile" \
+        --target "$b" \
+        --label "org.opencontainers.image.title=buridan-$b" \
+        --label "org.opencontainers.image.revision=$revision" \
+        -t "$image" \
+        "$STAGE" >/dev/null
+    # Smoke test: the loader finds every library and the binary starts.
+    version="$(docker run --rm "$image" --version 2>&1)" || die "$image does not start: $version"
+    say "$image OK ($version)"
+done
+
+docker image ls "$IMAGE_PREFIX/*:$TAG" >&2
+say "done: $IMAGE_PREFIX/learner:$TAG and $IMAGE_PREFIX/actor:$TAG"
