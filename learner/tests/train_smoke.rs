@@ -116,6 +116,16 @@ fn ppo_writes_metrics_checkpoints_summary_and_resumes() {
     assert_eq!(s2.env_steps, 1600);
     assert_eq!(s2.updates, 10);
     assert_eq!(rec2.rows.first().unwrap().update, 6);
+    // The episode window survives the resume: the first update (40 steps
+    // per env, fresh episodes of up to 100 steps) reports the saved episodes.
+    let trainer: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(final_checkpoint(&out).join("trainer.json")).unwrap(),
+    )
+    .unwrap();
+    let saved = trainer["recent_episodes"].as_array().unwrap().len();
+    assert!(saved > 0 && saved <= 100, "{saved} saved episodes");
+    assert!(rec2.rows[0].episode_return_mean.is_finite());
+    assert!(rec2.rows[0].episodes >= s.episodes);
     let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 10);
     assert!(s2.wall_seconds >= s.wall_seconds);
