@@ -48,6 +48,9 @@ cleanup() {
         echo "---- actor logs (last 15 lines each) ----" >&2
         "${COMPOSE[@]}" logs --no-color --tail=15 actor >&2 2>/dev/null || true
     fi
+    if [[ "${KEEP_OUT:-0}" == 1 ]]; then
+        "${COMPOSE[@]}" logs --no-color > "$OUT_DIR/compose.log" 2>&1 || true
+    fi
     say "tearing down: docker-compose -p $PROJECT down -v"
     "${COMPOSE[@]}" down -v --remove-orphans >/dev/null 2>&1 || true
     if [[ "${KEEP_OUT:-0}" == 1 ]]; then
@@ -102,7 +105,7 @@ mapfile -t actor_cids < <("${COMPOSE[@]}" ps -q actor)
     || fail "expected 1 learner and $ACTORS actor containers, got: learner='$learner_cid' actors=${#actor_cids[@]}"
 cname() { docker inspect -f '{{.Name}}' "$1" | sed 's#^/##'; }
 say "learner: $(cname "$learner_cid"); actors: $(for c in "${actor_cids[@]}"; do printf '%s ' "$(cname "$c")"; done)"
-network="$(docker inspect -f '{{range $k, $v := .NetworkSettings.Networks}}{{$k}} {{end}}' "$learner_cid")"
+network="$(docker inspect -f '{{range $k, $v := .NetworkSettings.Networks}}{{$k}}{{end}}' "$learner_cid")"
 say "private network: $network"
 
 # 1. Wait until the learner has made KILL_AFTER_UPDATES updates.
@@ -113,7 +116,7 @@ while :; do
     state="$(docker inspect -f '{{.State.Status}}' "$learner_cid")"
     [[ "$state" == running ]] || fail "learner is $state before $KILL_AFTER_UPDATES updates"
     (( SECONDS < deadline )) || fail "no $KILL_AFTER_UPDATES updates within ${TIMEOUT}s"
-    sleep 1
+    sleep 0.5
 done
 say "learner progress: update $update, $steps env steps, return $ret"
 
@@ -131,7 +134,9 @@ survivor="${actor_cids[1]:-}"
 kill_t=$SECONDS
 kill_update=$update
 kill_steps=$steps
-say "docker kill $victim_name (SIGKILL) at update $update, $steps env steps"
+kill_ret=$ret
+kill_clock="$(date -u +%H:%M:%S.%3N)"
+say "docker kill $victim_name (SIGKILL) at $kill_clock UTC: update $update, $steps env steps, return $ret"
 docker kill "$victim" >/dev/null
 
 # 3. Training must complete: the learner exits 0 by itself.
@@ -157,6 +162,10 @@ for c in "${actor_cids[@]:1}"; do
     survivor_report+="$(cname "$c"): $st; "
 done
 victim_state="$(docker inspect -f '{{.State.Status}} exit={{.State.ExitCode}} restarts={{.RestartCount}}' "$victim")"
+# What the learner logged about the killed actor (its name is its container's
+# host name, the short container id).
+victim_host="$(docker inspect -f '{{.Config.Hostname}}' "$victim")"
+victim_log="$(docker logs "$learner_cid" 2>&1 | grep -F "$victim_host" | sed -E 's/^[0-9-]+T([0-9:]+\.[0-9]{3})[0-9]*Z +/\1 /' | cut -c1-150 || true)"
 last_line="$(docker logs "${survivor:-$victim}" 2>&1 | grep 'run finished' | tail -1 || true)"
 
 # 4. The result.
@@ -169,6 +178,17 @@ print(s["env_steps"], f'{s["wall_seconds"]:.1f}', f'{s["episode_return_mean"]:.3
       f'{s["success_rate"]:.3f}', s.get("updates", "?"))
 PY
 )
+# First row of metrics.csv whose 100-episode mean return reached MIN_RETURN.
+reached="$(python3 - "$OUT_DIR/metrics.csv" "$MIN_RETURN" <<'PY'
+import csv, sys
+for r in csv.DictReader(open(sys.argv[1])):
+    if float(r["episode_return_mean"]) >= float(sys.argv[2]):
+        print(f'update {r["update"]}, {r["env_steps"]} env steps, {float(r["wall_seconds"]):.1f} s')
+        break
+else:
+    print("never")
+PY
+)"
 ok="$(python3 -c "import sys; print(int(float(sys.argv[1]) >= float(sys.argv[2])))" "$ret" "$MIN_RETURN")"
 
 cat <<OUT
@@ -177,13 +197,16 @@ cat <<OUT
 date           $(date -u +%Y-%m-%dT%H:%M:%SZ)
 cluster        1 learner + $ACTORS actors (docker-compose project $PROJECT, network $network)
 run            $MAP, $AGENTS agents, $STARTS starts, $ALGO/$MODE, $STEPS steps, $LEARNER_ARGS
-killed         $victim_name (docker kill) at ${kill_t}s after start, learner at update $kill_update / $kill_steps env steps
+killed         $victim_name (docker kill, SIGKILL) at $kill_clock UTC, ${kill_t}s after start;
+               learner then at update $kill_update / $kill_steps env steps, return $kill_ret
 killed actor   $victim_state
+learner saw    $(sed '2,$s/^/               /' <<<"${victim_log:-?}")
 survivors      ${survivor_report:-none}
 survivor said  ${last_line:-?}
 learner        exit 0, restarts $learner_restarts
 summary.json   env_steps=$env_steps updates=$updates wall_seconds=$wall
                episode_return_mean=$ret success_rate=$success
+return >= $MIN_RETURN  first at $reached
 verdict        $([[ $ok == 1 ]] && echo "PASS (return >= $MIN_RETURN)" || echo "FAIL (return < $MIN_RETURN)")
 =======================================================================
 OUT
