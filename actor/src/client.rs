@@ -49,6 +49,9 @@ pub fn url_connector(url: &str, tls_ca: Option<&std::path::Path>) -> Result<Conn
         .with_context(|| format!("invalid learner URL '{url}'"))?
         .connect_timeout(Duration::from_secs(5))
         .tcp_nodelay(true)
+        // Fragments are megabytes: windows sized for them save round trips.
+        .initial_stream_window_size(8 * 1024 * 1024)
+        .initial_connection_window_size(16 * 1024 * 1024)
         .http2_keep_alive_interval(Duration::from_secs(10))
         .keep_alive_timeout(Duration::from_secs(20));
     if let Some(path) = tls_ca {
@@ -290,6 +293,11 @@ async fn session(
     // On-policy: after a full batch, wait for a version newer than this.
     let mut wait_after: Option<u64> = None;
     let mut seq = 0u64;
+    // Off-policy runs keep one submission in flight while the next
+    // fragment is collected (as the in-process queue lets actors do);
+    // on-policy runs submit synchronously, since the reply may say "wait".
+    let pipelined = !join.on_policy;
+    let mut in_flight: Option<(u64, tokio::task::JoinHandle<SubmitResult>)> = None;
     loop {
         // Newest weights (waiting for the first, or for a newer version).
         let weights = loop {
@@ -322,31 +330,57 @@ async fn session(
             seq,
             ..tag_base.clone()
         };
-        match client
-            .submit_fragment(fragment_to_message(fragment, &tag))
-            .await
-        {
-            Ok(reply) => {
-                let reply = reply.into_inner();
-                if reply.accepted {
-                    report.accepted += 1;
-                } else {
-                    report.refused += 1;
-                    tracing::debug!(reason = %reply.reason, "fragment refused");
-                }
-                if reply.wait_for_next_version {
-                    wait_after = Some(reply.learner_version.max(version));
-                }
+        if let Some((v, previous)) = in_flight.take() {
+            let result = previous.await.context("the submit task panicked")?;
+            if let Some(end) = on_reply(result, v, report, &mut wait_after)? {
+                return Ok(end);
             }
-            Err(s) if s.code() == Code::FailedPrecondition && s.message().contains("finished") => {
-                return Ok(SessionEnd::Finished)
-            }
-            Err(s) if retryable(&s) => {
-                report.lost += 1;
-                return Ok(SessionEnd::Lost(anyhow!("submit: {s}")));
-            }
-            Err(s) => bail!("the learner refused a fragment: {s}"),
         }
+        let message = fragment_to_message(fragment, &tag);
+        if pipelined {
+            let mut c = client.clone();
+            let submit = tokio::spawn(async move { c.submit_fragment(message).await });
+            in_flight = Some((version, submit));
+        } else {
+            let result = client.submit_fragment(message).await;
+            if let Some(end) = on_reply(result, version, report, &mut wait_after)? {
+                return Ok(end);
+            }
+        }
+    }
+}
+
+type SubmitResult = Result<tonic::Response<v1::SubmitReply>, Status>;
+
+/// Books a submission's outcome; `Some(end)` if the session is over.
+fn on_reply(
+    result: SubmitResult,
+    version: u64,
+    report: &mut ActorReport,
+    wait_after: &mut Option<u64>,
+) -> Result<Option<SessionEnd>> {
+    match result {
+        Ok(reply) => {
+            let reply = reply.into_inner();
+            if reply.accepted {
+                report.accepted += 1;
+            } else {
+                report.refused += 1;
+                tracing::debug!(reason = %reply.reason, "fragment refused");
+            }
+            if reply.wait_for_next_version {
+                *wait_after = Some(reply.learner_version.max(version));
+            }
+            Ok(None)
+        }
+        Err(s) if s.code() == Code::FailedPrecondition && s.message().contains("finished") => {
+            Ok(Some(SessionEnd::Finished))
+        }
+        Err(s) if retryable(&s) => {
+            report.lost += 1;
+            Ok(Some(SessionEnd::Lost(anyhow!("submit: {s}"))))
+        }
+        Err(s) => bail!("the learner refused a fragment: {s}"),
     }
 }
 

@@ -86,17 +86,17 @@ pub fn fragment_to_message(f: Fragment, tag: &WireTag) -> v1::Fragment {
         obs_dim: f.obs_dim as u32,
         heads: f.heads as u32,
         actions_per_head: f.actions_per_head as u32,
-        obs: f.obs,
+        obs: f32_to_le_bytes(&f.obs),
         masks: f.masks,
         actions: f.actions,
-        behaviour_logits: f.behaviour_logits,
+        behaviour_logits: f32_to_le_bytes(&f.behaviour_logits),
         behaviour_logp: f.behaviour_logp,
         rewards: f.rewards,
         terminated: f.terminated,
         truncated: f.truncated,
-        final_obs: f.final_obs,
+        final_obs: f32_to_le_bytes(&f.final_obs),
         final_obs_index: f.final_obs_index,
-        last_obs: f.last_obs,
+        last_obs: f32_to_le_bytes(&f.last_obs),
         initial_state: f.initial_state.map(state_to_message),
         episodes: f.episodes.iter().map(episode_to_message).collect(),
         env_steps: f.env_steps,
@@ -122,17 +122,17 @@ pub fn fragment_from_message(m: v1::Fragment) -> Result<(WireTag, Fragment), Con
         obs_dim: m.obs_dim as usize,
         heads: m.heads as usize,
         actions_per_head: m.actions_per_head as usize,
-        obs: m.obs,
+        obs: le_bytes_to_f32("obs", &m.obs)?,
         masks: m.masks,
         actions: m.actions,
-        behaviour_logits: m.behaviour_logits,
+        behaviour_logits: le_bytes_to_f32("behaviour_logits", &m.behaviour_logits)?,
         behaviour_logp: m.behaviour_logp,
         rewards: m.rewards,
         terminated: m.terminated,
         truncated: m.truncated,
-        final_obs: m.final_obs,
+        final_obs: le_bytes_to_f32("final_obs", &m.final_obs)?,
         final_obs_index: m.final_obs_index,
-        last_obs: m.last_obs,
+        last_obs: le_bytes_to_f32("last_obs", &m.last_obs)?,
         initial_state: m.initial_state.map(state_from_message).transpose()?,
         episodes: m.episodes.iter().map(episode_from_message).collect(),
         env_steps: m.env_steps,
@@ -206,6 +206,29 @@ pub fn check_fragment(f: &Fragment) -> Result<(), ConvertError> {
         check_finite("initial_state.prev_rewards", &s.prev_rewards)?;
     }
     Ok(())
+}
+
+/// Floats as little-endian bytes, 4 per value.
+pub fn f32_to_le_bytes(values: &[f32]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(values.len() * 4);
+    for v in values {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out
+}
+
+/// Little-endian bytes as floats; the length must be a multiple of 4.
+pub fn le_bytes_to_f32(field: &'static str, bytes: &[u8]) -> Result<Vec<f32>, ConvertError> {
+    if bytes.len() % 4 != 0 {
+        return Err(ConvertError::Invalid(format!(
+            "{field} holds {} bytes, not a whole number of f32 values",
+            bytes.len()
+        )));
+    }
+    Ok(bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect())
 }
 
 fn check_finite(field: &'static str, buf: &[f32]) -> Result<(), ConvertError> {
@@ -453,7 +476,7 @@ mod tests {
     #[test]
     fn nan_observation_is_named() {
         let mut m = fragment_to_message(fragment(), &tag());
-        m.obs[5] = f32::NAN;
+        m.obs[20..24].copy_from_slice(&f32::NAN.to_le_bytes());
         let err = fragment_from_message(m).unwrap_err();
         assert!(matches!(
             err,
@@ -479,10 +502,20 @@ mod tests {
     #[test]
     fn short_buffer_is_a_shape_error() {
         let mut m = fragment_to_message(fragment(), &tag());
-        m.obs.pop();
+        m.obs.truncate(m.obs.len() - 4);
         assert_eq!(
             fragment_from_message(m).unwrap_err().to_string(),
             "fragment obs: expected 12 values, got 11"
+        );
+    }
+
+    #[test]
+    fn float_bytes_must_be_whole_values() {
+        let mut m = fragment_to_message(fragment(), &tag());
+        m.last_obs.pop();
+        assert_eq!(
+            fragment_from_message(m).unwrap_err().to_string(),
+            "last_obs holds 23 bytes, not a whole number of f32 values"
         );
     }
 

@@ -187,7 +187,7 @@ fn malformed_fragments_get_a_status_naming_the_problem() {
             };
 
         let mut short = good.clone();
-        short.obs.pop();
+        short.obs.truncate(short.obs.len() - 4);
         expect(
             submit(short).await,
             Code::InvalidArgument,
@@ -195,7 +195,7 @@ fn malformed_fragments_get_a_status_naming_the_problem() {
         );
 
         let mut nan = good.clone();
-        nan.obs[3] = f32::NAN;
+        nan.obs[12..16].copy_from_slice(&f32::NAN.to_le_bytes());
         expect(submit(nan).await, Code::InvalidArgument, "obs[3] is NaN");
 
         let mut inf = good.clone();
@@ -234,10 +234,10 @@ fn malformed_fragments_get_a_status_naming_the_problem() {
         let mut wrong_envs = good.clone();
         wrong_envs.rows = 2;
         wrong_envs.len = 25;
-        wrong_envs.obs.truncate(25 * 2 * 129);
+        wrong_envs.obs.truncate(25 * 2 * 129 * 4);
         wrong_envs.masks.truncate(25 * 2 * 5);
         wrong_envs.actions.truncate(25 * 2);
-        wrong_envs.behaviour_logits.truncate(25 * 2 * 5);
+        wrong_envs.behaviour_logits.truncate(25 * 2 * 5 * 4);
         for v in [&mut wrong_envs.behaviour_logp, &mut wrong_envs.rewards] {
             v.truncate(50);
         }
@@ -245,7 +245,7 @@ fn malformed_fragments_get_a_status_naming_the_problem() {
         wrong_envs.truncated = vec![0; 50];
         wrong_envs.final_obs.clear();
         wrong_envs.final_obs_index.clear();
-        wrong_envs.last_obs.truncate(2 * 129);
+        wrong_envs.last_obs.truncate(2 * 129 * 4);
         wrong_envs.env_steps = 25;
         expect(
             submit(wrong_envs).await,
@@ -254,7 +254,7 @@ fn malformed_fragments_get_a_status_naming_the_problem() {
         );
 
         let huge = v1::Fragment {
-            obs: vec![0.5; 100_000],
+            obs: vec![0; 400_000],
             ..good.clone()
         };
         let s = submit(huge).await.unwrap_err();

@@ -52,6 +52,9 @@ pub use service::LearnerService;
 /// 50 steps of 129 floats is about 7 MB).
 pub const DEFAULT_MAX_MESSAGE_BYTES: usize = 64 * 1024 * 1024;
 
+/// HTTP/2 flow-control window per stream (bytes).
+pub const FLOW_WINDOW: u32 = 8 * 1024 * 1024;
+
 /// Server settings beyond the run's config.
 #[derive(Debug, Clone)]
 pub struct ServeOptions {
@@ -139,7 +142,11 @@ pub fn serve(
             if let Some(r) = &ready {
                 let _ = r.send(Some(bound));
             }
-            let incoming = tokio_stream::wrappers::TcpListenerStream::new(tcp);
+            // Replies are small: without TCP_NODELAY they wait for Nagle.
+            let incoming = tokio_stream::StreamExt::map(
+                tokio_stream::wrappers::TcpListenerStream::new(tcp),
+                |conn| conn.and_then(|s| s.set_nodelay(true).map(|()| s)),
+            );
             spawn_server(&runtime, hub.clone(), opts, incoming, stop_rx)?
         }
         Listener::InMemory(rx) => {
@@ -240,7 +247,10 @@ where
     IO::ConnectInfo: Clone + Send + Sync + 'static,
     IE: Into<Box<dyn std::error::Error + Send + Sync>> + Send + 'static,
 {
-    let mut builder = Server::builder();
+    // Fragments are megabytes: windows sized for them save round trips.
+    let mut builder = Server::builder()
+        .initial_stream_window_size(Some(FLOW_WINDOW))
+        .initial_connection_window_size(Some(2 * FLOW_WINDOW));
     if let Some((cert, key)) = &opts.tls {
         let cert = std::fs::read(cert)
             .with_context(|| format!("cannot read TLS certificate {}", cert.display()))?;
