@@ -45,6 +45,12 @@ pub type Connector =
 /// assert!(buridan_actor::client::url_connector("not a url", None).is_err());
 /// ```
 pub fn url_connector(url: &str, tls_ca: Option<&std::path::Path>) -> Result<Connector> {
+    let uri: tonic::codegen::http::Uri = url
+        .parse()
+        .with_context(|| format!("invalid learner URL '{url}'"))?;
+    if !matches!(uri.scheme_str(), Some("http" | "https")) || uri.authority().is_none() {
+        bail!("invalid learner URL '{url}': expected http://HOST:PORT or https://HOST:PORT");
+    }
     let mut endpoint = Channel::from_shared(url.to_string())
         .with_context(|| format!("invalid learner URL '{url}'"))?
         .connect_timeout(Duration::from_secs(5))

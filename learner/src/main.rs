@@ -52,6 +52,7 @@ fn main() -> Result<()> {
                 .unwrap_or_else(|_| default_level.into()),
         )
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
     match cli.command {
         Command::Train(args) => cli::train::run(&args).map(|_| ()),

@@ -244,7 +244,9 @@ impl Run {
         buridan_policy::threads::tune_allocator();
         let t_start = Instant::now();
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-        std::fs::write(out.join("config.toml"), cfg.to_toml())?;
+        let config_path = out.join("config.toml");
+        std::fs::write(&config_path, cfg.to_toml())
+            .with_context(|| format!("cannot write {}", config_path.display()))?;
         let map = Arc::new(Map::load(&cfg.map)?);
         let obs_dim = match obs_kind(cfg.mode) {
             ObsKind::Local => buridan_env::local_obs_dim(cfg.sensor_range),
