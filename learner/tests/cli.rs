@@ -25,6 +25,7 @@ fn train_args(out: PathBuf) -> TrainArgs {
         steps: Some(3000),
         seed: Some(3),
         resume: None,
+        metrics: None,
         overrides: vec![
             "ppo.train_batch=1000".into(),
             "ppo.minibatch=500".into(),
