@@ -91,6 +91,18 @@ fn train_writes_its_outputs_and_eval_loads_the_checkpoint() {
     // The same directory is refused without --resume, so no run is overwritten.
     let err = train::run(&train_args(out.clone())).unwrap_err();
     assert!(err.to_string().contains("--resume"), "{err}");
+    // `--resume OUT` continues from OUT's newest checkpoint.
+    let mut more = train_args(out.clone());
+    (more.steps, more.resume) = (Some(4000), Some(out.clone()));
+    let resumed = train::run(&more).unwrap();
+    assert_eq!(resumed.updates, summary.updates + 1);
+    assert!(resumed.env_steps >= 4000);
+    // `--resume auto` starts fresh where there is no checkpoint yet.
+    let fresh = temp_dir("train-auto");
+    let mut auto = train_args(fresh.clone());
+    auto.resume = Some("auto".into());
+    assert_eq!(train::run(&auto).unwrap().updates, summary.updates);
+    std::fs::remove_dir_all(fresh).ok();
 
     let eval_out = temp_dir("eval-ckpt");
     let summaries = eval::run(&eval_args(
