@@ -74,6 +74,34 @@ pub struct Gate {
     pub remaining: u64,
 }
 
+/// What happened to a submitted fragment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// Queued for the learner.
+    Accepted,
+    /// Refused: collected with a policy too old.
+    Stale,
+    /// Refused: the on-policy batch of its version was already full.
+    Surplus,
+    /// Refused: malformed, wrong shape, unknown run, session or version.
+    Invalid,
+    /// Refused: sequence number already seen.
+    Duplicate,
+}
+
+impl Outcome {
+    /// The `outcome` label of `buridan_fragments_total`.
+    pub fn label(self) -> &'static str {
+        match self {
+            Outcome::Accepted => "accepted",
+            Outcome::Stale => "stale",
+            Outcome::Surplus => "surplus",
+            Outcome::Invalid => "invalid",
+            Outcome::Duplicate => "duplicate",
+        }
+    }
+}
+
 /// Counters of what happened to submitted fragments.
 #[derive(Debug, Default)]
 pub struct FragmentCounters {
@@ -87,6 +115,21 @@ pub struct FragmentCounters {
     pub invalid: AtomicU64,
     /// Refused: sequence number already seen.
     pub duplicate: AtomicU64,
+}
+
+impl FragmentCounters {
+    /// Counts one `outcome`, here and in `buridan_fragments_total`.
+    pub fn count(&self, outcome: Outcome) {
+        let counter = match outcome {
+            Outcome::Accepted => &self.accepted,
+            Outcome::Stale => &self.stale,
+            Outcome::Surplus => &self.surplus,
+            Outcome::Invalid => &self.invalid,
+            Outcome::Duplicate => &self.duplicate,
+        };
+        counter.fetch_add(1, Ordering::Relaxed);
+        ::metrics::counter!("buridan_fragments_total", "outcome" => outcome.label()).increment(1);
+    }
 }
 
 /// The state shared by the gRPC handlers and the learner loop.
@@ -293,6 +336,16 @@ pub enum Refusal {
         /// The fragment's version.
         version: u64,
     },
+}
+
+impl Refusal {
+    /// The outcome it is counted as.
+    pub fn outcome(&self) -> Outcome {
+        match self {
+            Refusal::Stale { .. } => Outcome::Stale,
+            Refusal::Surplus { .. } => Outcome::Surplus,
+        }
+    }
 }
 
 impl std::fmt::Display for Refusal {

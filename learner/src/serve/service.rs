@@ -2,7 +2,6 @@
 //! fragment submissions, each checked before it touches the run.
 
 use std::pin::Pin;
-use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::task::{Context, Poll};
 
@@ -13,7 +12,7 @@ use tokio_stream::wrappers::WatchStream;
 use tokio_stream::Stream;
 use tonic::{Request, Response, Status};
 
-use super::hub::Hub;
+use super::hub::{Hub, Outcome};
 
 /// The service over a [`Hub`].
 #[derive(Clone)]
@@ -37,13 +36,8 @@ impl LearnerService {
         Ok(())
     }
 
-    fn refuse(&self, outcome: &'static str, status: Status) -> Status {
-        let c = &self.hub.counters;
-        match outcome {
-            "duplicate" => c.duplicate.fetch_add(1, Ordering::Relaxed),
-            _ => c.invalid.fetch_add(1, Ordering::Relaxed),
-        };
-        ::metrics::counter!("buridan_fragments_total", "outcome" => outcome).increment(1);
+    fn refuse(&self, outcome: Outcome, status: Status) -> Status {
+        self.hub.counters.count(outcome);
         tracing::warn!(code = ?status.code(), message = status.message(), "fragment refused");
         status
     }
@@ -168,18 +162,18 @@ impl Learner for LearnerService {
         let info = &self.hub.info;
         let (tag, mut f) = fragment_from_message(request.into_inner()).map_err(|e| {
             self.refuse(
-                "invalid",
+                Outcome::Invalid,
                 Status::invalid_argument(format!("malformed fragment: {e}")),
             )
         })?;
         self.check_run(&tag.run_id)
-            .map_err(|s| self.refuse("invalid", s))?;
+            .map_err(|s| self.refuse(Outcome::Invalid, s))?;
         if self.hub.finished() {
             return Err(Status::failed_precondition("the run is finished"));
         }
         let session = self.hub.session(tag.session).ok_or_else(|| {
             self.refuse(
-                "invalid",
+                Outcome::Invalid,
                 Status::not_found(format!("unknown session {}: join again", tag.session)),
             )
         })?;
@@ -205,7 +199,7 @@ impl Learner for LearnerService {
         ] {
             if got != expected {
                 return Err(self.refuse(
-                    "invalid",
+                    Outcome::Invalid,
                     Status::invalid_argument(format!(
                         "fragment {what} is {got}; this run expects {expected}"
                     )),
@@ -215,7 +209,7 @@ impl Learner for LearnerService {
         let current = self.hub.version();
         if f.policy_version > current {
             return Err(self.refuse(
-                "invalid",
+                Outcome::Invalid,
                 Status::invalid_argument(format!(
                     "unknown policy version {}: the learner is at version {current}",
                     f.policy_version
@@ -225,13 +219,13 @@ impl Learner for LearnerService {
         match self.hub.claim_seq(tag.session, tag.seq) {
             None => {
                 return Err(self.refuse(
-                    "invalid",
+                    Outcome::Invalid,
                     Status::not_found(format!("unknown session {}: join again", tag.session)),
                 ))
             }
             Some(Err(last)) => {
                 return Err(self.refuse(
-                    "duplicate",
+                    Outcome::Duplicate,
                     Status::already_exists(format!(
                         "fragment {} of session {} already received (last was {last})",
                         tag.seq, tag.session
@@ -243,12 +237,7 @@ impl Learner for LearnerService {
         let wait_for_next_version = match self.hub.admit(f.policy_version, f.env_steps) {
             Ok(wait) => wait,
             Err(refusal) => {
-                let (counter, outcome) = match refusal {
-                    super::hub::Refusal::Stale { .. } => (&self.hub.counters.stale, "stale"),
-                    super::hub::Refusal::Surplus { .. } => (&self.hub.counters.surplus, "surplus"),
-                };
-                counter.fetch_add(1, Ordering::Relaxed);
-                ::metrics::counter!("buridan_fragments_total", "outcome" => outcome).increment(1);
+                self.hub.counters.count(refusal.outcome());
                 return Ok(Response::new(v1::SubmitReply {
                     accepted: false,
                     reason: refusal.to_string(),
@@ -261,8 +250,7 @@ impl Learner for LearnerService {
         if self.hub.enqueue(f).await.is_err() {
             return Err(Status::failed_precondition("the run is finished"));
         }
-        self.hub.counters.accepted.fetch_add(1, Ordering::Relaxed);
-        ::metrics::counter!("buridan_fragments_total", "outcome" => "accepted").increment(1);
+        self.hub.counters.count(Outcome::Accepted);
         Ok(Response::new(v1::SubmitReply {
             accepted: true,
             reason: String::new(),
