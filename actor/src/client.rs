@@ -18,7 +18,7 @@ use std::time::Duration;
 
 use anyhow::{anyhow, bail, Context, Result};
 use buridan_env::VecEnv;
-use buridan_policy::{Inference, Mode, ModelSpec, Policy, Weights};
+use buridan_policy::{Inference, ModelSpec, Policy, Weights};
 use buridan_proto::convert::{
     env_from_message, fragment_to_message, map_from_message, weights_from_message, WireTag,
 };
@@ -422,10 +422,7 @@ pub fn build_collector(join: &v1::JoinReply) -> Result<Collector> {
             .ok_or_else(|| anyhow!("no env settings in the reply"))?,
         join.seed,
     )?;
-    let kind = match spec.mode {
-        Mode::Cte => buridan_env::ObsKind::Central,
-        Mode::Ctde | Mode::Dte => buridan_env::ObsKind::Local,
-    };
+    let kind = spec.mode.obs_kind();
     let venv = VecEnv::new(Arc::new(map), env, join.envs as usize, kind, 1)?;
     if venv.obs_dim() != spec.obs_dim {
         bail!(

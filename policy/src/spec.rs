@@ -23,6 +23,23 @@ pub enum Mode {
     Dte,
 }
 
+impl Mode {
+    /// The observations the mode consumes: central for CTE, local otherwise.
+    ///
+    /// ```
+    /// use buridan_env::ObsKind;
+    /// use buridan_policy::Mode;
+    /// assert_eq!(Mode::Cte.obs_kind(), ObsKind::Central);
+    /// assert_eq!(Mode::Dte.obs_kind(), ObsKind::Local);
+    /// ```
+    pub fn obs_kind(self) -> buridan_env::ObsKind {
+        match self {
+            Mode::Cte => buridan_env::ObsKind::Central,
+            Mode::Ctde | Mode::Dte => buridan_env::ObsKind::Local,
+        }
+    }
+}
+
 impl std::str::FromStr for Mode {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {

@@ -36,7 +36,7 @@ pub struct ServeArgs {
     /// Largest message accepted, in bytes.
     #[arg(long, default_value_t = DEFAULT_MAX_MESSAGE_BYTES)]
     pub max_message_bytes: usize,
-    /// Fragments the learner queue holds (0: one train batch).
+    /// Fragments the learner queue holds (0: impala.queue_capacity if set, else one train batch).
     #[arg(long, default_value_t = 0)]
     pub queue: usize,
 }

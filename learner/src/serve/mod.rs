@@ -44,7 +44,7 @@ use tonic::service::interceptor::InterceptedService;
 use tonic::transport::{Identity, Server, ServerTlsConfig};
 use tonic::{Request, Status};
 
-use crate::train::{env_config, obs_kind, Algo, Progress, Run, Summary, TrainConfig};
+use crate::train::{env_config, Algo, Progress, Run, Summary, TrainConfig};
 pub use hub::{Hub, RemoteExchange, RunInfo};
 pub use service::LearnerService;
 
@@ -66,7 +66,8 @@ pub struct ServeOptions {
     pub max_message_bytes: usize,
     /// Largest `--envs` an actor may ask for.
     pub max_envs: u32,
-    /// Fragments the learner queue holds (0: one train batch's worth).
+    /// Fragments the learner queue holds (0: as embedded training,
+    /// [`TrainConfig::queue_capacity`], at least 2).
     pub queue_capacity: usize,
     /// How long to keep serving after the last update, so actors hear
     /// that the run is finished.
@@ -118,7 +119,7 @@ pub fn serve(
     let capacity = if opts.queue_capacity > 0 {
         opts.queue_capacity
     } else {
-        cfg.fragments_per_batch().max(2)
+        cfg.queue_capacity().max(2)
     };
     let (hub, rx) = Hub::new(info, capacity);
     let on_policy = cfg.algo == Algo::Ppo;
@@ -204,7 +205,7 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo> {
         obs_dim: spec.obs_dim as u32,
         heads: spec.heads as u32,
         actions_per_head: spec.actions as u32,
-        rows_per_env: match obs_kind(cfg.mode) {
+        rows_per_env: match cfg.mode.obs_kind() {
             ObsKind::Local => cfg.agents as u32,
             ObsKind::Central => 1,
         },

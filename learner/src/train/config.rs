@@ -309,6 +309,15 @@ impl TrainConfig {
         batch.div_ceil(self.fragment_env_steps()).max(1)
     }
 
+    /// Fragments the actor→learner queue holds: `impala.queue_capacity` if
+    /// set (IMPALA), else one train batch.
+    pub fn queue_capacity(&self) -> usize {
+        match self.algo {
+            Algo::Impala if self.impala.queue_capacity > 0 => self.impala.queue_capacity,
+            _ => self.fragments_per_batch(),
+        }
+    }
+
     /// The network architecture for observations of `obs_dim` floats.
     pub fn model_spec(&self, obs_dim: usize) -> ModelSpec {
         let value = if self.lstm {

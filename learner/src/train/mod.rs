@@ -37,7 +37,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use buridan_actor::Collector;
 use buridan_env::{EnvConfig, Map, ObsKind, VecEnv};
-use buridan_policy::{Fragment, Inference, Mode, ModelSpec, Policy, Weights};
+use buridan_policy::{Fragment, Inference, ModelSpec, Policy, Weights};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -127,14 +127,6 @@ impl Learner {
     }
 }
 
-/// The observation kind a mode consumes.
-pub fn obs_kind(mode: Mode) -> ObsKind {
-    match mode {
-        Mode::Cte => ObsKind::Central,
-        Mode::Ctde | Mode::Dte => ObsKind::Local,
-    }
-}
-
 /// The env configuration of a training config.
 pub fn env_config(cfg: &TrainConfig, seed: u64) -> EnvConfig {
     EnvConfig {
@@ -182,7 +174,7 @@ pub fn train(cfg: &TrainConfig, out: &Path, progress: &mut dyn Progress) -> Resu
             run.map.clone(),
             env_config(cfg, run.actor_seed(i as u64)),
             cfg.envs_per_actor,
-            obs_kind(cfg.mode),
+            cfg.mode.obs_kind(),
             1,
         )?;
         let actor_policy = Policy::new(run.spec.clone(), cfg.seed)?;
@@ -200,12 +192,7 @@ pub fn train(cfg: &TrainConfig, out: &Path, progress: &mut dyn Progress) -> Resu
             version: run.state.updates,
         });
     }
-    let capacity = match cfg.algo {
-        Algo::Ppo => cfg.fragments_per_batch(),
-        Algo::Impala if cfg.impala.queue_capacity > 0 => cfg.impala.queue_capacity,
-        Algo::Impala => cfg.fragments_per_batch(),
-    };
-    let mut exchange = InProcess::spawn(collectors, capacity, cfg.algo == Algo::Ppo)?;
+    let mut exchange = InProcess::spawn(collectors, cfg.queue_capacity(), cfg.algo == Algo::Ppo)?;
     run.learn(&mut exchange, progress)
 }
 
@@ -248,7 +235,7 @@ impl Run {
         std::fs::write(&config_path, cfg.to_toml())
             .with_context(|| format!("cannot write {}", config_path.display()))?;
         let map = Arc::new(Map::load(&cfg.map)?);
-        let obs_dim = match obs_kind(cfg.mode) {
+        let obs_dim = match cfg.mode.obs_kind() {
             ObsKind::Local => buridan_env::local_obs_dim(cfg.sensor_range),
             ObsKind::Central => {
                 buridan_env::central_obs_dim(map.grid.height(), map.grid.width(), cfg.agents)

@@ -7,8 +7,6 @@ use anyhow::Result;
 use buridan_env::{EnvConfig, EpisodeStats, Map, ObsKind, VecEnv};
 use buridan_policy::{ActMode, Inference, Policy};
 
-use crate::train::obs_kind;
-
 /// Plays `episodes` episodes of `policy` on `num_envs` parallel envs of
 /// `map` (episode indices 0, 1, … of `env`'s seed), choosing actions with
 /// `mode`; returns the statistics of the first `episodes` episodes that end.
@@ -32,7 +30,7 @@ pub fn rollout(
     mode: ActMode,
     seed: u64,
 ) -> Result<Vec<EpisodeStats>> {
-    let kind = obs_kind(policy.spec().mode);
+    let kind = policy.spec().mode.obs_kind();
     let n = env.agents;
     let mut venv = VecEnv::new(map, env, num_envs.max(1), kind, 1)?;
     let rows_per_env = match kind {
