@@ -35,8 +35,8 @@ docker info >/dev/null 2>&1 || die "cannot reach the Docker daemon (is it runnin
 # 1. Release binaries.
 if [[ "${SKIP_CARGO:-0}" != 1 ]]; then
     command -v cargo >/dev/null || die "'cargo' not found on PATH (or set SKIP_CARGO=1)"
-    say "cargo build --release -p buridan-learner -p buridan-actor (several minutes on a cold tree)"
-    (cd "$ROOT" && cargo build --release -p buridan-learner -p buridan-actor)
+    say "cargo build --release -p buridan-cli -p buridan-actor (several minutes on a cold tree)"
+    (cd "$ROOT" && cargo build --release -p buridan-cli -p buridan-actor)
 fi
 for b in "${BINS[@]}"; do
     [[ -x "$TARGET_DIR/release/$b" ]] || die "$TARGET_DIR/release/$b is missing; build it (or unset SKIP_CARGO)"

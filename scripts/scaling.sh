@@ -2,7 +2,7 @@
 # Env steps/s of `learner serve` with 1, 2 and 4 `actor` processes on this
 # machine, and the learner's ceiling (agent samples per second of update
 # time, from metrics.csv). Usage:
-#   cargo build --release -p buridan-learner -p buridan-actor
+#   cargo build --release -p buridan-cli -p buridan-actor
 #   scripts/scaling.sh                          # IMPALA tuned config, 400k steps
 #   CONFIG=learner/configs/ppo-ctde-rm-2.1.toml STEPS=200000 scripts/scaling.sh
 set -euo pipefail

@@ -12,15 +12,16 @@
 //! uses each fragment at most once and never in part.
 
 use std::future::Future;
+use std::path::PathBuf;
 use std::pin::Pin;
 use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::{anyhow, bail, Context, Result};
-use buridan_env::VecEnv;
-use buridan_policy::{Inference, ModelSpec, Policy, Weights};
+use buridan_env::{EnvError, MapError, VecEnv};
+use buridan_policy::{Inference, ModelSpec, Policy, PolicyError, Weights};
 use buridan_proto::convert::{
-    env_from_message, fragment_to_message, map_from_message, weights_from_message, WireTag,
+    env_from_message, fragment_to_message, map_from_message, weights_from_message, ConvertError,
+    WireTag,
 };
 use buridan_proto::v1;
 use buridan_proto::v1::learner_client::LearnerClient;
@@ -31,11 +32,118 @@ use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
 use tonic::{Code, Request, Status};
 
-use crate::Collector;
+use crate::collector::{CollectError, Collector};
+
+/// Why an actor stopped (or could not start).
+#[derive(Debug, thiserror::Error)]
+pub enum ActorError {
+    /// The learner URL is not `http(s)://HOST:PORT`.
+    #[error("invalid learner URL '{url}': expected http://HOST:PORT or https://HOST:PORT")]
+    Url {
+        /// The URL given.
+        url: String,
+    },
+    /// The CA certificate cannot be read.
+    #[error("cannot read CA certificate {}", path.display())]
+    CaFile {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The TLS settings are invalid.
+    #[error("invalid TLS configuration")]
+    Tls(#[source] tonic::transport::Error),
+    /// The token cannot travel in a header.
+    #[error("the token must be printable ASCII")]
+    Token,
+    /// No connection to the learner.
+    #[error(transparent)]
+    Connect(#[from] ConnectError),
+    /// The learner refused this actor for good (not a connection problem).
+    #[error("the learner refused this actor")]
+    Refused(#[source] Status),
+    /// The learner refused a fragment for good (a bug on one side).
+    #[error("the learner refused a fragment")]
+    FragmentRefused(#[source] Status),
+    /// The connection or the learner went away mid-session.
+    #[error("{call}")]
+    Rpc {
+        /// The call that failed.
+        call: &'static str,
+        /// Its status.
+        source: Status,
+    },
+    /// The parameter stream ended or sent weights that do not load.
+    #[error("parameter stream: {0}")]
+    Stream(String),
+    /// The run the learner described cannot be set up here.
+    #[error("cannot set up the run the learner sent")]
+    Setup(#[from] SetupError),
+    /// Collecting a fragment failed.
+    #[error(transparent)]
+    Collect(#[from] CollectError),
+    /// Loading the learner's weights failed.
+    #[error("cannot load the learner's weights")]
+    Weights(#[source] PolicyError),
+    /// A collector or submit task panicked.
+    #[error("the {0} task panicked")]
+    Panicked(&'static str),
+    /// No session for longer than `give_up_after`.
+    #[error("no learner session for {limit:.0?}; giving up")]
+    GaveUp {
+        /// The limit.
+        limit: Duration,
+        /// The last failure.
+        source: Box<ActorError>,
+    },
+}
+
+/// A channel to the learner could not be opened.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot connect to {target}")]
+pub struct ConnectError {
+    /// Where to.
+    pub target: String,
+    /// Why not.
+    pub source: Box<dyn std::error::Error + Send + Sync>,
+}
+
+/// What in a join reply does not describe a run this actor can run.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    /// The model spec is not JSON of a [`ModelSpec`].
+    #[error("the model spec is not valid JSON")]
+    SpecJson(#[source] serde_json::Error),
+    /// The model spec or the policy is inconsistent.
+    #[error(transparent)]
+    Policy(#[from] PolicyError),
+    /// A field is missing or out of range.
+    #[error(transparent)]
+    Convert(#[from] ConvertError),
+    /// The map does not parse.
+    #[error(transparent)]
+    Map(#[from] MapError),
+    /// The envs cannot be built.
+    #[error(transparent)]
+    Env(#[from] EnvError),
+    /// The reply lacks a part.
+    #[error("no {0} in the reply")]
+    Missing(&'static str),
+    /// Env and model disagree.
+    #[error("the env's observations have {env} floats, the model expects {model}")]
+    ObsDim {
+        /// The env's.
+        env: usize,
+        /// The model's.
+        model: usize,
+    },
+}
 
 /// Makes a fresh channel to the learner (TCP, TLS or in-memory).
-pub type Connector =
-    Arc<dyn Fn() -> Pin<Box<dyn Future<Output = Result<Channel>> + Send>> + Send + Sync>;
+pub type Connector = Arc<
+    dyn Fn() -> Pin<Box<dyn Future<Output = Result<Channel, ConnectError>> + Send>> + Send + Sync,
+>;
 
 /// A connector for a URL (`http://host:port`, or `https://…` with `tls_ca`).
 ///
@@ -44,15 +152,16 @@ pub type Connector =
 /// # let _ = c;
 /// assert!(buridan_actor::client::url_connector("not a url", None).is_err());
 /// ```
-pub fn url_connector(url: &str, tls_ca: Option<&std::path::Path>) -> Result<Connector> {
-    let uri: tonic::codegen::http::Uri = url
-        .parse()
-        .with_context(|| format!("invalid learner URL '{url}'"))?;
+pub fn url_connector(url: &str, tls_ca: Option<&std::path::Path>) -> Result<Connector, ActorError> {
+    let bad_url = || ActorError::Url {
+        url: url.to_string(),
+    };
+    let uri: tonic::codegen::http::Uri = url.parse().map_err(|_| bad_url())?;
     if !matches!(uri.scheme_str(), Some("http" | "https")) || uri.authority().is_none() {
-        bail!("invalid learner URL '{url}': expected http://HOST:PORT or https://HOST:PORT");
+        return Err(bad_url());
     }
     let mut endpoint = Channel::from_shared(url.to_string())
-        .with_context(|| format!("invalid learner URL '{url}'"))?
+        .map_err(|_| bad_url())?
         .connect_timeout(Duration::from_secs(5))
         .tcp_nodelay(true)
         // Fragments are megabytes: windows sized for them save round trips.
@@ -61,22 +170,24 @@ pub fn url_connector(url: &str, tls_ca: Option<&std::path::Path>) -> Result<Conn
         .http2_keep_alive_interval(Duration::from_secs(10))
         .keep_alive_timeout(Duration::from_secs(20));
     if let Some(path) = tls_ca {
-        let pem = std::fs::read(path)
-            .with_context(|| format!("cannot read CA certificate {}", path.display()))?;
+        let pem = std::fs::read(path).map_err(|source| ActorError::CaFile {
+            path: path.to_path_buf(),
+            source,
+        })?;
         endpoint = endpoint
             .tls_config(
                 tonic::transport::ClientTlsConfig::new()
                     .ca_certificate(tonic::transport::Certificate::from_pem(pem)),
             )
-            .context("invalid TLS configuration")?;
+            .map_err(ActorError::Tls)?;
     }
     Ok(Arc::new(move || {
         let endpoint = endpoint.clone();
         Box::pin(async move {
-            endpoint
-                .connect()
-                .await
-                .with_context(|| format!("cannot connect to {}", endpoint.uri()))
+            endpoint.connect().await.map_err(|e| ConnectError {
+                target: endpoint.uri().to_string(),
+                source: Box::new(e),
+            })
         })
     }))
 }
@@ -134,7 +245,7 @@ enum SessionEnd {
     /// The learner says the run is over.
     Finished,
     /// The connection or the learner went away: join again.
-    Lost(anyhow::Error),
+    Lost(ActorError),
 }
 
 type Client = LearnerClient<InterceptedService<Channel, TokenInterceptor>>;
@@ -154,16 +265,28 @@ impl tonic::service::Interceptor for TokenInterceptor {
     }
 }
 
+/// `error: cause: cause …`, for log lines.
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        text.push_str(": ");
+        text.push_str(&c.to_string());
+        cause = c.source();
+    }
+    text
+}
+
 /// Runs an actor until the learner finishes the run (`Ok`), or until
 /// `give_up_after` passes without a session or a session fails in a way
 /// retrying cannot fix (`Err`).
-pub async fn run(connect: Connector, opts: ActorOptions) -> Result<ActorReport> {
+pub async fn run(connect: Connector, opts: ActorOptions) -> Result<ActorReport, ActorError> {
     let interceptor = TokenInterceptor {
         value: match &opts.token {
             Some(t) => Some(
                 format!("Bearer {t}")
                     .parse()
-                    .map_err(|_| anyhow!("the token must be printable ASCII"))?,
+                    .map_err(|_| ActorError::Token)?,
             ),
             None => None,
         },
@@ -184,20 +307,22 @@ pub async fn run(connect: Connector, opts: ActorOptions) -> Result<ActorReport> 
                 tracing::info!(?report, "the learner finished the run");
                 return Ok(report);
             }
-            Ok(SessionEnd::Lost(e)) | Err(e) => {
+            Ok(SessionEnd::Lost(e)) | Err(e @ ActorError::Connect(_)) => {
                 if let Some(limit) = opts.give_up_after {
                     if since_session.elapsed() > limit {
-                        return Err(
-                            e.context(format!("no learner session for {:.0?}; giving up", limit))
-                        );
+                        return Err(ActorError::GaveUp {
+                            limit,
+                            source: Box::new(e),
+                        });
                     }
                 }
                 let jitter = rand::rng().random_range(0.8..1.2);
                 let wait = delay.mul_f64(jitter);
-                tracing::warn!("{e:#}; reconnecting in {wait:.1?}");
+                tracing::warn!("{}; reconnecting in {wait:.1?}", error_chain(&e));
                 tokio::time::sleep(wait).await;
                 delay = (delay * 2).min(opts.backoff_max);
             }
+            Err(e) => return Err(e),
         }
     }
 }
@@ -216,32 +341,31 @@ fn retryable(status: &Status) -> bool {
     )
 }
 
+/// What a join led to.
+enum Joined {
+    /// A session of a running run.
+    Run(v1::JoinReply),
+    /// No session: see why.
+    Ended(SessionEnd),
+}
+
+/// One session: join, follow the weights, collect and submit fragments
+/// until the run ends or the connection is lost.
 async fn session(
     mut client: Client,
     opts: &ActorOptions,
     report: &mut ActorReport,
     since_session: &mut tokio::time::Instant,
     delay: &mut Duration,
-) -> Result<SessionEnd> {
-    let join = client
-        .join(v1::JoinRequest {
-            api_version: v1::ApiVersion::V1 as u32,
-            actor_name: opts.name.clone(),
-            envs: opts.envs.unwrap_or(0),
-        })
-        .await;
-    let join = match join {
-        Ok(r) => r.into_inner(),
-        Err(s) if s.code() == Code::FailedPrecondition && s.message().contains("finished") => {
-            return Ok(SessionEnd::Finished)
-        }
-        Err(s) if retryable(&s) => return Ok(SessionEnd::Lost(anyhow!("join: {s}"))),
-        Err(s) => bail!("the learner refused this actor: {s}"),
+) -> Result<SessionEnd, ActorError> {
+    let join = match join(&mut client, opts).await? {
+        Joined::Run(reply) => reply,
+        Joined::Ended(end) => return Ok(end),
     };
     report.sessions += 1;
     *since_session = tokio::time::Instant::now();
     *delay = opts.backoff_initial;
-    let mut collector = build_collector(&join).context("cannot set up the run the learner sent")?;
+    let mut collector = build_collector(&join)?;
     tracing::info!(
         run = %join.run_id,
         session = join.session,
@@ -249,108 +373,111 @@ async fn session(
         envs = join.envs,
         "joined"
     );
+    let (mut latest, _watcher) = match watch_weights(&mut client, &join).await {
+        Ok(watch) => watch,
+        Err(end) => return Ok(end),
+    };
+    let mut submitter = Submitter::new(client, &join);
+    // On-policy: after a full batch, wait for a version newer than this.
+    let mut wait_after: Option<u64> = None;
+    loop {
+        let weights = match newest_weights(&mut latest, wait_after).await {
+            Ok(w) => w,
+            Err(end) => return Ok(end),
+        };
+        wait_after = None;
+        collector.load(&weights).map_err(ActorError::Weights)?;
+        let (back, fragment) = tokio::task::spawn_blocking(move || {
+            let f = collector.collect();
+            (collector, f)
+        })
+        .await
+        .map_err(|_| ActorError::Panicked("collector"))?;
+        collector = back;
+        let fragment = fragment?;
+        report.env_steps += fragment.env_steps;
+        if let Some(end) = submitter.submit(fragment, report, &mut wait_after).await? {
+            return Ok(end);
+        }
+    }
+}
 
-    // Weights arrive on their own stream; the newest waits in `latest`.
+/// Joins the run; a finished run is an answer, not an error.
+async fn join(client: &mut Client, opts: &ActorOptions) -> Result<Joined, ActorError> {
+    let reply = client
+        .join(v1::JoinRequest {
+            api_version: v1::ApiVersion::V1 as u32,
+            actor_name: opts.name.clone(),
+            envs: opts.envs.unwrap_or(0),
+        })
+        .await;
+    match reply {
+        Ok(r) if r.get_ref().run_finished => Ok(Joined::Ended(SessionEnd::Finished)),
+        Ok(r) => Ok(Joined::Run(r.into_inner())),
+        Err(source) if retryable(&source) => Ok(Joined::Ended(SessionEnd::Lost(ActorError::Rpc {
+            call: "join",
+            source,
+        }))),
+        Err(s) => Err(ActorError::Refused(s)),
+    }
+}
+
+/// The newest weights, pushed by the learner, in a watch channel fed by a
+/// task (aborted when the returned guard drops).
+async fn watch_weights(
+    client: &mut Client,
+    join: &v1::JoinReply,
+) -> Result<(watch::Receiver<Option<Update>>, AbortOnDrop), SessionEnd> {
     let mut stream = client
         .watch_parameters(v1::WatchRequest {
             run_id: join.run_id.clone(),
             session: join.session,
         })
         .await
-        .map_err(|s| anyhow!("watch parameters: {s}"))?
+        .map_err(|source| {
+            SessionEnd::Lost(ActorError::Rpc {
+                call: "watch parameters",
+                source,
+            })
+        })?
         .into_inner();
-    let (latest_tx, mut latest) = watch::channel::<Option<Update>>(None);
+    let (latest_tx, latest) = watch::channel::<Option<Update>>(None);
     let watcher = tokio::spawn(async move {
         loop {
-            match stream.message().await {
-                Ok(Some(p)) if p.finished => {
-                    let _ = latest_tx.send(Some(Update::Finished));
-                    return;
-                }
+            let update = match stream.message().await {
+                Ok(Some(p)) if p.finished => Update::Finished,
                 Ok(Some(p)) => match weights_from_message(p) {
-                    Ok(w) => {
-                        if latest_tx.send(Some(Update::Weights(Arc::new(w)))).is_err() {
-                            return;
-                        }
-                    }
-                    Err(e) => {
-                        let _ = latest_tx.send(Some(Update::Lost(format!("bad weights: {e}"))));
-                        return;
-                    }
+                    Ok(w) => Update::Weights(Arc::new(w)),
+                    Err(e) => Update::Lost(format!("bad weights: {e}")),
                 },
-                Ok(None) => {
-                    let _ = latest_tx.send(Some(Update::Lost("parameter stream ended".into())));
-                    return;
-                }
-                Err(s) => {
-                    let _ = latest_tx.send(Some(Update::Lost(format!("parameter stream: {s}"))));
-                    return;
-                }
+                Ok(None) => Update::Lost("the stream ended".into()),
+                Err(s) => Update::Lost(s.to_string()),
+            };
+            let last = !matches!(update, Update::Weights(_));
+            if latest_tx.send(Some(update)).is_err() || last {
+                return;
             }
         }
     });
-    let _abort_watcher = AbortOnDrop(watcher);
+    Ok((latest, AbortOnDrop(watcher)))
+}
 
-    let tag_base = WireTag {
-        run_id: join.run_id.clone(),
-        session: join.session,
-        seq: 0,
-    };
-    // On-policy: after a full batch, wait for a version newer than this.
-    let mut wait_after: Option<u64> = None;
-    let mut seq = 0u64;
-    // Off-policy runs keep one submission in flight while the next
-    // fragment is collected (as the in-process queue lets actors do);
-    // on-policy runs submit synchronously, since the reply may say "wait".
-    let pipelined = !join.on_policy;
-    let mut in_flight: Option<(u64, tokio::task::JoinHandle<SubmitResult>)> = None;
+/// Waits for weights to collect with: the newest, or (on-policy, after a
+/// full batch) the first newer than `wait_after`.
+async fn newest_weights(
+    latest: &mut watch::Receiver<Option<Update>>,
+    wait_after: Option<u64>,
+) -> Result<Arc<Weights>, SessionEnd> {
     loop {
-        // Newest weights (waiting for the first, or for a newer version).
-        let weights = loop {
-            let current = latest.borrow_and_update().clone();
-            match current {
-                Some(Update::Finished) => return Ok(SessionEnd::Finished),
-                Some(Update::Lost(why)) => return Ok(SessionEnd::Lost(anyhow!(why))),
-                Some(Update::Weights(w)) if wait_after.is_none_or(|v| w.version > v) => break w,
-                _ => {
-                    if latest.changed().await.is_err() {
-                        return Ok(SessionEnd::Lost(anyhow!("parameter stream closed")));
-                    }
+        let current = latest.borrow_and_update().clone();
+        match current {
+            Some(Update::Finished) => return Err(SessionEnd::Finished),
+            Some(Update::Lost(why)) => return Err(SessionEnd::Lost(ActorError::Stream(why))),
+            Some(Update::Weights(w)) if wait_after.is_none_or(|v| w.version > v) => return Ok(w),
+            _ => {
+                if latest.changed().await.is_err() {
+                    return Err(SessionEnd::Lost(ActorError::Stream("closed".into())));
                 }
-            }
-        };
-        wait_after = None;
-        collector.load(&weights)?;
-        let (back, fragment) = tokio::task::spawn_blocking(move || {
-            let f = collector.collect();
-            (collector, f)
-        })
-        .await
-        .context("the collector thread panicked")?;
-        collector = back;
-        let fragment = fragment?;
-        let version = fragment.policy_version;
-        report.env_steps += fragment.env_steps;
-        seq += 1;
-        let tag = WireTag {
-            seq,
-            ..tag_base.clone()
-        };
-        if let Some((v, previous)) = in_flight.take() {
-            let result = previous.await.context("the submit task panicked")?;
-            if let Some(end) = on_reply(result, v, report, &mut wait_after)? {
-                return Ok(end);
-            }
-        }
-        let message = fragment_to_message(fragment, &tag);
-        if pipelined {
-            let mut c = client.clone();
-            let submit = tokio::spawn(async move { c.submit_fragment(message).await });
-            in_flight = Some((version, submit));
-        } else {
-            let result = client.submit_fragment(message).await;
-            if let Some(end) = on_reply(result, version, report, &mut wait_after)? {
-                return Ok(end);
             }
         }
     }
@@ -358,16 +485,73 @@ async fn session(
 
 type SubmitResult = Result<tonic::Response<v1::SubmitReply>, Status>;
 
+/// Sends fragments, numbered per session. Off-policy runs keep one
+/// submission in flight while the next fragment is collected (as the
+/// in-process queue lets actors do); on-policy runs submit synchronously,
+/// since the reply may say "wait".
+struct Submitter {
+    client: Client,
+    tag: WireTag,
+    pipelined: bool,
+    in_flight: Option<(u64, tokio::task::JoinHandle<SubmitResult>)>,
+}
+
+impl Submitter {
+    fn new(client: Client, join: &v1::JoinReply) -> Self {
+        Self {
+            client,
+            tag: WireTag {
+                run_id: join.run_id.clone(),
+                session: join.session,
+                seq: 0,
+            },
+            pipelined: !join.on_policy,
+            in_flight: None,
+        }
+    }
+
+    /// Submits `fragment` (after booking the previous one's reply, if
+    /// pipelined); `Some(end)` if the session is over.
+    async fn submit(
+        &mut self,
+        fragment: buridan_policy::Fragment,
+        report: &mut ActorReport,
+        wait_after: &mut Option<u64>,
+    ) -> Result<Option<SessionEnd>, ActorError> {
+        let version = fragment.policy_version;
+        self.tag.seq += 1;
+        if let Some((v, previous)) = self.in_flight.take() {
+            let result = previous.await.map_err(|_| ActorError::Panicked("submit"))?;
+            if let Some(end) = on_reply(result, v, report, wait_after)? {
+                return Ok(Some(end));
+            }
+        }
+        let message = fragment_to_message(fragment, &self.tag);
+        if self.pipelined {
+            let mut c = self.client.clone();
+            let submit = tokio::spawn(async move { c.submit_fragment(message).await });
+            self.in_flight = Some((version, submit));
+            Ok(None)
+        } else {
+            let result = self.client.submit_fragment(message).await;
+            on_reply(result, version, report, wait_after)
+        }
+    }
+}
+
 /// Books a submission's outcome; `Some(end)` if the session is over.
 fn on_reply(
     result: SubmitResult,
     version: u64,
     report: &mut ActorReport,
     wait_after: &mut Option<u64>,
-) -> Result<Option<SessionEnd>> {
+) -> Result<Option<SessionEnd>, ActorError> {
     match result {
         Ok(reply) => {
             let reply = reply.into_inner();
+            if reply.run_finished {
+                return Ok(Some(SessionEnd::Finished));
+            }
             if reply.accepted {
                 report.accepted += 1;
             } else {
@@ -379,14 +563,14 @@ fn on_reply(
             }
             Ok(None)
         }
-        Err(s) if s.code() == Code::FailedPrecondition && s.message().contains("finished") => {
-            Ok(Some(SessionEnd::Finished))
-        }
-        Err(s) if retryable(&s) => {
+        Err(source) if retryable(&source) => {
             report.lost += 1;
-            Ok(Some(SessionEnd::Lost(anyhow!("submit: {s}"))))
+            Ok(Some(SessionEnd::Lost(ActorError::Rpc {
+                call: "submit",
+                source,
+            })))
         }
-        Err(s) => bail!("the learner refused a fragment: {s}"),
+        Err(s) => Err(ActorError::FragmentRefused(s)),
     }
 }
 
@@ -406,36 +590,30 @@ impl Drop for AbortOnDrop {
 }
 
 /// Envs and policy as the learner described them in a join reply.
-pub fn build_collector(join: &v1::JoinReply) -> Result<Collector> {
+pub fn build_collector(join: &v1::JoinReply) -> Result<Collector, SetupError> {
     let spec: ModelSpec =
-        serde_json::from_str(&join.model_spec_json).context("the model spec is not valid JSON")?;
+        serde_json::from_str(&join.model_spec_json).map_err(SetupError::SpecJson)?;
     spec.validate()?;
-    let map = map_from_message(
-        join.map
-            .clone()
-            .ok_or_else(|| anyhow!("no map in the reply"))?,
-    )
-    .parse()?;
+    let map = map_from_message(join.map.clone().ok_or(SetupError::Missing("map"))?).parse()?;
     let env = env_from_message(
         join.env
             .as_ref()
-            .ok_or_else(|| anyhow!("no env settings in the reply"))?,
+            .ok_or(SetupError::Missing("env settings"))?,
         join.seed,
     )?;
     let kind = spec.mode.obs_kind();
     let venv = VecEnv::new(Arc::new(map), env, join.envs as usize, kind, 1)?;
     if venv.obs_dim() != spec.obs_dim {
-        bail!(
-            "the env's observations have {} floats, the model expects {}",
-            venv.obs_dim(),
-            spec.obs_dim
-        );
+        return Err(SetupError::ObsDim {
+            env: venv.obs_dim(),
+            model: spec.obs_dim,
+        });
     }
-    let rows = venv.obs().len() / venv.obs_dim();
+    let rows = buridan_env::BatchedEnv::rows(&venv);
     let policy = Policy::new(spec, join.seed)?;
     Ok(Collector {
         id: join.actor_id,
-        inference: Inference::new(policy, rows, join.seed ^ 0xAC70),
+        inference: Inference::new(policy, rows, buridan_env::seed::session_sampling(join.seed)),
         venv,
         fragment_len: join.fragment_len as usize,
         // Nothing loaded yet: the first weights always load.

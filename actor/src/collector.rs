@@ -1,12 +1,22 @@
-//! Collecting fragments: a [`VecEnv`] stepped by policy inference.
+//! Collecting fragments: a batched env stepped by policy inference.
 //!
-//! Data path: env → actor batch (the `VecEnv` buffers) → [`Fragment`]. The
+//! Data path: env → actor batch (the env's buffers) → [`Fragment`]. The
 //! same collector runs in the learner's process (embedded training) and in
 //! `actor` processes (distributed training).
 
-use anyhow::{Context, Result};
-use buridan_env::{ObsKind, VecEnv};
-use buridan_policy::{ActMode, Fragment, Inference, Weights};
+use buridan_env::{BatchedEnv, EnvError, VecEnv};
+use buridan_policy::{ActMode, Fragment, Inference, PolicyError, Weights};
+
+/// Why a collector could not produce a fragment.
+#[derive(Debug, thiserror::Error)]
+pub enum CollectError {
+    /// The env refused a step.
+    #[error("the env failed")]
+    Env(#[from] EnvError),
+    /// Inference or loading weights failed.
+    #[error("the policy failed")]
+    Policy(#[from] PolicyError),
+}
 
 /// An actor's envs and its copy of the policy.
 ///
@@ -23,11 +33,11 @@ use buridan_policy::{ActMode, Fragment, Inference, Weights};
 /// let f = c.collect().unwrap();
 /// assert_eq!((f.len, f.rows, f.env_steps), (10, 6, 30));
 /// ```
-pub struct Collector {
+pub struct Collector<E = VecEnv> {
     /// Actor id, stamped on fragments.
     pub id: u32,
     /// The envs.
-    pub venv: VecEnv,
+    pub venv: E,
     /// Policy and sampling state.
     pub inference: Inference,
     /// Steps per fragment.
@@ -36,30 +46,30 @@ pub struct Collector {
     pub version: u64,
 }
 
-impl Collector {
+impl<E: BatchedEnv> Collector<E> {
     /// Loads `weights` unless they are the version already loaded.
-    pub fn load(&mut self, weights: &Weights) -> Result<()> {
+    pub fn load(&mut self, weights: &Weights) -> Result<(), PolicyError> {
         if weights.version != self.version {
-            self.inference
-                .policy()
-                .set_weights(weights)
-                .context("cannot load the learner's weights")?;
+            self.inference.policy().set_weights(weights)?;
             self.version = weights.version;
         }
         Ok(())
     }
 
+    /// Env steps in one fragment (steps × envs).
+    pub fn fragment_env_steps(&self) -> u64 {
+        (self.fragment_len * self.venv.num_envs()) as u64
+    }
+
     /// Collects one fragment of `fragment_len` steps with the loaded weights.
-    pub fn collect(&mut self) -> Result<Fragment> {
-        let spec = self.inference.policy().spec().clone();
-        let (heads, na) = (spec.heads, spec.actions);
-        let n = self.venv.agents();
-        let envs = self.venv.num_envs();
-        let rows_per_env = match self.venv.kind() {
-            ObsKind::Local => n,
-            ObsKind::Central => 1,
-        };
-        let rows = envs * rows_per_env;
+    pub fn collect(&mut self) -> Result<Fragment, CollectError> {
+        let spec = self.inference.policy().spec();
+        let (heads, actions_per_head) = (spec.heads, spec.actions);
+        let (envs, rows, rows_per_env) = (
+            self.venv.num_envs(),
+            self.venv.rows(),
+            self.venv.rows_per_env(),
+        );
         let d = self.venv.obs_dim();
         let t_len = self.fragment_len;
         let mut f = Fragment::with_capacity(
@@ -70,7 +80,7 @@ impl Collector {
             rows_per_env,
             d,
             heads,
-            na,
+            actions_per_head,
         );
         f.initial_state = self.inference.state().cloned();
         let mut actions = vec![0u8; rows * heads];
@@ -91,30 +101,10 @@ impl Collector {
             f.actions.extend_from_slice(&actions);
             f.behaviour_logp.extend_from_slice(&logp);
             self.venv.step(&actions)?;
-            let rewards = self.venv.rewards();
-            match self.venv.kind() {
-                ObsKind::Local => row_rewards.copy_from_slice(rewards),
-                ObsKind::Central => {
-                    for (e, r) in row_rewards.iter_mut().enumerate() {
-                        *r = rewards[e * n..(e + 1) * n].iter().sum();
-                    }
-                }
-            }
+            self.venv.write_row_rewards(&mut row_rewards);
+            self.venv.write_row_done(&mut row_done);
             f.rewards.extend_from_slice(&row_rewards);
-            let (term, trunc) = (self.venv.terminated(), self.venv.truncated());
-            for e in 0..envs {
-                for j in 0..rows_per_env {
-                    let r = e * rows_per_env + j;
-                    f.terminated.push(term[e]);
-                    f.truncated.push(trunc[e]);
-                    row_done[r] = u8::from(term[e] != 0 || trunc[e] != 0);
-                    if trunc[e] != 0 {
-                        f.final_obs_index.push((t * rows + r) as u32);
-                        f.final_obs
-                            .extend_from_slice(&self.venv.final_obs()[r * d..(r + 1) * d]);
-                    }
-                }
-            }
+            self.record_ends(&mut f, t);
             if let Some(st) = self.inference.state_mut() {
                 st.observe(&actions, &row_rewards, &row_done);
             }
@@ -124,5 +114,26 @@ impl Collector {
         f.episodes = self.venv.drain_episodes();
         f.env_steps = (t_len * envs) as u64;
         Ok(f)
+    }
+
+    /// Appends step `t`'s per-row done flags and, for truncated episodes,
+    /// the final observations that bootstrap their values.
+    fn record_ends(&self, f: &mut Fragment, t: usize) {
+        let (rows, per_env, d) = (
+            self.venv.rows(),
+            self.venv.rows_per_env(),
+            self.venv.obs_dim(),
+        );
+        let (term, trunc) = (self.venv.terminated(), self.venv.truncated());
+        for r in 0..rows {
+            let e = r / per_env;
+            f.terminated.push(term[e]);
+            f.truncated.push(trunc[e]);
+            if trunc[e] != 0 {
+                f.final_obs_index.push((t * rows + r) as u32);
+                f.final_obs
+                    .extend_from_slice(&self.venv.final_obs()[r * d..(r + 1) * d]);
+            }
+        }
     }
 }

@@ -9,4 +9,4 @@
 pub mod client;
 pub mod collector;
 
-pub use collector::Collector;
+pub use collector::{CollectError, Collector};

@@ -6,6 +6,8 @@
 //! - [`obs`]: CTDE/DTE local and CTE central observations, action masks.
 //! - [`vec_env`]: [`VecEnv`], a batch of envs with auto-reset.
 //! - [`monitor`]: deadlock and livelock detection.
+//! - [`api`]: [`BatchedEnv`], the batched interface actors drive.
+//! - [`seed`]: how one run seed becomes every random stream's seed.
 //!
 //! ```
 //! use buridan_env::{EnvConfig, GridEnv, Map, Starts};
@@ -17,15 +19,18 @@
 //! assert_eq!(obs.len(), 129);
 //! ```
 
+pub mod api;
 pub mod config;
 pub mod error;
 pub mod map;
 pub mod monitor;
 pub mod obs;
+pub mod seed;
 pub mod stats;
 pub mod vec_env;
 pub mod world;
 
+pub use api::BatchedEnv;
 pub use config::{episode_instance, episode_rng, EnvConfig, Starts};
 pub use error::{EnvError, MapError};
 pub use map::{Cell, Grid, Map, MapSource, Scenario, REFERENCE_MODELS};

@@ -37,6 +37,20 @@ use crate::world::{GridEnv, NUM_ACTIONS};
 /// Number of cell codes in the local window.
 pub const NUM_LOCAL_CODES: usize = 5;
 
+/// The local cell codes (module documentation above), by name.
+pub mod code {
+    /// A free cell.
+    pub const EMPTY: u8 = 0;
+    /// A wall, or outside the grid (the same value as a blocked cell's flag).
+    pub const WALL: u8 = 1;
+    /// Another agent.
+    pub const AGENT: u8 = 2;
+    /// The observer's own goal.
+    pub const OWN_GOAL: u8 = 3;
+    /// Another agent's goal.
+    pub const GOAL: u8 = 4;
+}
+
 /// The one-hot row of each code.
 const ONE_HOT: [[f32; NUM_LOCAL_CODES]; NUM_LOCAL_CODES] = [
     [1.0, 0.0, 0.0, 0.0, 0.0],
@@ -85,6 +99,36 @@ pub enum ObsKind {
     Local,
     /// One central observation and a `5n` joint mask per env (CTE).
     Central,
+}
+
+impl ObsKind {
+    /// Floats per observation row on `map` with `agents` agents.
+    ///
+    /// ```
+    /// use buridan_env::{Map, ObsKind};
+    /// let map = Map::load("rm-1.1").unwrap();
+    /// assert_eq!(ObsKind::Local.obs_dim(&map, 2, 2), 129);
+    /// ```
+    pub fn obs_dim(self, map: &crate::Map, agents: usize, sensor_range: usize) -> usize {
+        match self {
+            ObsKind::Local => local_obs_dim(sensor_range),
+            ObsKind::Central => central_obs_dim(map.grid.height(), map.grid.width(), agents),
+        }
+    }
+
+    /// Policy rows per env of `agents` agents: one per agent (local), one
+    /// per env (central).
+    ///
+    /// ```
+    /// use buridan_env::ObsKind;
+    /// assert_eq!((ObsKind::Local.rows_per_env(4), ObsKind::Central.rows_per_env(4)), (4, 1));
+    /// ```
+    pub fn rows_per_env(self, agents: usize) -> usize {
+        match self {
+            ObsKind::Local => agents,
+            ObsKind::Central => 1,
+        }
+    }
 }
 
 fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), EnvError> {
@@ -177,11 +221,11 @@ impl GridEnv {
         let raw = self.raw();
         let p = raw.pos[agent];
         out[0] = 1;
-        for a in 1..NUM_ACTIONS {
+        for (a, legal) in out.iter_mut().enumerate().skip(1) {
             // The neighbour is never the agent itself: legal iff its shared
             // code is 0 (empty) or 4 (a goal, possibly the agent's own).
             let q = p.wrapping_add_signed(raw.step_offsets[a]);
-            out[a] = u8::from(raw.shared_code[q] & 3 == 0);
+            *legal = u8::from(raw.shared_code[q] & 3 == 0);
         }
         Ok(())
     }
@@ -271,11 +315,11 @@ impl GridEnv {
         let me = agent as u16 + 1;
         let owner = raw.goal_owner[raw.pos[agent]];
         let centre_code = if owner == me {
-            3
+            code::OWN_GOAL
         } else if owner != 0 {
-            4
+            code::GOAL
         } else {
-            0
+            code::EMPTY
         };
         let (p, g) = (raw.cells[agent], raw.goal_cells[agent]);
         let dr = g.row as isize - p.row as isize;
@@ -284,8 +328,8 @@ impl GridEnv {
         let own_goal = (dr.abs() <= r
             && dc.abs() <= r
             && (dr, dc) != (0, 0)
-            && raw.shared_code[raw.goal_pos[agent]] == 4)
-            .then(|| (((dr + r) * side as isize + dc + r) as usize, 3));
+            && raw.shared_code[raw.goal_pos[agent]] == code::GOAL)
+            .then(|| (((dr + r) * side as isize + dc + r) as usize, code::OWN_GOAL));
         std::iter::once((centre, centre_code)).chain(own_goal)
     }
 }

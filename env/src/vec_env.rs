@@ -30,6 +30,7 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
+use crate::api::BatchedEnv;
 use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::map::Map;
@@ -74,9 +75,10 @@ impl VecEnv {
             .map(|e| GridEnv::with_episode(map.clone(), cfg.clone(), e as u64))
             .collect::<Result<Vec<_>, _>>()?;
         let n = cfg.agents;
-        let (obs_dim, mask_dim, rows) = match kind {
-            ObsKind::Local => (envs[0].local_obs_dim(), NUM_ACTIONS, num_envs * n),
-            ObsKind::Central => (envs[0].central_obs_dim(), NUM_ACTIONS * n, num_envs),
+        let rows = num_envs * kind.rows_per_env(n);
+        let (obs_dim, mask_dim) = match kind {
+            ObsKind::Local => (envs[0].local_obs_dim(), NUM_ACTIONS),
+            ObsKind::Central => (envs[0].central_obs_dim(), NUM_ACTIONS * n),
         };
         let pool = if threads > 1 {
             Some(
@@ -107,7 +109,7 @@ impl VecEnv {
             envs,
             pool,
         };
-        let rows = venv.rows_per_env();
+        let rows = kind.rows_per_env(n);
         let per_env = venv
             .obs
             .chunks_mut(rows * obs_dim)
@@ -116,13 +118,6 @@ impl VecEnv {
             write_obs(env, kind, obs, masks)?;
         }
         Ok(venv)
-    }
-
-    fn rows_per_env(&self) -> usize {
-        match self.kind {
-            ObsKind::Local => self.agents,
-            ObsKind::Central => 1,
-        }
     }
 
     /// Steps every env with `actions` (`num_envs · n` values, env-major).
@@ -330,5 +325,44 @@ fn write_obs(
             env.write_central_obs(obs)?;
             env.write_joint_mask(masks)
         }
+    }
+}
+
+impl BatchedEnv for VecEnv {
+    fn num_envs(&self) -> usize {
+        VecEnv::num_envs(self)
+    }
+    fn agents(&self) -> usize {
+        VecEnv::agents(self)
+    }
+    fn kind(&self) -> ObsKind {
+        VecEnv::kind(self)
+    }
+    fn obs_dim(&self) -> usize {
+        VecEnv::obs_dim(self)
+    }
+    fn obs(&self) -> &[f32] {
+        VecEnv::obs(self)
+    }
+    fn masks(&self) -> &[u8] {
+        VecEnv::masks(self)
+    }
+    fn step(&mut self, actions: &[u8]) -> Result<(), EnvError> {
+        VecEnv::step(self, actions)
+    }
+    fn rewards(&self) -> &[f32] {
+        VecEnv::rewards(self)
+    }
+    fn terminated(&self) -> &[u8] {
+        VecEnv::terminated(self)
+    }
+    fn truncated(&self) -> &[u8] {
+        VecEnv::truncated(self)
+    }
+    fn final_obs(&self) -> &[f32] {
+        VecEnv::final_obs(self)
+    }
+    fn drain_episodes(&mut self) -> Vec<EpisodeStats> {
+        VecEnv::drain_episodes(self)
     }
 }

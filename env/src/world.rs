@@ -23,6 +23,7 @@ use crate::config::{episode_instance, episode_rng, EnvConfig};
 use crate::error::EnvError;
 use crate::map::{Cell, Map};
 use crate::monitor::StallMonitor;
+use crate::obs::code;
 use crate::stats::EpisodeStats;
 
 /// Reward for first standing on one's goal.
@@ -39,7 +40,7 @@ pub const NUM_ACTIONS: usize = 5;
 
 /// The RNG of lifelong goal draws: a stream apart from the episode instance's.
 fn lifelong_rng(seed: u64, episode: u64) -> ChaCha8Rng {
-    episode_rng(seed ^ 0x6c69_6665_6c6f_6e67, episode)
+    episode_rng(crate::seed::lifelong_goals(seed), episode)
 }
 
 /// `(row, col)` change of each action.
@@ -339,11 +340,11 @@ impl GridEnv {
                 self.occupant[from] = NOBODY;
                 self.occupant[to] = i as u16 + 1;
                 self.shared_code[from] = if self.goal_owner[from] != NOBODY {
-                    4
+                    code::GOAL
                 } else {
-                    0
+                    code::EMPTY
                 };
-                self.shared_code[to] = 2;
+                self.shared_code[to] = code::AGENT;
                 self.pos[i] = to;
                 // The target is inside the grid (not blocked), so no wrap.
                 let (dr, dc) = MOVE_DELTAS[action as usize];
@@ -358,6 +359,8 @@ impl GridEnv {
         rewards.fill(0.0);
         let mut all_home = true;
         let grid_width = self.map.grid.width();
+        // Agent `i` indexes six parallel arrays here; an index loop reads best.
+        #[allow(clippy::needless_range_loop)]
         for i in 0..n {
             let p = self.pos[i];
             let cell = self.cells[i];
@@ -393,9 +396,10 @@ impl GridEnv {
         } else if self.t >= self.cfg.t_max {
             outcome.truncated = true;
             if !self.cfg.lifelong {
-                for i in 0..n {
-                    if self.pos[i] != self.goal[i] {
-                        rewards[i] += REWARD_TRUNCATED_OFF_GOAL;
+                let off_goal = self.pos.iter().zip(&self.goal).map(|(p, g)| p != g);
+                for (reward, off) in rewards.iter_mut().zip(off_goal) {
+                    if off {
+                        *reward += REWARD_TRUNCATED_OFF_GOAL;
                     }
                 }
             }
@@ -440,13 +444,13 @@ impl GridEnv {
     /// Recomputes the shared code of padded cell `p` from the cell arrays.
     fn refresh_code(&mut self, p: usize) {
         self.shared_code[p] = if self.blocked[p] != 0 {
-            1
+            code::WALL
         } else if self.occupant[p] != NOBODY {
-            2
+            code::AGENT
         } else if self.goal_owner[p] != NOBODY {
-            4
+            code::GOAL
         } else {
-            0
+            code::EMPTY
         };
     }
 

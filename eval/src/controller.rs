@@ -93,7 +93,10 @@ impl Controller for RandomController {
     }
 
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
-        self.rng = buridan_env::episode_rng(self.seed ^ 0x7261_6e64_6f6d, env.episode());
+        self.rng = buridan_env::episode_rng(
+            buridan_env::seed::random_controller(self.seed),
+            env.episode(),
+        );
         Ok(())
     }
 

@@ -4,6 +4,7 @@
 //!
 //! - [`controller`]: the [`Controller`] trait and [`RandomController`].
 //! - [`planner`]: planners of `buridan-mapf` as controllers.
+//! - [`policy`]: a trained policy (a checkpoint) as a controller.
 //! - [`runner`]: [`evaluate`] runs episodes and aggregates them.
 //! - [`stats`]: quantiles and box-plot statistics.
 //! - [`output`]: CSV, JSON and PNG files of a report; the agent-count sweep.
@@ -13,6 +14,7 @@ pub mod controller;
 pub mod output;
 pub mod planner;
 pub mod plot;
+pub mod policy;
 pub mod runner;
 pub mod stats;
 

@@ -10,7 +10,6 @@ use buridan_actor::Collector;
 use buridan_env::{Map, ObsKind, Starts, VecEnv};
 use buridan_learner::algo::impala::{Impala, ImpalaSettings};
 use buridan_learner::algo::ppo::{Ppo, PpoSettings};
-use buridan_learner::algo::vtrace::VTraceParams;
 use buridan_learner::train::{env_config, TrainConfig};
 use buridan_policy::{Fragment, Inference, Mode, Policy};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
@@ -55,23 +54,13 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("learner");
     g.sample_size(10);
     g.throughput(Throughput::Elements(samples as u64));
+    // One epoch over the whole batch: the cost of one pass.
     let mut ppo = Ppo::new(
         &policy,
         PpoSettings {
-            lr: 1e-3,
             epochs: 1,
             minibatch_size: 8000,
-            clip: 0.05,
-            vf_coeff: 1.0,
-            vf_clip: 10.0,
-            entropy_coeff: 0.001,
-            kl_coeff: 0.2,
-            kl_target: 0.01,
-            gamma: 0.99,
-            lambda: 0.95,
-            grad_clip: None,
-            standardize_advantages: true,
-            max_seq_len: 32,
+            ..PpoSettings::from(&cfg)
         },
     );
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
@@ -83,17 +72,7 @@ fn bench(c: &mut Criterion) {
         ..cfg.clone()
     };
     let ipolicy = Policy::new(icfg.model_spec(policy.spec().obs_dim), 0).unwrap();
-    let mut impala = Impala::new(
-        &ipolicy,
-        ImpalaSettings {
-            lr: 1e-3,
-            vf_coeff: 0.5,
-            entropy_coeff: 0.0,
-            grad_clip: Some(40.0),
-            vtrace: VTraceParams::default(),
-            max_seq_len: 32,
-        },
-    );
+    let mut impala = Impala::new(&ipolicy, ImpalaSettings::from(&icfg));
     g.bench_function("impala_update_8000_samples", |b| {
         b.iter(|| impala.update(&ipolicy, &frags).unwrap())
     });

@@ -1,7 +1,7 @@
-//! The learner: training (PPO, IMPALA), evaluation and the `learner` command line.
+//! The learner: the algorithms (PPO, IMPALA), the training loop over an
+//! exchange with actors (in-process threads or gRPC), and the gRPC server.
+//! The `learner` command line lives in `buridan-cli`.
 
 pub mod algo;
-pub mod cli;
-pub mod policy_controller;
 pub mod serve;
 pub mod train;

@@ -1,9 +1,10 @@
 //! Hand-checked numbers for GAE, V-trace and the PPO/IMPALA losses.
 
 use buridan_learner::algo::batch::BatchTensors;
-use buridan_learner::algo::gae::{gae, standardize};
+use buridan_learner::algo::gae::{gae, standardize, GaeParams};
 use buridan_learner::algo::impala::{impala_loss, ImpalaLossParams};
 use buridan_learner::algo::ppo::{ppo_loss, update_kl_coeff, PpoLossParams};
+use buridan_learner::algo::trajectory::Trajectory;
 use buridan_learner::algo::vtrace::{vtrace, VTraceParams};
 use buridan_policy::dist;
 use candle_core::{Device, Tensor};
@@ -39,15 +40,19 @@ fn gae_by_hand_with_truncation_and_termination() {
     let terminated = [false, false, false, false, false, true, false, false];
     let truncated = [false, false, true, false, false, false, false, false];
     let g = gae(
-        &rewards,
-        &values,
-        &next_values,
-        &terminated,
-        &truncated,
-        4,
-        2,
-        0.9,
-        0.8,
+        &Trajectory {
+            t_len: 4,
+            rows: 2,
+            rewards: &rewards,
+            values: &values,
+            next_values: &next_values,
+            terminated: &terminated,
+            truncated: &truncated,
+        },
+        GaeParams {
+            gamma: 0.9,
+            lambda: 0.8,
+        },
     );
     close(
         &g.advantages,
@@ -73,15 +78,19 @@ fn gae_with_lambda_one_is_the_discounted_return_minus_value() {
     // λ = 1, terminated at the last step: Â_t = Σ γ^k r_{t+k} − V_t.
     // r = [1, 1, 1], γ = 0.5: returns [1.75, 1.5, 1]; V = [0.25, 0.5, 0.75].
     let g = gae(
-        &[1.0, 1.0, 1.0],
-        &[0.25, 0.5, 0.75],
-        &[0.5, 0.75, 0.0],
-        &[false, false, true],
-        &[false, false, false],
-        3,
-        1,
-        0.5,
-        1.0,
+        &Trajectory {
+            t_len: 3,
+            rows: 1,
+            rewards: &[1.0, 1.0, 1.0],
+            values: &[0.25, 0.5, 0.75],
+            next_values: &[0.5, 0.75, 0.0],
+            terminated: &[false, false, true],
+            truncated: &[false, false, false],
+        },
+        GaeParams {
+            gamma: 0.5,
+            lambda: 1.0,
+        },
     );
     close(&g.advantages, &[1.5, 1.0, 0.25], 1e-6);
     close(&g.targets, &[1.75, 1.5, 1.0], 1e-6);
@@ -104,14 +113,16 @@ fn vtrace_by_hand() {
     };
     let log_rhos = [2f32.ln(), 0.5f32.ln(), 0.0];
     let v = vtrace(
+        &Trajectory {
+            t_len: 3,
+            rows: 1,
+            rewards: &[1.0, 0.0, 1.0],
+            values: &[0.5, 1.0, 2.0],
+            next_values: &[1.0, 2.0, 3.0],
+            terminated: &[false; 3],
+            truncated: &[false; 3],
+        },
         &log_rhos,
-        &[1.0, 0.0, 1.0],
-        &[0.5, 1.0, 2.0],
-        &[1.0, 2.0, 3.0],
-        &[false; 3],
-        &[false; 3],
-        3,
-        1,
         p,
     );
     close(&v.vs, &[2.9485, 2.165, 3.7], 1e-5);
@@ -122,14 +133,16 @@ fn vtrace_by_hand() {
     // no trace from step 1; A0 = 1 + 0.9·4 − 0.5 = 4.1. Termination at step 1:
     // v1 = 1 + 0.5·(0 − 1) = 0.5 (V(x_2) of the next episode is ignored).
     let v = vtrace(
+        &Trajectory {
+            t_len: 3,
+            rows: 1,
+            rewards: &[1.0, 0.0, 1.0],
+            values: &[0.5, 1.0, 2.0],
+            next_values: &[4.0, 123.0, 3.0],
+            terminated: &[false, true, false],
+            truncated: &[true, false, false],
+        },
         &log_rhos,
-        &[1.0, 0.0, 1.0],
-        &[0.5, 1.0, 2.0],
-        &[4.0, 123.0, 3.0],
-        &[false, true, false],
-        &[true, false, false],
-        3,
-        1,
         p,
     );
     close(&v.vs, &[4.6, 0.5, 3.7], 1e-5);
@@ -152,14 +165,16 @@ fn vtrace_on_policy_equals_n_step_bootstrapped_returns() {
     let mut terminated = vec![false; t_len];
     terminated[4] = true;
     let v = vtrace(
+        &Trajectory {
+            t_len,
+            rows: 1,
+            rewards: &rewards,
+            values: &values,
+            next_values: &next_values,
+            terminated: &terminated,
+            truncated: &vec![false; t_len],
+        },
         &vec![0.0; t_len],
-        &rewards,
-        &values,
-        &next_values,
-        &terminated,
-        &vec![false; t_len],
-        t_len,
-        1,
         VTraceParams {
             gamma,
             ..VTraceParams::default()
@@ -176,15 +191,16 @@ fn vtrace_on_policy_equals_n_step_bootstrapped_returns() {
     }
     // And on-policy V-trace with λ = 1 equals GAE(λ = 1) targets.
     let g = gae(
-        &rewards,
-        &values,
-        &next_values,
-        &terminated,
-        &vec![false; t_len],
-        t_len,
-        1,
-        gamma,
-        1.0,
+        &Trajectory {
+            t_len,
+            rows: 1,
+            rewards: &rewards,
+            values: &values,
+            next_values: &next_values,
+            terminated: &terminated,
+            truncated: &vec![false; t_len],
+        },
+        GaeParams { gamma, lambda: 1.0 },
     );
     close(&v.vs, &g.targets, 1e-5);
 }

@@ -157,7 +157,7 @@ fn recurrent_value_pass_bootstraps_from_the_actors_state() {
     let st = a.inference.state().unwrap();
     let (r, cells) = (nb.rows, 8);
     let mut onehot = Vec::new();
-    buridan_policy::infer::one_hot_prev(&st.prev_actions, 1, 5, &mut onehot);
+    buridan_policy::infer::one_hot_prev(&st.prev_actions, 5, &mut onehot);
     let input = buridan_policy::RecurrentInput {
         prev_action: Tensor::from_vec(onehot, (r, 5), &dev).unwrap(),
         prev_reward: Tensor::from_slice(&st.prev_rewards, (r, 1), &dev).unwrap(),

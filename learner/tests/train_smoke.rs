@@ -4,9 +4,9 @@
 use buridan_env::Starts;
 use buridan_learner::train::{
     final_checkpoint, train, Algo, MetricsRow, NoProgress, Progress, Summary, TrainConfig,
-    METRICS_COLUMNS,
+    TrainError,
 };
-use buridan_policy::{Mode, Policy};
+use buridan_policy::{Mode, Policy, PolicyError};
 
 fn tiny(algo: Algo, mode: Mode) -> TrainConfig {
     let mut cfg = TrainConfig {
@@ -76,8 +76,20 @@ fn ppo_writes_metrics_checkpoints_summary_and_resumes() {
     assert_eq!(rec.finished.as_ref().unwrap().env_steps, 800);
     let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(lines.next().unwrap(), METRICS_COLUMNS.join(","));
+    assert_eq!(
+        lines.next().unwrap(),
+        "update,env_steps,agent_steps,wall_seconds,steps_per_s,episodes,episode_return_mean,\
+         success_rate,episode_len_mean,total_loss,policy_loss,vf_loss,entropy,kl,kl_coeff,\
+         grad_norm,mean_rho,stale_fragments,learn_seconds"
+    );
     assert_eq!(lines.count(), 5);
+    // Every row reads back as a MetricsRow (the curves command does this).
+    let rows: Vec<MetricsRow> = csv::Reader::from_path(out.join("metrics.csv"))
+        .unwrap()
+        .deserialize()
+        .collect::<Result<_, _>>()
+        .unwrap();
+    assert_eq!(rows.last().unwrap().env_steps, 800);
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     for key in [
@@ -136,7 +148,16 @@ fn ppo_writes_metrics_checkpoints_summary_and_resumes() {
         ..resumed_cfg
     };
     let err = train(&bad, &dir.path().join("bad"), &mut NoProgress).unwrap_err();
-    assert!(format!("{err:#}").contains("does not match"), "{err:#}");
+    assert!(
+        matches!(
+            err,
+            TrainError::Resume {
+                source: PolicyError::SpecMismatch { .. },
+                ..
+            }
+        ),
+        "{err:?}"
+    );
 }
 
 #[test]

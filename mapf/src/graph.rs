@@ -80,52 +80,9 @@ pub(crate) fn distance_table(grid: &Grid, goal: Cell) -> Vec<u32> {
         .collect()
 }
 
-/// A fast non-cryptographic hasher (the FxHash mixing step) for the
-/// solvers' integer keys; `HashMap`'s default SipHash dominates the cost of
-/// duplicate detection otherwise.
-#[derive(Default, Clone, Copy)]
-pub(crate) struct FxHasher {
-    hash: u64,
-}
-
-const FX_K: u64 = 0x51_7c_c1_b7_27_22_0a_95;
-
-impl std::hash::Hasher for FxHasher {
-    #[inline]
-    fn write(&mut self, bytes: &[u8]) {
-        for chunk in bytes.chunks(8) {
-            let mut word = [0u8; 8];
-            word[..chunk.len()].copy_from_slice(chunk);
-            self.write_u64(u64::from_le_bytes(word));
-        }
-    }
-    #[inline]
-    fn write_u32(&mut self, i: u32) {
-        self.write_u64(u64::from(i));
-    }
-    #[inline]
-    fn write_u64(&mut self, i: u64) {
-        self.hash = (self.hash.rotate_left(5) ^ i).wrapping_mul(FX_K);
-    }
-    #[inline]
-    fn write_u128(&mut self, i: u128) {
-        self.write_u64(i as u64);
-        self.write_u64((i >> 64) as u64);
-    }
-    #[inline]
-    fn write_usize(&mut self, i: usize) {
-        self.write_u64(i as u64);
-    }
-    #[inline]
-    fn finish(&self) -> u64 {
-        // Fold the high bits down: hashbrown takes the bucket from the low
-        // bits and the tag from the top 7.
-        self.hash ^ (self.hash >> 32)
-    }
-}
-
-/// `HashMap` with [`FxHasher`].
-pub(crate) type FastMap<K, V> =
-    std::collections::HashMap<K, V, std::hash::BuildHasherDefault<FxHasher>>;
-/// `HashSet` with [`FxHasher`].
-pub(crate) type FastSet<K> = std::collections::HashSet<K, std::hash::BuildHasherDefault<FxHasher>>;
+/// `HashMap` with rustc's Fx hash: the solvers' keys are small integers,
+/// and `HashMap`'s default SipHash would dominate the cost of duplicate
+/// detection.
+pub(crate) type FastMap<K, V> = rustc_hash::FxHashMap<K, V>;
+/// `HashSet` with the Fx hash (see [`FastMap`]).
+pub(crate) type FastSet<K> = rustc_hash::FxHashSet<K>;

@@ -24,6 +24,12 @@ pub enum PolicyError {
         /// The I/O error.
         source: std::io::Error,
     },
+    /// A directory holds no checkpoint (no spec, no `checkpoints/` with one).
+    #[error("{} holds no checkpoint (no spec.json, no checkpoints/ folder with one)", dir.display())]
+    NoCheckpoint {
+        /// The directory searched.
+        dir: PathBuf,
+    },
     /// The spec file is not valid JSON/TOML for a [`crate::ModelSpec`].
     #[error("spec file {path}: {message}")]
     BadSpecFile {

@@ -81,12 +81,19 @@ impl RecurrentState {
     }
 }
 
-/// One-hot encoding of previous actions `[rows, heads]` into `[rows,
-/// heads·actions]` (zeros for [`NO_ACTION`]).
-pub fn one_hot_prev(prev: &[u8], heads: usize, actions: usize, out: &mut Vec<f32>) {
+/// One-hot encoding of previous actions `[rows, heads]` (flat) into
+/// `[rows, heads·actions]`: each action gets `actions` slots, so the head
+/// count is implied by the buffer (zeros for [`NO_ACTION`]).
+///
+/// ```
+/// use buridan_policy::infer::{one_hot_prev, NO_ACTION};
+/// let mut out = Vec::new();
+/// one_hot_prev(&[2, NO_ACTION], 3, &mut out);
+/// assert_eq!(out, vec![0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
+/// ```
+pub fn one_hot_prev(prev: &[u8], actions: usize, out: &mut Vec<f32>) {
     out.clear();
     out.resize(prev.len() * actions, 0.0);
-    let _ = heads;
     for (k, &a) in prev.iter().enumerate() {
         if a != NO_ACTION {
             out[k * actions + a as usize] = 1.0;
@@ -260,7 +267,7 @@ impl Inference {
                     self.scratch_r.push(st.prev_rewards[r]);
                     prev.extend_from_slice(&st.prev_actions[r * spec.heads..(r + 1) * spec.heads]);
                 }
-                one_hot_prev(&prev, spec.heads, spec.actions, &mut self.scratch_a);
+                one_hot_prev(&prev, spec.actions, &mut self.scratch_a);
                 let input = RecurrentInput {
                     prev_action: Tensor::from_slice(&self.scratch_a, (n, w), &dev)?,
                     prev_reward: Tensor::from_slice(&self.scratch_r, (n, 1), &dev)?,

@@ -10,6 +10,8 @@
 //!   over heads), entropy, KL, sampling, greedy choice.
 //! - [`infer`]: [`Inference`], an actor's batched action selection.
 //! - [`fragment`]: [`Fragment`], `T` steps of experience as plain data.
+//! - [`checkpoint`]: where a run keeps its checkpoints, and which one a
+//!   path names.
 //! - [`threads`]: pinning candle's CPU thread count.
 //!
 //! ```
@@ -22,6 +24,7 @@
 //! ```
 
 pub mod activation;
+pub mod checkpoint;
 pub mod dist;
 pub mod error;
 pub mod fragment;

@@ -222,7 +222,7 @@ fn lstm_unroll_matches_step_by_step_inference_with_resets() {
         let obs = obs_batch(rows, 9, t as f32 * 0.7);
         let st = inf.state().unwrap().clone();
         let mut onehot = Vec::new();
-        buridan_policy::infer::one_hot_prev(&st.prev_actions, 2, 5, &mut onehot);
+        buridan_policy::infer::one_hot_prev(&st.prev_actions, 5, &mut onehot);
         prev_a.extend(onehot);
         prev_r.extend(st.prev_rewards.iter().copied());
         for r in 0..rows {

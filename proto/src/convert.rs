@@ -1,6 +1,8 @@
-//! Messages ↔ crate types. Conversions move the buffers (no copies of
-//! observations), and everything arriving from the wire is checked: shapes,
-//! finite numbers, value ranges.
+//! Messages ↔ crate types. Byte and integer buffers move between the two;
+//! float buffers that travel as bytes (observations, logits) are copied
+//! once, into bytes on the way out and into floats on the way in.
+//! Everything arriving from the wire is checked: shapes, finite numbers,
+//! value ranges.
 //!
 //! ```
 //! use buridan_policy::Fragment;
@@ -73,7 +75,8 @@ pub struct WireTag {
     pub seq: u64,
 }
 
-/// Wraps a fragment for the wire (moves its buffers).
+/// Wraps a fragment for the wire: masks, actions, flags and the small float
+/// buffers move; observations and logits are copied once into bytes.
 pub fn fragment_to_message(f: Fragment, tag: &WireTag) -> v1::Fragment {
     v1::Fragment {
         run_id: tag.run_id.clone(),

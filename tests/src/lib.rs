@@ -5,7 +5,7 @@
 use std::sync::{Arc, Mutex};
 
 use anyhow::{anyhow, Result};
-use buridan_actor::client::Connector;
+use buridan_actor::client::{ConnectError, Connector};
 use buridan_learner::train::TrainConfig;
 use tokio::io::DuplexStream;
 use tokio::sync::mpsc;
@@ -32,7 +32,12 @@ impl InMemoryNet {
         let net = self.clone();
         Arc::new(move || {
             let net = net.clone();
-            Box::pin(async move { net.channel().await })
+            Box::pin(async move {
+                net.channel().await.map_err(|e| ConnectError {
+                    target: "the in-memory learner".into(),
+                    source: e.into(),
+                })
+            })
         })
     }
 

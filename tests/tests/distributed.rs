@@ -9,9 +9,9 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use anyhow::Result;
-use buridan_actor::client::{build_collector, run, ActorOptions, ActorReport};
-use buridan_learner::serve::{serve, Listener, ServeOptions};
-use buridan_learner::train::{Interrupted, MetricsRow, Progress, Summary, TrainConfig};
+use buridan_actor::client::{build_collector, run, ActorError, ActorOptions, ActorReport};
+use buridan_learner::serve::{serve, Listener, ServeError, ServeOptions};
+use buridan_learner::train::{MetricsRow, Progress, Summary, TrainConfig, TrainError};
 use buridan_proto::convert::{fragment_to_message, weights_from_message, WireTag};
 use buridan_proto::v1;
 use buridan_proto::v1::learner_client::LearnerClient;
@@ -32,7 +32,10 @@ fn start_learner(
     cfg: TrainConfig,
     out: std::path::PathBuf,
     opts: ServeOptions,
-) -> (JoinHandle<Result<Summary>>, std_mpsc::Receiver<u64>) {
+) -> (
+    JoinHandle<Result<Summary, ServeError>>,
+    std_mpsc::Receiver<u64>,
+) {
     let rx = net.plug_learner();
     let (tx, updates) = std_mpsc::channel();
     let handle = std::thread::spawn(move || {
@@ -310,7 +313,11 @@ fn a_token_is_required_when_set() {
         ..actor_opts("wrong")
     };
     let err = rt.block_on(run(net.connector(), wrong)).unwrap_err();
-    assert!(format!("{err:#}").contains("wrong token"), "{err:#}");
+    let ActorError::Refused(status) = &err else {
+        panic!("not a refusal: {err:?}");
+    };
+    assert_eq!(status.code(), Code::Unauthenticated);
+    assert!(status.message().contains("wrong token"), "{status:?}");
     let right = ActorOptions {
         token: Some("s3cret".into()),
         ..actor_opts("right")
@@ -337,9 +344,12 @@ fn actors_reconnect_to_a_restarted_learner() {
     while updates.recv().unwrap() < 2 {}
     interrupt.store(true, Ordering::SeqCst);
     let err = first.join().unwrap().unwrap_err();
-    let interrupted = err
-        .downcast_ref::<Interrupted>()
-        .unwrap_or_else(|| panic!("not an interruption: {err:#}"));
+    let ServeError::Train(err) = err else {
+        panic!("not a run error: {err}");
+    };
+    let TrainError::Interrupted(interrupted) = *err else {
+        panic!("not an interruption: {err}");
+    };
     assert!(interrupted.updates >= 2);
     assert!(interrupted.checkpoint.join("trainer.json").is_file());
     // The actor keeps trying while no learner answers.

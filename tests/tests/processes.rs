@@ -21,7 +21,7 @@ fn binaries() -> (PathBuf, PathBuf) {
             "build",
             "--quiet",
             "-p",
-            "buridan-learner",
+            "buridan-cli",
             "-p",
             "buridan-actor",
             "--bins",

@@ -2,11 +2,13 @@
 //! buffers turned into tensors, and the value pass that yields `V(s_t)` and
 //! the bootstrap values `V(s_{t+1})` (see [`crate::algo::gae`]).
 
-use anyhow::{bail, ensure, Result};
 use buridan_policy::dist;
 use buridan_policy::infer::{one_hot_prev, RecurrentState, NO_ACTION};
 use buridan_policy::{Fragment, ModelSpec, Net};
 use candle_core::{Device, Tensor};
+
+use crate::algo::trajectory::Trajectory;
+use crate::algo::{AlgoError, Result};
 
 /// The experience of one weight set: `T` steps of `R` rows gathered from
 /// fragments (all of the same length), time-major `[T, R]`.
@@ -63,123 +65,158 @@ impl NetBatch {
 /// Splits fragments into one [`NetBatch`] per weight set of `spec`
 /// (one for CTE/CTDE, one per agent id for DTE).
 pub fn build_net_batches(fragments: &[Fragment], spec: &ModelSpec) -> Result<Vec<NetBatch>> {
-    ensure!(!fragments.is_empty(), "no fragments to build a batch from");
-    let t = fragments[0].len;
-    let w = spec.logits_dim();
+    check_fragments(fragments, spec)?;
+    let env_steps: u64 = fragments.iter().map(|f| f.env_steps).sum();
+    (0..spec.nets())
+        .map(|k| {
+            let sel = rows_of_net(fragments, spec, k);
+            let mut b = gather_steps(fragments, spec, &sel);
+            gather_final_obs(fragments, &sel, &mut b);
+            if let Some(lstm) = &spec.lstm {
+                b.initial_state = Some(gather_initial_state(
+                    fragments, &sel, lstm.cells, spec.heads,
+                )?);
+            }
+            b.env_steps = env_steps;
+            Ok(b)
+        })
+        .collect()
+}
+
+/// Fragments fit together and fit the model.
+fn check_fragments(fragments: &[Fragment], spec: &ModelSpec) -> Result<()> {
+    let first = fragments
+        .first()
+        .ok_or_else(|| AlgoError::Batch("no fragments to build a batch from".into()))?;
     for f in fragments {
         f.validate()?;
-        ensure!(
-            f.len == t,
-            "fragments of different lengths ({} and {t})",
-            f.len
-        );
-        ensure!(
-            f.obs_dim == spec.obs_dim && f.heads == spec.heads,
-            "fragment shape (obs {}, heads {}) does not match the model (obs {}, heads {})",
-            f.obs_dim,
-            f.heads,
-            spec.obs_dim,
-            spec.heads
-        );
-        ensure!(
-            f.initial_state.is_some() == spec.is_recurrent(),
-            "fragment recurrent state does not match the model"
-        );
+        check(f.len == first.len, || {
+            format!(
+                "fragments of different lengths ({} and {})",
+                f.len, first.len
+            )
+        })?;
+        check(f.obs_dim == spec.obs_dim && f.heads == spec.heads, || {
+            format!(
+                "fragment shape (obs {}, heads {}) does not match the model (obs {}, heads {})",
+                f.obs_dim, f.heads, spec.obs_dim, spec.heads
+            )
+        })?;
+        check(f.initial_state.is_some() == spec.is_recurrent(), || {
+            "fragment recurrent state does not match the model".into()
+        })?;
     }
-    let env_steps: u64 = fragments.iter().map(|f| f.env_steps).sum();
-    let d = spec.obs_dim;
-    let h = spec.heads;
-    let mut out = Vec::with_capacity(spec.nets());
-    for k in 0..spec.nets() {
-        // (fragment, row) pairs of this weight set, in batch row order.
-        let sel: Vec<(usize, usize)> = fragments
-            .iter()
-            .enumerate()
-            .flat_map(|(fi, f)| {
-                (0..f.rows)
-                    .filter(move |&r| spec.net_of_row(r) == k)
-                    .map(move |r| (fi, r))
-            })
-            .collect();
-        let rows = sel.len();
-        let n = t * rows;
-        let mut b = NetBatch {
-            t,
-            rows,
-            obs_dim: d,
-            heads: h,
-            actions_per_head: spec.actions,
-            obs: Vec::with_capacity(n * d),
-            masks: Vec::with_capacity(n * w),
-            actions: Vec::with_capacity(n * h),
-            behaviour_logits: Vec::with_capacity(n * w),
-            rewards: Vec::with_capacity(n),
-            terminated: Vec::with_capacity(n),
-            truncated: Vec::with_capacity(n),
-            final_obs: Vec::new(),
-            final_index: Vec::new(),
-            last_obs: Vec::with_capacity(rows * d),
-            initial_state: None,
-            env_steps,
-        };
-        for s in 0..t {
-            for &(fi, r) in &sel {
-                let f = &fragments[fi];
-                let i = s * f.rows + r;
-                b.obs.extend_from_slice(&f.obs[i * d..(i + 1) * d]);
-                b.masks.extend_from_slice(&f.masks[i * w..(i + 1) * w]);
-                b.actions.extend_from_slice(&f.actions[i * h..(i + 1) * h]);
-                b.behaviour_logits
-                    .extend_from_slice(&f.behaviour_logits[i * w..(i + 1) * w]);
-                b.rewards.push(f.rewards[i]);
-                b.terminated.push(f.terminated[i] != 0);
-                b.truncated.push(f.truncated[i] != 0);
-            }
+    Ok(())
+}
+
+fn check(ok: bool, why: impl FnOnce() -> String) -> Result<()> {
+    if ok {
+        Ok(())
+    } else {
+        Err(AlgoError::Batch(why()))
+    }
+}
+
+/// The `(fragment, row)` pairs of weight set `k`, in batch row order.
+fn rows_of_net(fragments: &[Fragment], spec: &ModelSpec, k: usize) -> Vec<(usize, usize)> {
+    fragments
+        .iter()
+        .enumerate()
+        .flat_map(|(fi, f)| {
+            (0..f.rows)
+                .filter(move |&r| spec.net_of_row(r) == k)
+                .map(move |r| (fi, r))
+        })
+        .collect()
+}
+
+/// Every step of the selected rows, time-major, and their last observations.
+fn gather_steps(fragments: &[Fragment], spec: &ModelSpec, sel: &[(usize, usize)]) -> NetBatch {
+    let (t, rows) = (fragments[0].len, sel.len());
+    let (d, h, w) = (spec.obs_dim, spec.heads, spec.logits_dim());
+    let n = t * rows;
+    let mut b = NetBatch {
+        t,
+        rows,
+        obs_dim: d,
+        heads: h,
+        actions_per_head: spec.actions,
+        obs: Vec::with_capacity(n * d),
+        masks: Vec::with_capacity(n * w),
+        actions: Vec::with_capacity(n * h),
+        behaviour_logits: Vec::with_capacity(n * w),
+        rewards: Vec::with_capacity(n),
+        terminated: Vec::with_capacity(n),
+        truncated: Vec::with_capacity(n),
+        last_obs: Vec::with_capacity(rows * d),
+        ..NetBatch::default()
+    };
+    for s in 0..t {
+        for &(fi, r) in sel {
+            let f = &fragments[fi];
+            let i = s * f.rows + r;
+            b.obs.extend_from_slice(&f.obs[i * d..(i + 1) * d]);
+            b.masks.extend_from_slice(&f.masks[i * w..(i + 1) * w]);
+            b.actions.extend_from_slice(&f.actions[i * h..(i + 1) * h]);
+            b.behaviour_logits
+                .extend_from_slice(&f.behaviour_logits[i * w..(i + 1) * w]);
+            b.rewards.push(f.rewards[i]);
+            b.terminated.push(f.terminated[i] != 0);
+            b.truncated.push(f.truncated[i] != 0);
         }
-        // Map (fragment, row) → batch row for the final observations.
-        let mut batch_row = vec![Vec::new(); fragments.len()];
-        for (j, &(fi, r)) in sel.iter().enumerate() {
-            if batch_row[fi].is_empty() {
-                batch_row[fi] = vec![usize::MAX; fragments[fi].rows];
-            }
-            batch_row[fi][r] = j;
-        }
-        for (fi, f) in fragments.iter().enumerate() {
-            for (q, &idx) in f.final_obs_index.iter().enumerate() {
-                let (s, r) = (idx as usize / f.rows, idx as usize % f.rows);
-                if batch_row[fi].is_empty() || batch_row[fi][r] == usize::MAX {
-                    continue;
-                }
-                b.final_index.push(s * rows + batch_row[fi][r]);
+    }
+    for &(fi, r) in sel {
+        b.last_obs
+            .extend_from_slice(&fragments[fi].last_obs[r * d..(r + 1) * d]);
+    }
+    b
+}
+
+/// The final observations of truncated steps of the selected rows, indexed
+/// by their place in the batch.
+fn gather_final_obs(fragments: &[Fragment], sel: &[(usize, usize)], b: &mut NetBatch) {
+    let d = b.obs_dim;
+    // (fragment, row) → batch row.
+    let mut batch_row: Vec<Vec<Option<usize>>> =
+        fragments.iter().map(|f| vec![None; f.rows]).collect();
+    for (j, &(fi, r)) in sel.iter().enumerate() {
+        batch_row[fi][r] = Some(j);
+    }
+    for (fi, f) in fragments.iter().enumerate() {
+        for (q, &idx) in f.final_obs_index.iter().enumerate() {
+            let (s, r) = (idx as usize / f.rows, idx as usize % f.rows);
+            if let Some(j) = batch_row[fi][r] {
+                b.final_index.push(s * b.rows + j);
                 b.final_obs
                     .extend_from_slice(&f.final_obs[q * d..(q + 1) * d]);
             }
         }
-        for &(fi, r) in &sel {
-            b.last_obs
-                .extend_from_slice(&fragments[fi].last_obs[r * d..(r + 1) * d]);
-        }
-        if spec.is_recurrent() {
-            let cells = spec.lstm.expect("recurrent").cells;
-            let mut st = RecurrentState::new(rows, cells, h);
-            for (j, &(fi, r)) in sel.iter().enumerate() {
-                let src = fragments[fi].initial_state.as_ref().expect("checked");
-                if src.cells != cells {
-                    bail!("fragment LSTM has {} cells, model {cells}", src.cells);
-                }
-                st.h[j * cells..(j + 1) * cells]
-                    .copy_from_slice(&src.h[r * cells..(r + 1) * cells]);
-                st.c[j * cells..(j + 1) * cells]
-                    .copy_from_slice(&src.c[r * cells..(r + 1) * cells]);
-                st.prev_actions[j * h..(j + 1) * h]
-                    .copy_from_slice(&src.prev_actions[r * h..(r + 1) * h]);
-                st.prev_rewards[j] = src.prev_rewards[r];
-            }
-            b.initial_state = Some(st);
-        }
-        out.push(b);
     }
-    Ok(out)
+}
+
+/// The recurrent state before step 0 of the selected rows.
+fn gather_initial_state(
+    fragments: &[Fragment],
+    sel: &[(usize, usize)],
+    cells: usize,
+    heads: usize,
+) -> Result<RecurrentState> {
+    let mut st = RecurrentState::new(sel.len(), cells, heads);
+    for (j, &(fi, r)) in sel.iter().enumerate() {
+        let src = fragments[fi]
+            .initial_state
+            .as_ref()
+            .ok_or_else(|| AlgoError::Batch("a fragment lacks its recurrent state".into()))?;
+        check(src.cells == cells, || {
+            format!("fragment LSTM has {} cells, model {cells}", src.cells)
+        })?;
+        st.h[j * cells..(j + 1) * cells].copy_from_slice(&src.h[r * cells..(r + 1) * cells]);
+        st.c[j * cells..(j + 1) * cells].copy_from_slice(&src.c[r * cells..(r + 1) * cells]);
+        st.prev_actions[j * heads..(j + 1) * heads]
+            .copy_from_slice(&src.prev_actions[r * heads..(r + 1) * heads]);
+        st.prev_rewards[j] = src.prev_rewards[r];
+    }
+    Ok(st)
 }
 
 /// Recurrent inputs of a batch as tensors.
@@ -249,12 +286,31 @@ impl BatchTensors {
         })
     }
 
+    /// Runs a recurrent `net` over this batch's sequences (truncated BPTT
+    /// every `max_seq_len` steps).
+    pub fn unroll(
+        &self,
+        net: &Net,
+        rc: &RecurrentTensors,
+        max_seq_len: usize,
+    ) -> Result<buridan_policy::net::UnrollOutput> {
+        Ok(net.unroll(
+            &self.obs,
+            &rc.prev_action,
+            &rc.prev_reward,
+            &rc.keep,
+            &rc.h0,
+            &rc.c0,
+            self.t,
+            max_seq_len,
+        )?)
+    }
+
     /// The samples at flat indices `idx` (feed-forward minibatches).
     pub fn select_samples(&self, idx: &Tensor) -> Result<Self> {
-        ensure!(
-            self.recurrent.is_none(),
-            "sample selection on a recurrent batch"
-        );
+        check(self.recurrent.is_none(), || {
+            "sample selection on a recurrent batch".into()
+        })?;
         Ok(Self {
             t: 1,
             rows: idx.elem_count(),
@@ -345,7 +401,7 @@ fn recurrent_inputs(
         }
     }
     let mut onehot = Vec::new();
-    one_hot_prev(&prev_actions, h, na, &mut onehot);
+    one_hot_prev(&prev_actions, na, &mut onehot);
     Ok(RecurrentTensors {
         prev_action: Tensor::from_vec(onehot, (t * r, w), device)?,
         prev_reward: Tensor::from_vec(prev_rewards, (t * r, 1), device)?,
@@ -367,6 +423,22 @@ pub struct Evaluation {
     pub values_vec: Vec<f32>,
     /// `V(s_{t+1})`, detached, `[T·R]`.
     pub next_values: Vec<f32>,
+}
+
+impl Evaluation {
+    /// The trajectory GAE and V-trace read: batch `b`'s rewards and flags
+    /// with these values.
+    pub fn trajectory<'a>(&'a self, b: &'a NetBatch) -> Trajectory<'a> {
+        Trajectory {
+            t_len: b.t,
+            rows: b.rows,
+            rewards: &b.rewards,
+            values: &self.values_vec,
+            next_values: &self.next_values,
+            terminated: &b.terminated,
+            truncated: &b.truncated,
+        }
+    }
 }
 
 /// Runs a net over a whole batch (feed-forward or unrolled), with the
@@ -396,16 +468,7 @@ pub fn evaluate(
             (logits, values, v[n..n + r].to_vec(), v[n + r..].to_vec())
         }
         Some(rc) => {
-            let un = net.unroll(
-                &bt.obs,
-                &rc.prev_action,
-                &rc.prev_reward,
-                &rc.keep,
-                &rc.h0,
-                &rc.c0,
-                t,
-                max_seq_len,
-            )?;
+            let un = bt.unroll(net, rc, max_seq_len)?;
             let (na, h) = (b.actions_per_head, b.heads);
             let w = h * na;
             // Bootstrap of the fragment end: state after T−1, inputs a_{T−1}, r_{T−1}.
@@ -479,7 +542,7 @@ fn prev_inputs_of(
         rews.push(b.rewards[i]);
     }
     let mut onehot = Vec::new();
-    one_hot_prev(&acts, h, b.actions_per_head, &mut onehot);
+    one_hot_prev(&acts, b.actions_per_head, &mut onehot);
     Ok((
         Tensor::from_vec(onehot, (idx.len(), w), device)?,
         Tensor::from_vec(rews, (idx.len(), 1), device)?,

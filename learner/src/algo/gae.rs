@@ -6,10 +6,9 @@
 //! With `δ_t = r_t + γ·V(s_{t+1})·(1 − term_t) − V(s_t)`:
 //! `Â_t = δ_t + γλ·(1 − done_t)·Â_{t+1}`, value target `R_t = Â_t + V(s_t)`.
 //!
-//! `next_values[t]` is `V(s_{t+1})`, the value of the state that step `t`
-//! led to: `V(final_obs)` where step `t` truncated, `values[t+1]` inside an
-//! episode, the bootstrap value of the fragment's last observation at
-//! `t = T−1`, anything where step `t` terminated (it is multiplied by 0).
+//! Inputs as in [`crate::algo::trajectory`].
+
+use crate::algo::trajectory::Trajectory;
 
 /// Advantages and value targets of one time-major batch.
 #[derive(Debug, Clone, PartialEq)]
@@ -20,53 +19,50 @@ pub struct Gae {
     pub targets: Vec<f32>,
 }
 
-/// GAE(λ) over `t_len` steps of `rows` independent rows, all buffers
-/// time-major `[T, B]`.
+/// Discount and trace decay of GAE.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GaeParams {
+    /// Discount γ.
+    pub gamma: f32,
+    /// Trace decay λ.
+    pub lambda: f32,
+}
+
+/// GAE(λ) over a time-major trajectory.
 ///
 /// ```
-/// use buridan_learner::algo::gae::gae;
+/// use buridan_learner::algo::gae::{gae, GaeParams};
+/// use buridan_learner::algo::trajectory::Trajectory;
 /// // One row, two steps, terminated at the end: r = [0, 1], V = [0.5, 0.5].
-/// let g = gae(&[0.0, 1.0], &[0.5, 0.5], &[0.5, 9.9], &[false, true], &[false, false], 2, 1, 0.9, 1.0);
+/// let traj = Trajectory {
+///     t_len: 2, rows: 1,
+///     rewards: &[0.0, 1.0], values: &[0.5, 0.5], next_values: &[0.5, 9.9],
+///     terminated: &[false, true], truncated: &[false, false],
+/// };
+/// let g = gae(&traj, GaeParams { gamma: 0.9, lambda: 1.0 });
 /// // δ1 = 1 − 0.5 = 0.5; δ0 = 0 + 0.9·0.5 − 0.5 = −0.05; Â0 = −0.05 + 0.9·0.5 = 0.4.
 /// assert!((g.advantages[1] - 0.5).abs() < 1e-6 && (g.advantages[0] - 0.4).abs() < 1e-6);
 /// ```
-#[allow(clippy::too_many_arguments)]
-pub fn gae(
-    rewards: &[f32],
-    values: &[f32],
-    next_values: &[f32],
-    terminated: &[bool],
-    truncated: &[bool],
-    t_len: usize,
-    rows: usize,
-    gamma: f32,
-    lambda: f32,
-) -> Gae {
-    let n = t_len * rows;
-    assert!(
-        rewards.len() == n
-            && values.len() == n
-            && next_values.len() == n
-            && terminated.len() == n
-            && truncated.len() == n,
-        "gae: every buffer must hold T·B = {n} values"
-    );
+pub fn gae(traj: &Trajectory, p: GaeParams) -> Gae {
+    traj.assert_shapes("gae");
+    let (gamma, lambda) = (p.gamma, p.lambda);
+    let n = traj.len();
     let mut advantages = vec![0.0f32; n];
     let mut targets = vec![0.0f32; n];
-    for r in 0..rows {
+    for r in 0..traj.rows {
         let mut next_adv = 0.0f32;
-        for t in (0..t_len).rev() {
-            let k = t * rows + r;
-            let not_term = if terminated[k] { 0.0 } else { 1.0 };
-            let not_done = if terminated[k] || truncated[k] {
+        for t in (0..traj.t_len).rev() {
+            let k = t * traj.rows + r;
+            let not_term = if traj.terminated[k] { 0.0 } else { 1.0 };
+            let not_done = if traj.terminated[k] || traj.truncated[k] {
                 0.0
             } else {
                 1.0
             };
-            let delta = rewards[k] + gamma * next_values[k] * not_term - values[k];
+            let delta = traj.rewards[k] + gamma * traj.next_values[k] * not_term - traj.values[k];
             let adv = delta + gamma * lambda * not_done * next_adv;
             advantages[k] = adv;
-            targets[k] = adv + values[k];
+            targets[k] = adv + traj.values[k];
             next_adv = adv;
         }
     }

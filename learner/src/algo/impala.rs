@@ -8,15 +8,14 @@
 //! sums over the batch, as RLlib's new-stack IMPALA learner does. Optimiser:
 //! Adam (RLlib IMPALA's default `opt_type="adam"`; the paper used RMSProp).
 
-use anyhow::Result;
 use buridan_policy::{dist, Policy};
 use candle_core::{Device, Tensor};
 
 use crate::algo::batch::{build_net_batches, evaluate, BatchTensors, NetBatch};
-use crate::algo::optim::{clip_global_norm, collect_grads, global_norm, Adam};
+use crate::algo::optim::ClippedAdam;
 use crate::algo::ppo::LossTerms;
 use crate::algo::vtrace::{vtrace, VTraceParams};
-use crate::algo::{net_var_groups, UpdateStats};
+use crate::algo::{add_loss, Result, UpdateStats};
 
 /// Coefficients of the IMPALA loss.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -78,18 +77,15 @@ pub struct Impala {
     /// Settings.
     pub settings: ImpalaSettings,
     /// The optimiser over all weights.
-    pub adam: Adam,
-    groups: Vec<std::ops::Range<usize>>,
+    pub optim: ClippedAdam,
 }
 
 impl Impala {
     /// An IMPALA learner for `policy`.
     pub fn new(policy: &Policy, settings: ImpalaSettings) -> Self {
-        let (vars, groups) = net_var_groups(policy);
         Self {
-            adam: Adam::new(vars, settings.lr),
+            optim: ClippedAdam::new(policy, settings.lr, settings.grad_clip),
             settings,
-            groups,
         }
     }
 
@@ -103,69 +99,55 @@ impl Impala {
         self.update_batches(policy, &batches)
     }
 
-    /// One gradient step on prepared per-net batches.
+    /// One gradient step on prepared per-net batches: the V-trace loss of
+    /// every weight set, summed.
     pub fn update_batches(&mut self, policy: &Policy, batches: &[NetBatch]) -> Result<UpdateStats> {
-        let s = self.settings.clone();
-        let dev = Device::Cpu;
-        let mut total: Option<Tensor> = None;
-        let mut terms = Vec::new();
-        let mut rho_mean = 0.0;
+        let mut total = None;
+        let mut terms = Vec::with_capacity(batches.len());
+        let mut rho_sum = 0.0;
         for (k, b) in batches.iter().enumerate() {
-            let bt = BatchTensors::new(b, &dev)?;
-            let ev = evaluate(policy.net(k), b, &bt, s.max_seq_len, &dev)?;
-            let lp_all = dist::masked_log_probs(&ev.logits.detach(), &bt.mask_bias, bt.heads)?;
-            let target_logp = dist::joint_log_prob(&lp_all, &bt.actions)?;
-            let log_rhos: Vec<f32> = (target_logp - &bt.behaviour_logp)?.to_vec1()?;
-            let vt = vtrace(
-                &log_rhos,
-                &b.rewards,
-                &ev.values_vec,
-                &ev.next_values,
-                &b.terminated,
-                &b.truncated,
-                b.t,
-                b.rows,
-                s.vtrace,
-            );
-            rho_mean +=
-                vt.rhos.iter().map(|&x| x as f64).sum::<f64>() / vt.rhos.len().max(1) as f64;
-            let n = b.len();
-            let pg = Tensor::from_vec(vt.pg_advantages, n, &dev)?;
-            let vs = Tensor::from_vec(vt.vs, n, &dev)?;
-            let p = ImpalaLossParams {
-                vf_coeff: s.vf_coeff,
-                entropy_coeff: s.entropy_coeff,
-            };
-            let (loss, t) = impala_loss(&ev.logits, &ev.values, &bt, &pg, &vs, &p)?;
+            let (loss, t, mean_rho) = self.net_loss(policy, k, b)?;
             terms.push(t);
-            total = Some(match total {
-                None => loss,
-                Some(x) => (x + loss)?,
-            });
+            rho_sum += mean_rho;
+            total = add_loss(total, loss)?;
         }
         let mut stats = UpdateStats::default();
         if let Some(total) = total {
-            let grads = total.backward()?;
-            let mut g = collect_grads(&grads, self.adam.vars())?;
-            let mut norm_sq = 0.0;
-            for range in &self.groups {
-                let n = match s.grad_clip {
-                    Some(c) => clip_global_norm(&mut g[range.clone()], c),
-                    None => global_norm(
-                        &g[range.clone()]
-                            .iter()
-                            .map(|x| x.as_slice())
-                            .collect::<Vec<_>>(),
-                    ),
-                };
-                norm_sq += n * n;
-            }
-            self.adam.step(&g)?;
-            stats.add_minibatch(&terms, norm_sq.sqrt());
+            let grad_norm = self.optim.step(&total)?;
+            stats.add_minibatch(&terms, grad_norm);
         }
         stats.finish();
-        stats.mean_rho = rho_mean / batches.len().max(1) as f64;
+        stats.mean_rho = rho_sum / batches.len().max(1) as f64;
         stats.samples = batches.iter().map(|b| b.len()).sum();
         Ok(stats)
+    }
+
+    /// Weight set `k`'s loss: V-trace targets from the current weights'
+    /// ratios to the behaviour policy, then the actor-critic loss; also the
+    /// mean clipped ratio ρ.
+    fn net_loss(
+        &self,
+        policy: &Policy,
+        k: usize,
+        b: &NetBatch,
+    ) -> Result<(Tensor, LossTerms, f64)> {
+        let s = &self.settings;
+        let dev = Device::Cpu;
+        let bt = BatchTensors::new(b, &dev)?;
+        let ev = evaluate(policy.net(k), b, &bt, s.max_seq_len, &dev)?;
+        let lp_all = dist::masked_log_probs(&ev.logits.detach(), &bt.mask_bias, bt.heads)?;
+        let target_logp = dist::joint_log_prob(&lp_all, &bt.actions)?;
+        let log_rhos: Vec<f32> = (target_logp - &bt.behaviour_logp)?.to_vec1()?;
+        let vt = vtrace(&ev.trajectory(b), &log_rhos, s.vtrace);
+        let mean_rho = vt.rhos.iter().map(|&x| x as f64).sum::<f64>() / vt.rhos.len().max(1) as f64;
+        let n = b.len();
+        let pg_advantages = Tensor::from_vec(vt.pg_advantages, n, &dev)?;
+        let vs = Tensor::from_vec(vt.vs, n, &dev)?;
+        let params = ImpalaLossParams {
+            vf_coeff: s.vf_coeff,
+            entropy_coeff: s.entropy_coeff,
+        };
+        let (loss, terms) = impala_loss(&ev.logits, &ev.values, &bt, &pg_advantages, &vs, &params)?;
+        Ok((loss, terms, mean_rho))
     }
 }

@@ -1,6 +1,7 @@
 //! The learning algorithms, as pure functions (advantages, targets, losses)
 //! and small stateful learners (optimiser, KL coefficient):
 //!
+//! - [`trajectory`]: the time-major experience GAE and V-trace read.
 //! - [`gae`]: GAE(λ) advantages and value targets, truncation-aware.
 //! - [`vtrace`]: V-trace targets and policy-gradient advantages.
 //! - [`ppo`]: clipped-surrogate PPO with RLlib's adaptive KL penalty.
@@ -13,12 +14,30 @@ pub mod gae;
 pub mod impala;
 pub mod optim;
 pub mod ppo;
+pub mod trajectory;
 pub mod vtrace;
 
-use buridan_policy::Policy;
-use candle_core::Var;
+use buridan_policy::PolicyError;
+use candle_core::Tensor;
 
 use crate::algo::ppo::LossTerms;
+
+/// Why an update could not be computed.
+#[derive(Debug, thiserror::Error)]
+pub enum AlgoError {
+    /// The fragments do not form a train batch for this model.
+    #[error("invalid train batch: {0}")]
+    Batch(String),
+    /// A fragment or the policy is inconsistent.
+    #[error(transparent)]
+    Policy(#[from] PolicyError),
+    /// A tensor operation failed.
+    #[error(transparent)]
+    Candle(#[from] candle_core::Error),
+}
+
+/// The result of the algorithms' functions.
+pub type Result<T, E = AlgoError> = std::result::Result<T, E>;
 
 /// What one learner update reports (means over its gradient steps and
 /// weight sets).
@@ -69,15 +88,10 @@ impl UpdateStats {
     }
 }
 
-/// All variables of a policy ordered by weight set, with the index range of
-/// each set (gradient clipping is per weight set, as RLlib clips per policy).
-pub fn net_var_groups(policy: &Policy) -> (Vec<(String, Var)>, Vec<std::ops::Range<usize>>) {
-    let mut vars = Vec::new();
-    let mut groups = Vec::new();
-    for k in 0..policy.spec().nets() {
-        let start = vars.len();
-        vars.extend(policy.net_vars(k));
-        groups.push(start..vars.len());
-    }
-    (vars, groups)
+/// `total + loss`, starting from nothing: the sum of the weight sets' losses.
+fn add_loss(total: Option<Tensor>, loss: Tensor) -> Result<Option<Tensor>> {
+    Ok(Some(match total {
+        None => loss,
+        Some(t) => (t + loss)?,
+    }))
 }

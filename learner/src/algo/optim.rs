@@ -166,3 +166,51 @@ impl Adam {
         Ok(())
     }
 }
+
+/// Adam behind per-weight-set global-norm clipping: the one optimiser step
+/// PPO and IMPALA share. Weight sets are clipped apart, as RLlib clips each
+/// policy's gradients apart.
+pub struct ClippedAdam {
+    /// The optimiser over all weights (its moments go into checkpoints).
+    pub adam: Adam,
+    groups: Vec<std::ops::Range<usize>>,
+    max_norm: Option<f64>,
+}
+
+impl ClippedAdam {
+    /// Adam with learning rate `lr` over all weights of `policy`, each
+    /// weight set's gradient clipped to global norm `max_norm` (`None`: no
+    /// clipping).
+    pub fn new(policy: &buridan_policy::Policy, lr: f64, max_norm: Option<f64>) -> Self {
+        let mut vars = Vec::new();
+        let mut groups = Vec::new();
+        for k in 0..policy.spec().nets() {
+            let start = vars.len();
+            vars.extend(policy.net_vars(k));
+            groups.push(start..vars.len());
+        }
+        Self {
+            adam: Adam::new(vars, lr),
+            groups,
+            max_norm,
+        }
+    }
+
+    /// Back-propagates `loss`, clips, and takes one Adam step; returns the
+    /// global gradient norm over all weight sets before clipping.
+    pub fn step(&mut self, loss: &Tensor) -> candle_core::Result<f64> {
+        let grads = loss.backward()?;
+        let mut g = collect_grads(&grads, self.adam.vars())?;
+        let mut norm_sq = 0.0;
+        for range in &self.groups {
+            let set = &mut g[range.clone()];
+            let norm = match self.max_norm {
+                Some(max) => clip_global_norm(set, max),
+                None => global_norm(&set.iter().map(|x| x.as_slice()).collect::<Vec<_>>()),
+            };
+            norm_sq += norm * norm;
+        }
+        self.adam.step(&g)?;
+        Ok(norm_sq.sqrt())
+    }
+}

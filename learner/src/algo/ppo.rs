@@ -10,16 +10,15 @@
 //! 0.2) is multiplied by 1.5 if the mean KL exceeded `2·kl_target` and by
 //! 0.5 if it fell below `kl_target / 2` (RLlib's `update_kl`).
 
-use anyhow::Result;
 use buridan_policy::{dist, Policy};
 use candle_core::{Device, Tensor};
 use rand::seq::SliceRandom;
 use rand::Rng;
 
 use crate::algo::batch::{build_net_batches, evaluate, BatchTensors, NetBatch};
-use crate::algo::gae::{gae, standardize};
-use crate::algo::optim::{clip_global_norm, collect_grads, Adam};
-use crate::algo::{net_var_groups, UpdateStats};
+use crate::algo::gae::{gae, standardize, GaeParams};
+use crate::algo::optim::ClippedAdam;
+use crate::algo::{add_loss, AlgoError, Result, UpdateStats};
 
 /// Coefficients of the PPO loss.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -147,19 +146,52 @@ pub struct Ppo {
     /// Current KL coefficients, one per weight set.
     pub kl_coeffs: Vec<f64>,
     /// The optimiser over all weights.
-    pub adam: Adam,
-    groups: Vec<std::ops::Range<usize>>,
+    pub optim: ClippedAdam,
+}
+
+/// One weight set's train batch with its GAE advantages and value targets.
+struct Prepared {
+    bt: BatchTensors,
+    advantages: Tensor,
+    targets: Tensor,
+}
+
+/// One epoch's shuffled units of a weight set (samples, or whole sequences
+/// for recurrent nets) and how many minibatches they make.
+struct EpochPlan {
+    order: Vec<u32>,
+    minibatches: usize,
+}
+
+impl EpochPlan {
+    /// Shuffles the units of `b`; minibatches of `minibatch_size` samples,
+    /// rounded up (RLlib splits each policy's batch by agent steps).
+    fn shuffled<R: Rng>(b: &NetBatch, recurrent: bool, minibatch_size: usize, rng: &mut R) -> Self {
+        let units = if recurrent { b.rows } else { b.len() };
+        let mut order: Vec<u32> = (0..units as u32).collect();
+        order.shuffle(rng);
+        let minibatches = b
+            .len()
+            .div_ceil(minibatch_size.max(1))
+            .clamp(1, units.max(1));
+        Self { order, minibatches }
+    }
+
+    /// The units of minibatch `mb`, if it has any.
+    fn units(&self, mb: usize) -> Option<&[u32]> {
+        let n = self.order.len();
+        let (lo, hi) = (mb * n / self.minibatches, (mb + 1) * n / self.minibatches);
+        (mb < self.minibatches && hi > lo).then(|| &self.order[lo..hi])
+    }
 }
 
 impl Ppo {
     /// A PPO learner for `policy`.
     pub fn new(policy: &Policy, settings: PpoSettings) -> Self {
-        let (vars, groups) = net_var_groups(policy);
         Self {
             kl_coeffs: vec![settings.kl_coeff; policy.spec().nets()],
-            adam: Adam::new(vars, settings.lr),
+            optim: ClippedAdam::new(policy, settings.lr, settings.grad_clip),
             settings,
-            groups,
         }
     }
 
@@ -174,156 +206,134 @@ impl Ppo {
         self.update_batches(policy, &batches, rng)
     }
 
-    /// One training iteration on prepared per-net batches.
+    /// One training iteration on prepared per-net batches: advantages from
+    /// the behaviour (= current) weights, then `epochs` passes of shuffled
+    /// minibatches, then the KL coefficients adapt.
     pub fn update_batches<R: Rng>(
         &mut self,
         policy: &Policy,
         batches: &[NetBatch],
         rng: &mut R,
     ) -> Result<UpdateStats> {
-        let s = self.settings.clone();
-        let dev = Device::Cpu;
+        let prepared = batches
+            .iter()
+            .enumerate()
+            .map(|(k, b)| self.prepare(policy, k, b))
+            .collect::<Result<Vec<_>>>()?;
         let recurrent = policy.spec().is_recurrent();
-        // Targets from the behaviour (= current) weights, computed once.
-        let mut prepared = Vec::with_capacity(batches.len());
-        for (k, b) in batches.iter().enumerate() {
-            let bt = BatchTensors::new(b, &dev)?;
-            let ev = evaluate(policy.net(k), b, &bt, s.max_seq_len, &dev)?;
-            let g = gae(
-                &b.rewards,
-                &ev.values_vec,
-                &ev.next_values,
-                &b.terminated,
-                &b.truncated,
-                b.t,
-                b.rows,
-                s.gamma,
-                s.lambda,
-            );
-            let mut adv = g.advantages;
-            if s.standardize_advantages {
-                standardize(&mut adv);
-            }
-            let n = b.len();
-            prepared.push((
-                bt,
-                Tensor::from_vec(adv, n, &dev)?,
-                Tensor::from_vec(g.targets, n, &dev)?,
-            ));
-        }
         let mut stats = UpdateStats::default();
         let mut kl_sums = vec![0.0f64; batches.len()];
-        let mut steps = 0usize;
-        for _epoch in 0..s.epochs {
-            // Shuffled chunks per net: samples (feed-forward) or sequences (LSTM).
-            let orders: Vec<Vec<u32>> = batches
+        for _epoch in 0..self.settings.epochs {
+            let plans: Vec<EpochPlan> = batches
                 .iter()
-                .map(|b| {
-                    let units = if recurrent { b.rows } else { b.len() };
-                    let mut o: Vec<u32> = (0..units as u32).collect();
-                    o.shuffle(rng);
-                    o
-                })
+                .map(|b| EpochPlan::shuffled(b, recurrent, self.settings.minibatch_size, rng))
                 .collect();
-            // Minibatches per net: its samples / minibatch_size, rounded up
-            // (RLlib splits each policy's batch by agent steps).
-            let chunks: Vec<usize> = batches
-                .iter()
-                .zip(&orders)
-                .map(|(b, o)| {
-                    b.len()
-                        .div_ceil(s.minibatch_size.max(1))
-                        .clamp(1, o.len().max(1))
-                })
-                .collect();
-            let mbs = chunks.iter().copied().max().unwrap_or(1);
-            for mb in 0..mbs {
-                let mut total: Option<Tensor> = None;
-                let mut terms_mb = Vec::new();
-                for (k, (bt, adv, tgt)) in prepared.iter().enumerate() {
-                    let units = orders[k].len();
-                    let lo = mb * units / chunks[k];
-                    let hi = (mb + 1) * units / chunks[k];
-                    if mb >= chunks[k] || hi <= lo {
+            let minibatches = plans.iter().map(|p| p.minibatches).max().unwrap_or(1);
+            for mb in 0..minibatches {
+                let mut total = None;
+                let mut terms = Vec::new();
+                for (k, plan) in plans.iter().enumerate() {
+                    let Some(units) = plan.units(mb) else {
                         continue;
-                    }
-                    let idx = Tensor::from_slice(&orders[k][lo..hi], hi - lo, &dev)?;
-                    let net = policy.net(k);
-                    let (sub, sub_adv, sub_tgt, logits, values) = if recurrent {
-                        let sub = bt.select_rows(&idx)?;
-                        let rc = sub.recurrent.as_ref().expect("recurrent");
-                        let un = net.unroll(
-                            &sub.obs,
-                            &rc.prev_action,
-                            &rc.prev_reward,
-                            &rc.keep,
-                            &rc.h0,
-                            &rc.c0,
-                            sub.t,
-                            s.max_seq_len,
-                        )?;
-                        let a =
-                            BatchTensors::select_rows_of(&adv.unsqueeze(1)?, bt.t, bt.rows, &idx)?
-                                .squeeze(1)?;
-                        let t =
-                            BatchTensors::select_rows_of(&tgt.unsqueeze(1)?, bt.t, bt.rows, &idx)?
-                                .squeeze(1)?;
-                        (sub, a, t, un.logits, un.value)
-                    } else {
-                        let sub = bt.select_samples(&idx)?;
-                        let out = net.forward(&sub.obs)?;
-                        let a = adv.index_select(&idx, 0)?;
-                        let t = tgt.index_select(&idx, 0)?;
-                        (sub, a, t, out.logits, out.value)
                     };
-                    let p = PpoLossParams {
-                        clip: s.clip,
-                        vf_coeff: s.vf_coeff,
-                        vf_clip: s.vf_clip,
-                        entropy_coeff: s.entropy_coeff,
-                        kl_coeff: self.kl_coeffs[k] as f32,
-                    };
-                    let (loss, terms) = ppo_loss(&logits, &values, &sub, &sub_adv, &sub_tgt, &p)?;
-                    kl_sums[k] += terms.kl;
-                    terms_mb.push(terms);
-                    total = Some(match total {
-                        None => loss,
-                        Some(t) => (t + loss)?,
-                    });
+                    let (loss, t) = self.minibatch_loss(policy, k, &prepared[k], units)?;
+                    kl_sums[k] += t.kl;
+                    terms.push(t);
+                    total = add_loss(total, loss)?;
                 }
                 let Some(total) = total else { continue };
-                let grads = total.backward()?;
-                let mut g = collect_grads(&grads, self.adam.vars())?;
-                let mut norm_sq = 0.0;
-                for range in &self.groups {
-                    let n = match s.grad_clip {
-                        Some(c) => clip_global_norm(&mut g[range.clone()], c),
-                        None => crate::algo::optim::global_norm(
-                            &g[range.clone()]
-                                .iter()
-                                .map(|x| x.as_slice())
-                                .collect::<Vec<_>>(),
-                        ),
-                    };
-                    norm_sq += n * n;
-                }
-                self.adam.step(&g)?;
-                stats.add_minibatch(&terms_mb, norm_sq.sqrt());
-                steps += 1;
+                let grad_norm = self.optim.step(&total)?;
+                stats.add_minibatch(&terms, grad_norm);
             }
         }
-        let mut kl_mean = 0.0;
-        for (k, kl_sum) in kl_sums.iter().enumerate() {
-            let kl = kl_sum / steps.max(1) as f64;
-            kl_mean += kl / batches.len() as f64;
-            if self.settings.kl_coeff > 0.0 {
-                self.kl_coeffs[k] = update_kl_coeff(self.kl_coeffs[k], kl, s.kl_target);
-            }
-        }
+        let kl_mean = self.adapt_kl(&kl_sums, stats.grad_steps);
         stats.finish();
         stats.kl = kl_mean;
         stats.kl_coeff = self.kl_coeffs.iter().sum::<f64>() / self.kl_coeffs.len() as f64;
         stats.samples = batches.iter().map(|b| b.len()).sum();
         Ok(stats)
+    }
+
+    /// GAE advantages (standardised if configured) and value targets of
+    /// weight set `k`'s batch, from the current weights.
+    fn prepare(&self, policy: &Policy, k: usize, b: &NetBatch) -> Result<Prepared> {
+        let s = &self.settings;
+        let dev = Device::Cpu;
+        let bt = BatchTensors::new(b, &dev)?;
+        let ev = evaluate(policy.net(k), b, &bt, s.max_seq_len, &dev)?;
+        let g = gae(
+            &ev.trajectory(b),
+            GaeParams {
+                gamma: s.gamma,
+                lambda: s.lambda,
+            },
+        );
+        let mut advantages = g.advantages;
+        if s.standardize_advantages {
+            standardize(&mut advantages);
+        }
+        let n = b.len();
+        Ok(Prepared {
+            bt,
+            advantages: Tensor::from_vec(advantages, n, &dev)?,
+            targets: Tensor::from_vec(g.targets, n, &dev)?,
+        })
+    }
+
+    /// The PPO loss of weight set `k` on the given units (samples, or
+    /// sequences of a recurrent net).
+    fn minibatch_loss(
+        &self,
+        policy: &Policy,
+        k: usize,
+        p: &Prepared,
+        units: &[u32],
+    ) -> Result<(Tensor, LossTerms)> {
+        let s = &self.settings;
+        let idx = Tensor::from_slice(units, units.len(), &Device::Cpu)?;
+        let net = policy.net(k);
+        let (sub, advantages, targets, logits, values) = if p.bt.recurrent.is_some() {
+            let sub = p.bt.select_rows(&idx)?;
+            let rc = sub.recurrent.as_ref().ok_or_else(|| {
+                AlgoError::Batch("row selection lost the recurrent inputs".into())
+            })?;
+            let out = sub.unroll(net, rc, s.max_seq_len)?;
+            let rows_of = |x: &Tensor| -> Result<Tensor> {
+                Ok(
+                    BatchTensors::select_rows_of(&x.unsqueeze(1)?, p.bt.t, p.bt.rows, &idx)?
+                        .squeeze(1)?,
+                )
+            };
+            let (a, t) = (rows_of(&p.advantages)?, rows_of(&p.targets)?);
+            (sub, a, t, out.logits, out.value)
+        } else {
+            let sub = p.bt.select_samples(&idx)?;
+            let out = net.forward(&sub.obs)?;
+            let advantages = p.advantages.index_select(&idx, 0)?;
+            let targets = p.targets.index_select(&idx, 0)?;
+            (sub, advantages, targets, out.logits, out.value)
+        };
+        let params = PpoLossParams {
+            clip: s.clip,
+            vf_coeff: s.vf_coeff,
+            vf_clip: s.vf_clip,
+            entropy_coeff: s.entropy_coeff,
+            kl_coeff: self.kl_coeffs[k] as f32,
+        };
+        ppo_loss(&logits, &values, &sub, &advantages, &targets, &params)
+    }
+
+    /// RLlib's `update_kl` per weight set from the mean KL of its gradient
+    /// steps; returns the mean KL over weight sets.
+    fn adapt_kl(&mut self, kl_sums: &[f64], grad_steps: usize) -> f64 {
+        let mut kl_mean = 0.0;
+        for (k, kl_sum) in kl_sums.iter().enumerate() {
+            let kl = kl_sum / grad_steps.max(1) as f64;
+            kl_mean += kl / kl_sums.len() as f64;
+            if self.settings.kl_coeff > 0.0 {
+                self.kl_coeffs[k] = update_kl_coeff(self.kl_coeffs[k], kl, self.settings.kl_target);
+            }
+        }
+        kl_mean
     }
 }

@@ -10,8 +10,10 @@
 //! `A_t = min(ρ̄_pg, ratio)·(r_t + γ·v'_{t+1} − V(x_t))`, where `v'_{t+1}` is
 //! `v_{t+1}` inside an episode and the fragment, the bootstrap value
 //! `next_values[t]` at the fragment end or after a truncation, and 0 after a
-//! termination. `next_values` follows the same convention as
-//! [`crate::algo::gae::gae`].
+//! termination. Inputs as in
+//! [`crate::algo::trajectory`].
+
+use crate::algo::trajectory::Trajectory;
 
 /// V-trace targets and advantages of one time-major batch.
 #[derive(Debug, Clone, PartialEq)]
@@ -51,66 +53,57 @@ impl Default for VTraceParams {
     }
 }
 
-/// V-trace over `t_len` steps of `rows` rows; all buffers time-major `[T, B]`;
-/// `log_rhos = log π(a_t|x_t) − log μ(a_t|x_t)`.
+/// V-trace over a time-major trajectory; `log_rhos = log π(a_t|x_t) −
+/// log μ(a_t|x_t)`, `[T, B]` like the trajectory.
 ///
 /// ```
+/// use buridan_learner::algo::trajectory::Trajectory;
 /// use buridan_learner::algo::vtrace::{vtrace, VTraceParams};
 /// // On-policy, one step, terminated: v = r, A = r − V.
-/// let p = VTraceParams { gamma: 0.9, ..VTraceParams::default() };
-/// let v = vtrace(&[0.0], &[1.0], &[0.25], &[0.0], &[true], &[false], 1, 1, p);
+/// let traj = Trajectory {
+///     t_len: 1, rows: 1,
+///     rewards: &[1.0], values: &[0.25], next_values: &[0.0],
+///     terminated: &[true], truncated: &[false],
+/// };
+/// let v = vtrace(&traj, &[0.0], VTraceParams { gamma: 0.9, ..VTraceParams::default() });
 /// assert_eq!(v.vs, vec![1.0]);
 /// assert_eq!(v.pg_advantages, vec![0.75]);
 /// ```
-#[allow(clippy::too_many_arguments)]
-pub fn vtrace(
-    log_rhos: &[f32],
-    rewards: &[f32],
-    values: &[f32],
-    next_values: &[f32],
-    terminated: &[bool],
-    truncated: &[bool],
-    t_len: usize,
-    rows: usize,
-    p: VTraceParams,
-) -> VTrace {
-    let n = t_len * rows;
-    assert!(
-        log_rhos.len() == n
-            && rewards.len() == n
-            && values.len() == n
-            && next_values.len() == n
-            && terminated.len() == n
-            && truncated.len() == n,
-        "vtrace: every buffer must hold T·B = {n} values"
+pub fn vtrace(traj: &Trajectory, log_rhos: &[f32], p: VTraceParams) -> VTrace {
+    traj.assert_shapes("vtrace");
+    let n = traj.len();
+    assert_eq!(
+        log_rhos.len(),
+        n,
+        "vtrace: log_rhos must hold T·B = {n} traj.values"
     );
     let mut vs = vec![0.0f32; n];
     let mut pg = vec![0.0f32; n];
     let mut rhos = vec![0.0f32; n];
-    for r in 0..rows {
+    for r in 0..traj.rows {
         // v_{t+1} − V(x_{t+1}) of the step after t, 0 beyond the fragment.
         let mut next_acc = 0.0f32;
         // v_{t+1} (V-trace target of the next step), for the pg advantage.
         let mut next_vs = 0.0f32;
-        for t in (0..t_len).rev() {
-            let k = t * rows + r;
+        for t in (0..traj.t_len).rev() {
+            let k = t * traj.rows + r;
             let ratio = log_rhos[k].exp();
             let rho = ratio.min(p.rho_bar);
             let c = p.lambda * ratio.min(p.c_bar);
-            let term = terminated[k];
-            let done = term || truncated[k];
+            let term = traj.terminated[k];
+            let done = term || traj.truncated[k];
             let not_term = if term { 0.0 } else { 1.0 };
-            let boot = next_values[k] * not_term;
-            let delta = rho * (rewards[k] + p.gamma * boot - values[k]);
+            let boot = traj.next_values[k] * not_term;
+            let delta = rho * (traj.rewards[k] + p.gamma * boot - traj.values[k]);
             let carry = if done { 0.0 } else { next_acc };
             let acc = delta + p.gamma * c * carry;
-            vs[k] = values[k] + acc;
-            let v_next = if done || t + 1 == t_len {
+            vs[k] = traj.values[k] + acc;
+            let v_next = if done || t + 1 == traj.t_len {
                 boot
             } else {
                 next_vs
             };
-            pg[k] = ratio.min(p.pg_rho_bar) * (rewards[k] + p.gamma * v_next - values[k]);
+            pg[k] = ratio.min(p.pg_rho_bar) * (traj.rewards[k] + p.gamma * v_next - traj.values[k]);
             rhos[k] = rho;
             next_acc = acc;
             next_vs = vs[k];

@@ -7,13 +7,13 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use anyhow::{anyhow, Result};
 use buridan_policy::{Fragment, Weights};
 use buridan_proto::convert::weights_to_message;
 use buridan_proto::v1;
 use tokio::sync::{mpsc, watch};
 
-use crate::train::Exchange;
+use crate::train::gate::{Gate, Refusal, Staleness};
+use crate::train::{Exchange, ExchangeError};
 
 /// What every joining actor is told (all but its session, id and seed).
 #[derive(Debug, Clone)]
@@ -63,15 +63,6 @@ pub struct Session {
     pub last_seq: Option<u64>,
     /// Open parameter streams (its liveness).
     pub watchers: usize,
-}
-
-/// On-policy gate: env steps still wanted for `version`.
-#[derive(Debug, Clone, Copy)]
-pub struct Gate {
-    /// The newest policy version.
-    pub version: u64,
-    /// Env steps still wanted with it (on-policy); unused off-policy.
-    pub remaining: u64,
 }
 
 /// What happened to a submitted fragment.
@@ -150,6 +141,11 @@ impl Hub {
     /// A hub whose queue holds `capacity` fragments; returns the learner's
     /// end of the queue.
     pub fn new(info: RunInfo, capacity: usize) -> (Arc<Hub>, mpsc::Receiver<Fragment>) {
+        let staleness = if info.on_policy {
+            Staleness::OnPolicy
+        } else {
+            Staleness::MaxLag(info.max_policy_lag)
+        };
         let (tx, rx) = mpsc::channel(capacity.max(1));
         let (params, _) = watch::channel(Arc::new(v1::Parameters {
             run_id: info.run_id.clone(),
@@ -159,10 +155,7 @@ impl Hub {
             info,
             sessions: Mutex::new(HashMap::new()),
             next_session: AtomicU64::new(1),
-            gate: Mutex::new(Gate {
-                version: 0,
-                remaining: 0,
-            }),
+            gate: Mutex::new(Gate::new(staleness)),
             params,
             queue: tx,
             queued: AtomicUsize::new(0),
@@ -248,35 +241,17 @@ impl Hub {
 
     /// The newest policy version.
     pub fn version(&self) -> u64 {
-        self.gate.lock().expect("gate lock").version
+        self.gate.lock().expect("gate lock").version()
     }
 
-    /// On-policy admission of `env_steps` collected with `version`:
-    /// `Ok(wait_for_next)` if admitted, `Err(reason)` if refused. The
-    /// caller checked `version` is not newer than the learner's.
+    /// Admission of `env_steps` collected with `version` by the run's
+    /// [`Gate`]: `Ok(wait_for_next)` if admitted, `Err(reason)` if refused.
+    /// The caller checked `version` is not newer than the learner's.
     pub fn admit(&self, version: u64, env_steps: u64) -> Result<bool, Refusal> {
-        let mut g = self.gate.lock().expect("gate lock");
-        if self.info.on_policy {
-            if version < g.version {
-                return Err(Refusal::Stale {
-                    version,
-                    current: g.version,
-                });
-            }
-            if g.remaining == 0 {
-                return Err(Refusal::Surplus { version });
-            }
-            g.remaining = g.remaining.saturating_sub(env_steps);
-            Ok(g.remaining == 0)
-        } else {
-            if g.version - version > self.info.max_policy_lag {
-                return Err(Refusal::Stale {
-                    version,
-                    current: g.version,
-                });
-            }
-            Ok(false)
-        }
+        self.gate
+            .lock()
+            .expect("gate lock")
+            .admit(version, env_steps)
     }
 
     /// Queues a fragment for the learner, waiting while the queue is full.
@@ -292,20 +267,16 @@ impl Hub {
     /// Publishes weights to every parameter stream and resets the gate.
     pub fn publish(&self, weights: &Weights, wanted_env_steps: Option<u64>) {
         let msg = Arc::new(weights_to_message(weights, &self.info.run_id));
-        {
-            let mut g = self.gate.lock().expect("gate lock");
-            g.version = weights.version;
-            g.remaining = wanted_env_steps.unwrap_or(u64::MAX);
-        }
+        self.gate
+            .lock()
+            .expect("gate lock")
+            .open(weights.version, wanted_env_steps);
         self.params.send_replace(msg);
     }
 
     /// Tells every actor the run is over.
     pub fn finish(&self) {
-        {
-            let mut g = self.gate.lock().expect("gate lock");
-            g.remaining = 0;
-        }
+        self.gate.lock().expect("gate lock").close();
         let version = self.version();
         self.params.send_replace(Arc::new(v1::Parameters {
             run_id: self.info.run_id.clone(),
@@ -321,45 +292,11 @@ impl Hub {
     }
 }
 
-/// Why a well-formed fragment was not queued.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Refusal {
-    /// Collected with a version the run no longer accepts.
-    Stale {
-        /// The fragment's version.
-        version: u64,
-        /// The learner's.
-        current: u64,
-    },
-    /// The on-policy batch of this version is already complete.
-    Surplus {
-        /// The fragment's version.
-        version: u64,
-    },
-}
-
-impl Refusal {
-    /// The outcome it is counted as.
-    pub fn outcome(&self) -> Outcome {
-        match self {
-            Refusal::Stale { .. } => Outcome::Stale,
-            Refusal::Surplus { .. } => Outcome::Surplus,
-        }
-    }
-}
-
-impl std::fmt::Display for Refusal {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Refusal::Stale { version, current } => write!(
-                f,
-                "stale: collected with policy version {version}, the learner is at {current}"
-            ),
-            Refusal::Surplus { version } => write!(
-                f,
-                "surplus: the train batch of policy version {version} is already full"
-            ),
-        }
+/// The outcome a refusal is counted as.
+pub fn refusal_outcome(refusal: &Refusal) -> Outcome {
+    match refusal {
+        Refusal::Stale { .. } => Outcome::Stale,
+        Refusal::Surplus { .. } => Outcome::Surplus,
     }
 }
 
@@ -382,12 +319,16 @@ impl RemoteExchange {
 }
 
 impl Exchange for RemoteExchange {
-    fn publish(&mut self, weights: Weights, wanted_env_steps: Option<u64>) -> Result<()> {
+    fn publish(
+        &mut self,
+        weights: Weights,
+        wanted_env_steps: Option<u64>,
+    ) -> Result<(), ExchangeError> {
         self.hub.publish(&weights, wanted_env_steps);
         Ok(())
     }
 
-    fn next_fragment(&mut self, timeout: Duration) -> Result<Option<Fragment>> {
+    fn next_fragment(&mut self, timeout: Duration) -> Result<Option<Fragment>, ExchangeError> {
         let rx = &mut self.rx;
         let got = self
             .runtime
@@ -397,7 +338,7 @@ impl Exchange for RemoteExchange {
                 self.hub.queued.fetch_sub(1, Ordering::SeqCst);
                 Ok(Some(f))
             }
-            Ok(None) => Err(anyhow!("the fragment queue closed")),
+            Ok(None) => Err(ExchangeError::QueueClosed),
             Err(_) => Ok(None),
         }
     }
@@ -410,11 +351,11 @@ impl Exchange for RemoteExchange {
         self.hub.connected()
     }
 
-    fn finish(&mut self, complete: bool) -> Result<()> {
+    fn finish(&mut self, complete: bool) -> Result<(), ExchangeError> {
         if complete {
             self.hub.finish();
         }
-        // Unblock handlers waiting on a full queue: they answer "finished".
+        // Unblock handlers waiting on a full queue: they answer `run_finished`.
         self.rx.close();
         while self.rx.try_recv().is_ok() {
             self.hub.queued.fetch_sub(1, Ordering::SeqCst);

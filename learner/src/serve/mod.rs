@@ -32,8 +32,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::{bail, Context, Result};
-use buridan_env::{MapSource, ObsKind};
+use buridan_env::MapSource;
 use buridan_proto::convert::{env_to_message, map_to_message};
 use buridan_proto::v1::learner_server::LearnerServer;
 use rand::Rng;
@@ -44,8 +43,50 @@ use tonic::service::interceptor::InterceptedService;
 use tonic::transport::{Identity, Server, ServerTlsConfig};
 use tonic::{Request, Status};
 
-use crate::train::{env_config, Algo, Progress, Run, Summary, TrainConfig};
+use crate::train::{env_config, Progress, Run, Summary, TrainConfig, TrainError};
 pub use hub::{Hub, RemoteExchange, RunInfo};
+
+impl From<TrainError> for ServeError {
+    fn from(e: TrainError) -> Self {
+        ServeError::Train(Box::new(e))
+    }
+}
+
+/// Why `learner serve` could not serve its run.
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    /// The run itself failed (boxed: a run's errors are large, serve's
+    /// own small).
+    #[error(transparent)]
+    Train(Box<TrainError>),
+    /// The async runtime could not start.
+    #[error("cannot start the gRPC runtime")]
+    Runtime(#[source] std::io::Error),
+    /// The address cannot be listened on.
+    #[error("cannot listen on {addr}")]
+    Bind {
+        /// The address.
+        addr: SocketAddr,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A TLS certificate or key cannot be read.
+    #[error("cannot read TLS {what} {}", path.display())]
+    TlsFile {
+        /// "certificate" or "key".
+        what: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The TLS certificate and key do not form a valid configuration.
+    #[error("invalid TLS configuration")]
+    Tls(#[source] tonic::transport::Error),
+    /// An empty token would accept everyone.
+    #[error("an empty --token would accept everyone; leave it out instead")]
+    EmptyToken,
+}
 pub use service::LearnerService;
 
 /// Largest message accepted by default (a fragment of 64 envs × 4 agents ×
@@ -110,7 +151,7 @@ pub fn serve(
     listener: Listener,
     ready: Option<std::sync::mpsc::Sender<Option<SocketAddr>>>,
     progress: &mut dyn Progress,
-) -> Result<Summary> {
+) -> Result<Summary, ServeError> {
     let mut run = Run::prepare(cfg, out)?;
     if let Some(flag) = &opts.interrupt {
         run.interrupt_on(flag.clone());
@@ -122,8 +163,7 @@ pub fn serve(
         cfg.queue_capacity().max(2)
     };
     let (hub, rx) = Hub::new(info, capacity);
-    let on_policy = cfg.algo == Algo::Ppo;
-    let wanted = on_policy.then_some(cfg.ppo.train_batch as u64);
+    let wanted = cfg.on_policy().then_some(cfg.train_batch());
     hub.publish(&run.weights()?, wanted);
 
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -131,14 +171,15 @@ pub fn serve(
         .thread_name("grpc")
         .enable_all()
         .build()
-        .context("cannot start the gRPC runtime")?;
+        .map_err(ServeError::Runtime)?;
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
     let server = match listener {
         Listener::Tcp(addr) => {
+            let bind_failed = |source| ServeError::Bind { addr, source };
             let tcp = runtime
                 .block_on(tokio::net::TcpListener::bind(addr))
-                .with_context(|| format!("cannot listen on {addr}"))?;
-            let bound = tcp.local_addr()?;
+                .map_err(bind_failed)?;
+            let bound = tcp.local_addr().map_err(bind_failed)?;
             tracing::info!(%bound, run_id = %hub.info.run_id, "learner serving");
             if let Some(r) = &ready {
                 let _ = r.send(Some(bound));
@@ -185,7 +226,7 @@ pub fn serve(
     Ok(summary)
 }
 
-fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo> {
+fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
     let cfg = run.config();
     let spec = run.spec();
     let map = MapSource::read(&cfg.map)?;
@@ -193,22 +234,19 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo> {
     Ok(RunInfo {
         run_id,
         config_toml: cfg.to_toml(),
-        model_spec_json: serde_json::to_string(spec)?,
+        model_spec_json: serde_json::to_string(spec).expect("a model spec serialises"),
         map: map_to_message(&map),
         env: env_to_message(&env_config(cfg, 0)),
         envs_per_actor: cfg.envs_per_actor as u32,
         max_envs: opts.max_envs.max(cfg.envs_per_actor as u32),
         fragment_len: cfg.fragment_len as u32,
-        on_policy: cfg.algo == Algo::Ppo,
+        on_policy: cfg.on_policy(),
         max_policy_lag: cfg.impala.max_policy_lag,
         seed_base: run.actor_seed(0),
         obs_dim: spec.obs_dim as u32,
         heads: spec.heads as u32,
         actions_per_head: spec.actions as u32,
-        rows_per_env: match cfg.mode.obs_kind() {
-            ObsKind::Local => cfg.agents as u32,
-            ObsKind::Central => 1,
-        },
+        rows_per_env: cfg.mode.obs_kind().rows_per_env(cfg.agents) as u32,
     })
 }
 
@@ -236,7 +274,7 @@ fn spawn_server<I, IO, IE>(
     opts: &ServeOptions,
     incoming: I,
     shutdown: tokio::sync::oneshot::Receiver<()>,
-) -> Result<tokio::task::JoinHandle<Result<(), tonic::transport::Error>>>
+) -> Result<tokio::task::JoinHandle<Result<(), tonic::transport::Error>>, ServeError>
 where
     I: tokio_stream::Stream<Item = Result<IO, IE>> + Send + 'static,
     IO: tokio::io::AsyncRead
@@ -253,19 +291,23 @@ where
         .initial_stream_window_size(Some(FLOW_WINDOW))
         .initial_connection_window_size(Some(2 * FLOW_WINDOW));
     if let Some((cert, key)) = &opts.tls {
-        let cert = std::fs::read(cert)
-            .with_context(|| format!("cannot read TLS certificate {}", cert.display()))?;
-        let key =
-            std::fs::read(key).with_context(|| format!("cannot read TLS key {}", key.display()))?;
+        let read = |what, path: &PathBuf| {
+            std::fs::read(path).map_err(|source| ServeError::TlsFile {
+                what,
+                path: path.clone(),
+                source,
+            })
+        };
+        let (cert, key) = (read("certificate", cert)?, read("key", key)?);
         builder = builder
             .tls_config(ServerTlsConfig::new().identity(Identity::from_pem(cert, key)))
-            .context("invalid TLS configuration")?;
+            .map_err(ServeError::Tls)?;
     }
     let service = LearnerServer::new(LearnerService::new(hub))
         .max_decoding_message_size(opts.max_message_bytes)
         .max_encoding_message_size(opts.max_message_bytes);
     if opts.token.as_deref() == Some("") {
-        bail!("an empty --token would accept everyone; leave it out instead");
+        return Err(ServeError::EmptyToken);
     }
     let expected = opts.token.as_ref().map(|t| format!("Bearer {t}"));
     let check = move |req: Request<()>| -> Result<Request<()>, Status> {

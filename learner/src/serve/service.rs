@@ -12,7 +12,7 @@ use tokio_stream::wrappers::WatchStream;
 use tokio_stream::Stream;
 use tonic::{Request, Response, Status};
 
-use super::hub::{Hub, Outcome};
+use super::hub::{refusal_outcome, Hub, Outcome};
 
 /// The service over a [`Hub`].
 #[derive(Clone)]
@@ -34,6 +34,17 @@ impl LearnerService {
             )));
         }
         Ok(())
+    }
+
+    /// The reply to a fragment that arrives after the run ended.
+    fn finished_reply(&self) -> Response<v1::SubmitReply> {
+        Response::new(v1::SubmitReply {
+            accepted: false,
+            reason: "the run is finished".into(),
+            learner_version: self.hub.version(),
+            wait_for_next_version: false,
+            run_finished: true,
+        })
     }
 
     fn refuse(&self, outcome: Outcome, status: Status) -> Status {
@@ -93,7 +104,10 @@ impl Learner for LearnerService {
             )));
         }
         if self.hub.finished() {
-            return Err(Status::failed_precondition("the run is finished"));
+            return Ok(Response::new(v1::JoinReply {
+                run_finished: true,
+                ..Default::default()
+            }));
         }
         let envs = if req.envs == 0 {
             info.envs_per_actor
@@ -121,14 +135,12 @@ impl Learner for LearnerService {
             model_spec_json: info.model_spec_json.clone(),
             map: Some(info.map.clone()),
             envs,
-            seed: info
-                .seed_base
-                .wrapping_add(1000)
-                .wrapping_add(session.wrapping_mul(7919)),
+            seed: buridan_env::seed::session_env(info.seed_base, session),
             fragment_len: info.fragment_len,
             on_policy: info.on_policy,
             max_policy_lag: info.max_policy_lag,
             env: Some(info.env.clone()),
+            run_finished: false,
         }))
     }
 
@@ -169,7 +181,7 @@ impl Learner for LearnerService {
         self.check_run(&tag.run_id)
             .map_err(|s| self.refuse(Outcome::Invalid, s))?;
         if self.hub.finished() {
-            return Err(Status::failed_precondition("the run is finished"));
+            return Ok(self.finished_reply());
         }
         let session = self.hub.session(tag.session).ok_or_else(|| {
             self.refuse(
@@ -237,18 +249,19 @@ impl Learner for LearnerService {
         let wait_for_next_version = match self.hub.admit(f.policy_version, f.env_steps) {
             Ok(wait) => wait,
             Err(refusal) => {
-                self.hub.counters.count(refusal.outcome());
+                self.hub.counters.count(refusal_outcome(&refusal));
                 return Ok(Response::new(v1::SubmitReply {
                     accepted: false,
                     reason: refusal.to_string(),
                     learner_version: self.hub.version(),
                     wait_for_next_version: self.hub.info.on_policy,
+                    run_finished: false,
                 }));
             }
         };
         f.actor = session.actor_id;
         if self.hub.enqueue(f).await.is_err() {
-            return Err(Status::failed_precondition("the run is finished"));
+            return Ok(self.finished_reply());
         }
         self.hub.counters.count(Outcome::Accepted);
         Ok(Response::new(v1::SubmitReply {
@@ -256,6 +269,7 @@ impl Learner for LearnerService {
             reason: String::new(),
             learner_version: current,
             wait_for_next_version,
+            run_finished: false,
         }))
     }
 }

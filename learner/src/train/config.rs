@@ -3,10 +3,46 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{ensure, Context, Result};
 use buridan_env::Starts;
 use buridan_policy::{LstmSpec, Mode, ModelSpec, ValueHead};
 use serde::{Deserialize, Serialize};
+
+use crate::algo::impala::ImpalaSettings;
+use crate::algo::ppo::PpoSettings;
+use crate::algo::vtrace::VTraceParams;
+use crate::train::gate::Staleness;
+
+/// Why a configuration cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file cannot be read.
+    #[error("cannot read config {}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The file is not a valid configuration (syntax, unknown key, type).
+    #[error("invalid config {}", path.display())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// What the TOML parser says.
+        source: toml::de::Error,
+    },
+    /// A value is out of its range.
+    #[error("invalid configuration: {0}")]
+    Invalid(&'static str),
+}
+
+fn ensure(ok: bool, why: &'static str) -> Result<(), ConfigError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(ConfigError::Invalid(why))
+    }
+}
 
 /// The learning algorithm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -254,11 +290,15 @@ impl Default for TrainConfig {
 
 impl TrainConfig {
     /// Reads a TOML file.
-    pub fn from_toml_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read config {}", path.display()))?;
-        let cfg: Self =
-            toml::from_str(&text).with_context(|| format!("invalid config {}", path.display()))?;
+    pub fn from_toml_file(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let cfg: Self = toml::from_str(&text).map_err(|source| ConfigError::Parse {
+            path: path.to_path_buf(),
+            source,
+        })?;
         cfg.validate()?;
         Ok(cfg)
     }
@@ -269,30 +309,53 @@ impl TrainConfig {
     }
 
     /// Checks ranges.
-    pub fn validate(&self) -> Result<()> {
-        ensure!(self.agents >= 1, "agents must be at least 1");
-        ensure!(self.num_actors >= 1, "num_actors must be at least 1");
-        ensure!(
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        ensure(self.agents >= 1, "agents must be at least 1")?;
+        ensure(self.num_actors >= 1, "num_actors must be at least 1")?;
+        ensure(
             self.envs_per_actor >= 1,
-            "envs_per_actor must be at least 1"
-        );
-        ensure!(self.fragment_len >= 1, "fragment_len must be at least 1");
-        ensure!(
+            "envs_per_actor must be at least 1",
+        )?;
+        ensure(self.fragment_len >= 1, "fragment_len must be at least 1")?;
+        ensure(
             !self.hidden.is_empty() && !self.hidden.contains(&0),
-            "hidden sizes must be positive"
-        );
-        ensure!((0.0..=1.0).contains(&self.gamma), "gamma must be in [0, 1]");
-        ensure!(self.ppo.epochs >= 1, "ppo.epochs must be at least 1");
-        ensure!(
+            "hidden sizes must be positive",
+        )?;
+        ensure((0.0..=1.0).contains(&self.gamma), "gamma must be in [0, 1]")?;
+        ensure(self.ppo.epochs >= 1, "ppo.epochs must be at least 1")?;
+        ensure(
             self.ppo.train_batch >= 1 && self.ppo.minibatch >= 1,
-            "ppo batch sizes must be positive"
-        );
-        ensure!(
+            "ppo batch sizes must be positive",
+        )?;
+        ensure(
             self.impala.train_batch >= 1,
-            "impala.train_batch must be positive"
-        );
-        ensure!(self.lstm_cells >= 1, "lstm_cells must be positive");
+            "impala.train_batch must be positive",
+        )?;
+        ensure(self.lstm_cells >= 1, "lstm_cells must be positive")?;
         Ok(())
+    }
+
+    /// Whether the algorithm learns only from the newest policy's
+    /// experience (PPO), so actors wait after each train batch.
+    pub fn on_policy(&self) -> bool {
+        self.algo == Algo::Ppo
+    }
+
+    /// How old experience may be: on-policy for PPO, `impala.max_policy_lag`
+    /// versions for IMPALA.
+    pub fn staleness(&self) -> Staleness {
+        match self.algo {
+            Algo::Ppo => Staleness::OnPolicy,
+            Algo::Impala => Staleness::MaxLag(self.impala.max_policy_lag),
+        }
+    }
+
+    /// Env steps per train batch of the configured algorithm.
+    pub fn train_batch(&self) -> u64 {
+        match self.algo {
+            Algo::Ppo => self.ppo.train_batch as u64,
+            Algo::Impala => self.impala.train_batch as u64,
+        }
     }
 
     /// Env steps one fragment holds: `fragment_len · envs_per_actor`.
@@ -302,11 +365,9 @@ impl TrainConfig {
 
     /// Fragments per train batch (rounded up).
     pub fn fragments_per_batch(&self) -> usize {
-        let batch = match self.algo {
-            Algo::Ppo => self.ppo.train_batch,
-            Algo::Impala => self.impala.train_batch,
-        };
-        batch.div_ceil(self.fragment_env_steps()).max(1)
+        (self.train_batch() as usize)
+            .div_ceil(self.fragment_env_steps())
+            .max(1)
     }
 
     /// Fragments the actor→learner queue holds: `impala.queue_capacity` if
@@ -337,6 +398,48 @@ impl TrainConfig {
                 prev_reward: true,
             }),
             ..ModelSpec::new(self.mode, self.agents, obs_dim)
+        }
+    }
+}
+
+impl From<&TrainConfig> for PpoSettings {
+    fn from(cfg: &TrainConfig) -> Self {
+        let p = &cfg.ppo;
+        Self {
+            lr: p.lr,
+            epochs: p.epochs,
+            minibatch_size: p.minibatch,
+            clip: p.clip,
+            vf_coeff: p.vf_coeff,
+            vf_clip: p.vf_clip,
+            entropy_coeff: p.entropy_coeff,
+            kl_coeff: p.kl_coeff,
+            kl_target: p.kl_target,
+            gamma: cfg.gamma,
+            lambda: p.lambda,
+            grad_clip: p.grad_clip,
+            standardize_advantages: p.standardize_advantages,
+            max_seq_len: cfg.max_seq_len,
+        }
+    }
+}
+
+impl From<&TrainConfig> for ImpalaSettings {
+    fn from(cfg: &TrainConfig) -> Self {
+        let i = &cfg.impala;
+        Self {
+            lr: i.lr,
+            vf_coeff: i.vf_coeff,
+            entropy_coeff: i.entropy_coeff,
+            grad_clip: i.grad_clip,
+            vtrace: VTraceParams {
+                gamma: cfg.gamma,
+                lambda: i.lambda,
+                rho_bar: i.rho_bar,
+                c_bar: i.c_bar,
+                pg_rho_bar: i.pg_rho_bar,
+            },
+            max_seq_len: cfg.max_seq_len,
         }
     }
 }

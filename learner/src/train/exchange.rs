@@ -7,68 +7,77 @@
 //!        ◀──────── Weights{version} ◀──────────── Exchange::publish ◀──────── update
 //! ```
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError};
 use std::sync::{Arc, Condvar, Mutex, RwLock};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use anyhow::{anyhow, bail, Context, Result};
-use buridan_actor::Collector;
+use buridan_actor::{CollectError, Collector};
+use buridan_env::BatchedEnv;
 use buridan_policy::{Fragment, Weights};
+
+use crate::train::error::ExchangeError;
+use crate::train::gate::{Gate, Staleness};
 
 /// Where the learner gets fragments and sends weights.
 pub trait Exchange {
     /// Makes `weights` the ones actors collect with. On-policy runs pass
     /// `wanted_env_steps`: collect that much experience with exactly this
     /// version, then wait for the next.
-    fn publish(&mut self, weights: Weights, wanted_env_steps: Option<u64>) -> Result<()>;
+    fn publish(
+        &mut self,
+        weights: Weights,
+        wanted_env_steps: Option<u64>,
+    ) -> Result<(), ExchangeError>;
     /// The next fragment, or `None` if none arrived within `timeout`.
-    fn next_fragment(&mut self, timeout: Duration) -> Result<Option<Fragment>>;
+    fn next_fragment(&mut self, timeout: Duration) -> Result<Option<Fragment>, ExchangeError>;
     /// Fragments waiting in the queue.
     fn queue_depth(&self) -> usize;
     /// Actors currently connected.
     fn connected_actors(&self) -> usize;
     /// Ends the learner's side. `complete`: the run reached its goal and
     /// actors are told to stop; otherwise (interrupted) remote actors are
-    /// left to reconnect to a restarted learner.
-    fn finish(&mut self, complete: bool) -> Result<()>;
+    /// left to reconnect to a restarted learner. Returns the first actor
+    /// failure, if any.
+    fn finish(&mut self, complete: bool) -> Result<(), ExchangeError>;
 }
 
-/// What the learner shares with its in-process actors.
+/// What an in-process actor is told to do next: the data its loop matches
+/// on (never a message to parse).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ticket {
+    /// Collect one fragment with this policy version.
+    Collect(u64),
+    /// The run is over: stop.
+    Finished,
+}
+
+/// What the learner shares with its in-process actors: the newest weights
+/// and the gate that says how much to collect with them.
 pub struct Shared {
     weights: RwLock<Arc<Weights>>,
-    gate: Mutex<Gate>,
+    gate: Mutex<(Gate, bool)>,
     wake: Condvar,
-    stop: AtomicBool,
-}
-
-/// On-policy gating: how many more fragments may be collected with which
-/// policy version.
-struct Gate {
-    version: u64,
-    remaining: usize,
 }
 
 impl Shared {
-    /// Starts with `weights`; actors may not collect until [`Self::open`]
-    /// (on-policy) unless `unlimited`.
-    pub fn new(weights: Weights, unlimited: bool) -> Self {
-        let version = weights.version;
+    /// Starts with `weights` and a closed gate.
+    pub fn new(weights: Weights, staleness: Staleness) -> Self {
         Self {
             weights: RwLock::new(Arc::new(weights)),
-            gate: Mutex::new(Gate {
-                version,
-                remaining: if unlimited { usize::MAX } else { 0 },
-            }),
+            gate: Mutex::new((Gate::new(staleness), false)),
             wake: Condvar::new(),
-            stop: AtomicBool::new(false),
         }
     }
 
-    /// Publishes new weights (actors load them before their next fragment).
-    pub fn publish(&self, weights: Weights) {
+    /// Publishes new weights and opens the gate for them.
+    pub fn publish(&self, weights: Weights, wanted_env_steps: Option<u64>) {
+        let version = weights.version;
         *self.weights.write().expect("weights lock") = Arc::new(weights);
+        let mut g = self.gate.lock().expect("gate lock");
+        g.0.open(version, wanted_env_steps);
+        self.wake.notify_all();
     }
 
     /// The latest weights.
@@ -76,38 +85,25 @@ impl Shared {
         self.weights.read().expect("weights lock").clone()
     }
 
-    /// Allows `fragments` more fragments with policy `version` (on-policy:
-    /// the weights of that version must already be published).
-    pub fn open(&self, version: u64, fragments: usize) {
+    /// Ends the run: every waiting and future [`Shared::ticket`] is
+    /// [`Ticket::Finished`].
+    pub fn finish(&self) {
         let mut g = self.gate.lock().expect("gate lock");
-        g.version = version;
-        g.remaining = fragments;
+        g.0.close();
+        g.1 = true;
         self.wake.notify_all();
     }
 
-    /// Asks every actor to stop.
-    pub fn stop(&self) {
-        self.stop.store(true, Ordering::SeqCst);
-        let _g = self.gate.lock().expect("gate lock");
-        self.wake.notify_all();
-    }
-
-    fn stopped(&self) -> bool {
-        self.stop.load(Ordering::SeqCst)
-    }
-
-    /// Takes a ticket for one fragment; `None` once stopped.
-    fn ticket(&self) -> Option<u64> {
+    /// Waits until `env_steps` more of the newest version are wanted.
+    pub fn ticket(&self, env_steps: u64) -> Ticket {
         let mut g = self.gate.lock().expect("gate lock");
         loop {
-            if self.stopped() {
-                return None;
+            if g.1 {
+                return Ticket::Finished;
             }
-            if g.remaining > 0 {
-                if g.remaining != usize::MAX {
-                    g.remaining -= 1;
-                }
-                return Some(g.version);
+            let version = g.0.version();
+            if g.0.admit(version, env_steps).is_ok() {
+                return Ticket::Collect(version);
             }
             g = self.wake.wait(g).expect("gate lock");
         }
@@ -118,85 +114,112 @@ impl Shared {
 pub struct InProcess {
     shared: Arc<Shared>,
     rx: Option<Receiver<Fragment>>,
-    handles: Vec<JoinHandle<Result<()>>>,
-    fragment_env_steps: u64,
-    on_policy: bool,
-    depth: Arc<std::sync::atomic::AtomicUsize>,
+    actors: Vec<(u32, JoinHandle<Result<(), CollectError>>)>,
+    depth: Arc<AtomicUsize>,
 }
 
 impl InProcess {
     /// Starts one thread per collector; the queue holds `capacity`
     /// fragments. Actors start collecting at the first [`Exchange::publish`].
-    pub fn spawn(collectors: Vec<Collector>, capacity: usize, on_policy: bool) -> Result<Self> {
-        let first = collectors
-            .first()
-            .ok_or_else(|| anyhow!("at least one actor is needed"))?;
-        let fragment_env_steps = (first.fragment_len * first.venv.num_envs()) as u64;
-        let shared = Arc::new(Shared::new(Weights::default(), false));
+    pub fn spawn<E: BatchedEnv + Send + 'static>(
+        collectors: Vec<Collector<E>>,
+        capacity: usize,
+        staleness: Staleness,
+    ) -> Result<Self, ExchangeError> {
+        if collectors.is_empty() {
+            return Err(ExchangeError::NoActors);
+        }
+        let shared = Arc::new(Shared::new(Weights::default(), staleness));
         let (tx, rx) = sync_channel::<Fragment>(capacity.max(1));
-        let depth = Arc::new(std::sync::atomic::AtomicUsize::new(0));
-        let mut handles = Vec::new();
-        for (i, mut collector) in collectors.into_iter().enumerate() {
+        let depth = Arc::new(AtomicUsize::new(0));
+        let mut actors = Vec::new();
+        for mut collector in collectors {
             let (shared, tx, depth) = (shared.clone(), tx.clone(), depth.clone());
-            handles.push(
-                std::thread::Builder::new()
-                    .name(format!("actor-{i}"))
-                    .spawn(move || -> Result<()> {
-                        while let Some(_version) = shared.ticket() {
-                            collector.load(&shared.latest())?;
-                            let fragment = collector.collect()?;
-                            depth.fetch_add(1, Ordering::SeqCst);
-                            if tx.send(fragment).is_err() {
-                                break;
-                            }
+            let id = collector.id;
+            let handle = std::thread::Builder::new()
+                .name(format!("actor-{id}"))
+                .spawn(move || -> Result<(), CollectError> {
+                    let env_steps = collector.fragment_env_steps();
+                    while let Ticket::Collect(_) = shared.ticket(env_steps) {
+                        collector.load(&shared.latest())?;
+                        let fragment = collector.collect()?;
+                        depth.fetch_add(1, Ordering::SeqCst);
+                        if tx.send(fragment).is_err() {
+                            break;
                         }
-                        Ok(())
-                    })
-                    .context("cannot start an actor thread")?,
-            );
+                    }
+                    Ok(())
+                })
+                .map_err(ExchangeError::Spawn)?;
+            actors.push((id, handle));
         }
         Ok(Self {
             shared,
             rx: Some(rx),
-            handles,
-            fragment_env_steps,
-            on_policy,
+            actors,
             depth,
         })
+    }
+
+    /// Joins every finished actor thread; the first failure, with its cause.
+    fn reap_finished(&mut self) -> Option<ExchangeError> {
+        let (done, running): (Vec<_>, Vec<_>) =
+            self.actors.drain(..).partition(|(_, h)| h.is_finished());
+        self.actors = running;
+        done.into_iter()
+            .find_map(|(actor, h)| join_actor(actor, h).err())
+    }
+}
+
+fn join_actor(
+    actor: u32,
+    handle: JoinHandle<Result<(), CollectError>>,
+) -> Result<(), ExchangeError> {
+    match handle.join() {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(source)) => Err(ExchangeError::Actor { actor, source }),
+        Err(_) => Err(ExchangeError::ActorPanicked { actor }),
     }
 }
 
 impl Exchange for InProcess {
-    fn publish(&mut self, weights: Weights, wanted_env_steps: Option<u64>) -> Result<()> {
-        let version = weights.version;
-        self.shared.publish(weights);
-        match (self.on_policy, wanted_env_steps) {
-            (true, Some(steps)) => {
-                let fragments = steps.div_ceil(self.fragment_env_steps.max(1)) as usize;
-                self.shared.open(version, fragments);
-            }
-            _ => self.shared.open(version, usize::MAX),
-        }
+    fn publish(
+        &mut self,
+        weights: Weights,
+        wanted_env_steps: Option<u64>,
+    ) -> Result<(), ExchangeError> {
+        self.shared.publish(weights, wanted_env_steps);
         Ok(())
     }
 
-    fn next_fragment(&mut self, timeout: Duration) -> Result<Option<Fragment>> {
-        let rx = self
-            .rx
-            .as_ref()
-            .ok_or_else(|| anyhow!("the run is finished"))?;
+    fn next_fragment(&mut self, timeout: Duration) -> Result<Option<Fragment>, ExchangeError> {
+        let Some(rx) = self.rx.as_ref() else {
+            return Err(ExchangeError::QueueClosed);
+        };
         match rx.recv_timeout(timeout) {
             Ok(f) => {
                 self.depth.fetch_sub(1, Ordering::SeqCst);
                 Ok(Some(f))
             }
             Err(RecvTimeoutError::Timeout) => {
-                if self.handles.iter().any(|h| h.is_finished()) {
-                    bail!("an actor stopped unexpectedly");
+                // An actor that stops before the run ends has failed: its
+                // own error is the learner's.
+                match self.reap_finished() {
+                    Some(e) => Err(e),
+                    None => Ok(None),
                 }
-                Ok(None)
             }
-            Err(RecvTimeoutError::Disconnected) => bail!("all actors stopped"),
+            Err(RecvTimeoutError::Disconnected) => {
+                // Every actor dropped its sender: all are ending; their
+                // own errors say why.
+                let mut first = None;
+                for (actor, h) in self.actors.drain(..) {
+                    if let Err(e) = join_actor(actor, h) {
+                        first.get_or_insert(e);
+                    }
+                }
+                Err(first.unwrap_or(ExchangeError::QueueClosed))
+            }
         }
     }
 
@@ -205,31 +228,26 @@ impl Exchange for InProcess {
     }
 
     fn connected_actors(&self) -> usize {
-        self.handles.iter().filter(|h| !h.is_finished()).count()
+        self.actors.iter().filter(|(_, h)| !h.is_finished()).count()
     }
 
-    fn finish(&mut self, _complete: bool) -> Result<()> {
-        self.shared.stop();
+    fn finish(&mut self, _complete: bool) -> Result<(), ExchangeError> {
+        self.shared.finish();
         // Dropping the receiver unblocks actors waiting on a full queue.
         self.rx = None;
-        let mut error = None;
-        for h in self.handles.drain(..) {
-            match h.join() {
-                Ok(Ok(())) => {}
-                Ok(Err(e)) => error = Some(e),
-                Err(_) => error = Some(anyhow!("an actor thread panicked")),
+        let mut first = None;
+        for (actor, h) in self.actors.drain(..) {
+            if let Err(e) = join_actor(actor, h) {
+                first.get_or_insert(e);
             }
         }
-        match error {
-            Some(e) => Err(e.context("actor failed")),
-            None => Ok(()),
-        }
+        first.map_or(Ok(()), Err)
     }
 }
 
 impl Drop for InProcess {
     fn drop(&mut self) {
-        if !self.handles.is_empty() {
+        if !self.actors.is_empty() {
             let _ = self.finish(false);
         }
     }

@@ -2,10 +2,8 @@
 //! the rolling episode window.
 
 use std::collections::VecDeque;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use buridan_env::EpisodeStats;
 use serde::{Deserialize, Serialize};
 
@@ -124,86 +122,53 @@ pub struct MetricsRow {
     pub learn_seconds: f64,
 }
 
-/// Column names of `metrics.csv`, in order.
-pub const METRICS_COLUMNS: &[&str] = &[
-    "update",
-    "env_steps",
-    "agent_steps",
-    "wall_seconds",
-    "steps_per_s",
-    "episodes",
-    "episode_return_mean",
-    "success_rate",
-    "episode_len_mean",
-    "total_loss",
-    "policy_loss",
-    "vf_loss",
-    "entropy",
-    "kl",
-    "kl_coeff",
-    "grad_norm",
-    "mean_rho",
-    "stale_fragments",
-    "learn_seconds",
-];
-
-impl MetricsRow {
-    fn csv_line(&self) -> String {
-        format!(
-            "{},{},{},{:.3},{:.1},{},{:.4},{:.4},{:.3},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{},{:.4}",
-            self.update,
-            self.env_steps,
-            self.agent_steps,
-            self.wall_seconds,
-            self.steps_per_s,
-            self.episodes,
-            self.episode_return_mean,
-            self.success_rate,
-            self.episode_len_mean,
-            self.total_loss,
-            self.policy_loss,
-            self.vf_loss,
-            self.entropy,
-            self.kl,
-            self.kl_coeff,
-            self.grad_norm,
-            self.mean_rho,
-            self.stale_fragments,
-            self.learn_seconds,
-        )
-    }
+/// Why `metrics.csv` could not be written.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write {}", path.display())]
+pub struct MetricsError {
+    /// The file.
+    pub path: PathBuf,
+    /// What the CSV writer says (I/O included).
+    pub source: csv::Error,
 }
 
-/// Appends rows to `metrics.csv` (header written when the file is new).
+/// Appends rows to `metrics.csv`: the header (the [`MetricsRow`] field
+/// names) when the file is new, then one flushed line per update.
 pub struct MetricsWriter {
-    file: std::fs::File,
+    writer: csv::Writer<std::fs::File>,
     path: PathBuf,
 }
 
 impl MetricsWriter {
     /// Opens (appending) or creates `path`.
-    pub fn open(path: &Path) -> Result<Self> {
-        let exists = path.is_file() && std::fs::metadata(path)?.len() > 0;
-        let mut file = std::fs::OpenOptions::new()
+    pub fn open(path: &Path) -> Result<Self, MetricsError> {
+        let failed = |source: csv::Error| MetricsError {
+            path: path.to_path_buf(),
+            source,
+        };
+        let is_new = std::fs::metadata(path).map_or(true, |m| m.len() == 0);
+        let file = std::fs::OpenOptions::new()
             .create(true)
             .append(true)
             .open(path)
-            .with_context(|| format!("cannot open {}", path.display()))?;
-        if !exists {
-            writeln!(file, "{}", METRICS_COLUMNS.join(","))?;
-        }
+            .map_err(|e| failed(e.into()))?;
+        let writer = csv::WriterBuilder::new()
+            .has_headers(is_new)
+            .from_writer(file);
         Ok(Self {
-            file,
+            writer,
             path: path.to_path_buf(),
         })
     }
 
     /// Writes one row and flushes.
-    pub fn write(&mut self, row: &MetricsRow) -> Result<()> {
-        writeln!(self.file, "{}", row.csv_line())
-            .with_context(|| format!("cannot write {}", self.path.display()))?;
-        self.file.flush()?;
-        Ok(())
+    pub fn write(&mut self, row: &MetricsRow) -> Result<(), MetricsError> {
+        let failed = |source: csv::Error| MetricsError {
+            path: self.path.clone(),
+            source,
+        };
+        self.writer.serialize(row).map_err(failed)?;
+        self.writer.flush().map_err(|e| failed(e.into()))
     }
 }
 

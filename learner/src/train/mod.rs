@@ -18,14 +18,13 @@
 //! counted.
 //!
 //! Outputs in `out`: `metrics.csv` (one row per update), `config.toml`,
-//! `checkpoints/update-NNNNNN/` every `checkpoint_every` updates,
-//! `checkpoints/final/` at the end, `summary.json`. A checkpoint directory
-//! holds `spec.json` + `model.safetensors` (loadable with
-//! [`buridan_policy::Policy::load`]) plus `optimizer.safetensors`,
-//! `trainer.json` and `config.toml` for `resume`.
+//! `summary.json`, and checkpoints laid out as
+//! [`buridan_policy::checkpoint`] describes.
 
 pub mod config;
+pub mod error;
 pub mod exchange;
+pub mod gate;
 pub mod metrics;
 pub mod rollout;
 
@@ -34,23 +33,28 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result};
 use buridan_actor::Collector;
-use buridan_env::{EnvConfig, Map, ObsKind, VecEnv};
+use buridan_env::{seed, EnvConfig, Map, VecEnv};
+use buridan_policy::checkpoint::{self, CONFIG_FILE, OPTIMIZER_FILE, TRAINER_FILE};
 use buridan_policy::{Fragment, Inference, ModelSpec, Policy, Weights};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::algo::impala::{Impala, ImpalaSettings};
-use crate::algo::optim::Adam;
-use crate::algo::ppo::{Ppo, PpoSettings};
-use crate::algo::vtrace::VTraceParams;
-use crate::algo::UpdateStats;
+use crate::algo::impala::Impala;
+use crate::algo::optim::ClippedAdam;
+use crate::algo::ppo::Ppo;
+use crate::algo::{AlgoError, UpdateStats};
 
-pub use config::{Algo, ImpalaConfig, PpoConfig, TrainConfig};
-pub use exchange::{Exchange, InProcess, Shared};
-pub use metrics::{EpisodeWindow, MetricsRow, MetricsWriter, Summary, METRICS_COLUMNS};
+pub use config::{Algo, ConfigError, ImpalaConfig, PpoConfig, TrainConfig};
+pub use error::{ExchangeError, Interrupted, TrainError};
+pub use exchange::{Exchange, InProcess, Shared, Ticket};
+pub use metrics::{EpisodeWindow, MetricsError, MetricsRow, MetricsWriter, Summary};
+
+/// The run's metrics file inside its output directory.
+pub const METRICS_FILE: &str = "metrics.csv";
+/// The run's summary inside its output directory.
+pub const SUMMARY_FILE: &str = "summary.json";
 
 /// Live progress of a training run (the CLI shows a progress bar).
 pub trait Progress {
@@ -96,34 +100,65 @@ pub struct TrainerState {
     pub recent_episodes: Vec<buridan_env::EpisodeStats>,
 }
 
-/// File of the trainer counters inside a checkpoint.
-pub const TRAINER_FILE: &str = "trainer.json";
-/// File of the optimiser moments inside a checkpoint.
-pub const OPTIMIZER_FILE: &str = "optimizer.safetensors";
-
 enum Learner {
     Ppo(Ppo),
     Impala(Impala),
 }
 
 impl Learner {
-    fn adam(&self) -> &Adam {
-        match self {
-            Learner::Ppo(p) => &p.adam,
-            Learner::Impala(i) => &i.adam,
+    fn new(cfg: &TrainConfig, policy: &Policy) -> Self {
+        match cfg.algo {
+            Algo::Ppo => Learner::Ppo(Ppo::new(policy, cfg.into())),
+            Algo::Impala => Learner::Impala(Impala::new(policy, cfg.into())),
         }
     }
-    fn adam_mut(&mut self) -> &mut Adam {
+
+    fn optim(&mut self) -> &mut ClippedAdam {
         match self {
-            Learner::Ppo(p) => &mut p.adam,
-            Learner::Impala(i) => &mut i.adam,
+            Learner::Ppo(p) => &mut p.optim,
+            Learner::Impala(i) => &mut i.optim,
         }
     }
+
     fn kl_coeffs(&self) -> Vec<f64> {
         match self {
             Learner::Ppo(p) => p.kl_coeffs.clone(),
             Learner::Impala(_) => Vec::new(),
         }
+    }
+
+    fn update(
+        &mut self,
+        policy: &Policy,
+        batch: &[Fragment],
+        rng: &mut ChaCha8Rng,
+    ) -> Result<UpdateStats, AlgoError> {
+        match self {
+            Learner::Ppo(p) => p.update(policy, batch, rng),
+            Learner::Impala(i) => i.update(policy, batch),
+        }
+    }
+
+    /// Restores the optimiser moments and KL coefficients of a checkpoint.
+    fn restore(&mut self, dir: &Path, state: &TrainerState) -> Result<(), TrainError> {
+        let path = dir.join(OPTIMIZER_FILE);
+        if path.is_file() {
+            self.optim()
+                .adam
+                .load(&path, state.adam_steps)
+                .map_err(|source| TrainError::Optimizer { path, source })?;
+        } else {
+            tracing::warn!(
+                "{} lacks {OPTIMIZER_FILE}: fresh optimiser state",
+                dir.display()
+            );
+        }
+        if let Learner::Ppo(p) = self {
+            if state.kl_coeffs.len() == p.kl_coeffs.len() {
+                p.kl_coeffs = state.kl_coeffs.clone();
+            }
+        }
+        Ok(())
     }
 }
 
@@ -139,23 +174,8 @@ pub fn env_config(cfg: &TrainConfig, seed: u64) -> EnvConfig {
     }
 }
 
-fn save_checkpoint(
-    dir: &Path,
-    policy: &Policy,
-    learner: &Learner,
-    state: &TrainerState,
-    cfg: &TrainConfig,
-) -> Result<()> {
-    policy
-        .save(dir)
-        .with_context(|| format!("cannot save checkpoint {}", dir.display()))?;
-    learner.adam().save(&dir.join(OPTIMIZER_FILE))?;
-    std::fs::write(
-        dir.join(TRAINER_FILE),
-        serde_json::to_string_pretty(state).expect("serialises"),
-    )?;
-    std::fs::write(dir.join("config.toml"), cfg.to_toml())?;
-    Ok(())
+fn write_file(path: &Path, text: &str) -> Result<(), TrainError> {
+    std::fs::write(path, text).map_err(|e| TrainError::io("cannot write", path, e))
 }
 
 /// Trains a policy as configured, writing metrics, checkpoints and the
@@ -166,33 +186,16 @@ fn save_checkpoint(
 /// whatever the agent count). Call
 /// [`buridan_policy::threads::pin_threads`] at the start of `main` to fix
 /// candle's thread count (1 is fastest for these small networks).
-pub fn train(cfg: &TrainConfig, out: &Path, progress: &mut dyn Progress) -> Result<Summary> {
+pub fn train(
+    cfg: &TrainConfig,
+    out: &Path,
+    progress: &mut dyn Progress,
+) -> Result<Summary, TrainError> {
     let run = Run::prepare(cfg, out)?;
-    let mut collectors = Vec::with_capacity(cfg.num_actors);
-    for i in 0..cfg.num_actors {
-        let venv = VecEnv::new(
-            run.map.clone(),
-            env_config(cfg, run.actor_seed(i as u64)),
-            cfg.envs_per_actor,
-            cfg.mode.obs_kind(),
-            1,
-        )?;
-        let actor_policy = Policy::new(run.spec.clone(), cfg.seed)?;
-        actor_policy.copy_from(&run.policy)?;
-        let rows = venv.obs().len() / venv.obs_dim();
-        collectors.push(Collector {
-            id: i as u32,
-            inference: Inference::new(
-                actor_policy,
-                rows,
-                cfg.seed ^ (0xA5A5_0000 + i as u64) ^ run.state.updates.wrapping_mul(7919),
-            ),
-            venv,
-            fragment_len: cfg.fragment_len,
-            version: run.state.updates,
-        });
-    }
-    let mut exchange = InProcess::spawn(collectors, cfg.queue_capacity(), cfg.algo == Algo::Ppo)?;
+    let collectors = (0..cfg.num_actors as u32)
+        .map(|i| run.collector(i))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut exchange = InProcess::spawn(collectors, cfg.queue_capacity(), cfg.staleness())?;
     run.learn(&mut exchange, progress)
 }
 
@@ -212,35 +215,20 @@ pub struct Run {
     interrupt: Option<Arc<AtomicBool>>,
 }
 
-/// The run was interrupted (`Run::interrupt_on`); its last state is in the
-/// named checkpoint.
-#[derive(Debug, thiserror::Error)]
-#[error("interrupted after update {updates}; resume with --resume {}", checkpoint.display())]
-pub struct Interrupted {
-    /// Updates done.
-    pub updates: u64,
-    /// The checkpoint written on the way out.
-    pub checkpoint: PathBuf,
-}
-
 impl Run {
     /// Validates `cfg`, creates `out`, builds (or restores) the policy and
     /// the optimiser.
-    pub fn prepare(cfg: &TrainConfig, out: &Path) -> Result<Run> {
+    pub fn prepare(cfg: &TrainConfig, out: &Path) -> Result<Run, TrainError> {
         cfg.validate()?;
         buridan_policy::threads::tune_allocator();
         let t_start = Instant::now();
-        std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-        let config_path = out.join("config.toml");
-        std::fs::write(&config_path, cfg.to_toml())
-            .with_context(|| format!("cannot write {}", config_path.display()))?;
+        std::fs::create_dir_all(out).map_err(|e| TrainError::io("cannot create", out, e))?;
+        write_file(&out.join(CONFIG_FILE), &cfg.to_toml())?;
         let map = Arc::new(Map::load(&cfg.map)?);
-        let obs_dim = match cfg.mode.obs_kind() {
-            ObsKind::Local => buridan_env::local_obs_dim(cfg.sensor_range),
-            ObsKind::Central => {
-                buridan_env::central_obs_dim(map.grid.height(), map.grid.width(), cfg.agents)
-            }
-        };
+        let obs_dim = cfg
+            .mode
+            .obs_kind()
+            .obs_dim(&map, cfg.agents, cfg.sensor_range);
         let spec = cfg.model_spec(obs_dim);
         let (policy, state) = match &cfg.resume {
             None => (
@@ -248,66 +236,17 @@ impl Run {
                 TrainerState::default(),
             ),
             Some(dir) => {
-                let policy = Policy::load_expecting(dir, &spec)
-                    .with_context(|| format!("cannot resume from {}", dir.display()))?;
-                let text = std::fs::read_to_string(dir.join(TRAINER_FILE))
-                    .with_context(|| format!("{} lacks {TRAINER_FILE}", dir.display()))?;
-                (policy, serde_json::from_str::<TrainerState>(&text)?)
+                let policy =
+                    Policy::load_expecting(dir, &spec).map_err(|source| TrainError::Resume {
+                        dir: dir.clone(),
+                        source,
+                    })?;
+                (policy, read_trainer_state(dir)?)
             }
         };
-        let mut learner = match cfg.algo {
-            Algo::Ppo => Learner::Ppo(Ppo::new(
-                &policy,
-                PpoSettings {
-                    lr: cfg.ppo.lr,
-                    epochs: cfg.ppo.epochs,
-                    minibatch_size: cfg.ppo.minibatch,
-                    clip: cfg.ppo.clip,
-                    vf_coeff: cfg.ppo.vf_coeff,
-                    vf_clip: cfg.ppo.vf_clip,
-                    entropy_coeff: cfg.ppo.entropy_coeff,
-                    kl_coeff: cfg.ppo.kl_coeff,
-                    kl_target: cfg.ppo.kl_target,
-                    gamma: cfg.gamma,
-                    lambda: cfg.ppo.lambda,
-                    grad_clip: cfg.ppo.grad_clip,
-                    standardize_advantages: cfg.ppo.standardize_advantages,
-                    max_seq_len: cfg.max_seq_len,
-                },
-            )),
-            Algo::Impala => Learner::Impala(Impala::new(
-                &policy,
-                ImpalaSettings {
-                    lr: cfg.impala.lr,
-                    vf_coeff: cfg.impala.vf_coeff,
-                    entropy_coeff: cfg.impala.entropy_coeff,
-                    grad_clip: cfg.impala.grad_clip,
-                    vtrace: VTraceParams {
-                        gamma: cfg.gamma,
-                        lambda: cfg.impala.lambda,
-                        rho_bar: cfg.impala.rho_bar,
-                        c_bar: cfg.impala.c_bar,
-                        pg_rho_bar: cfg.impala.pg_rho_bar,
-                    },
-                    max_seq_len: cfg.max_seq_len,
-                },
-            )),
-        };
+        let mut learner = Learner::new(cfg, &policy);
         if let Some(dir) = &cfg.resume {
-            let path = dir.join(OPTIMIZER_FILE);
-            if path.is_file() {
-                learner.adam_mut().load(&path, state.adam_steps)?;
-            } else {
-                tracing::warn!(
-                    "{} lacks {OPTIMIZER_FILE}: fresh optimiser state",
-                    dir.display()
-                );
-            }
-            if let Learner::Ppo(p) = &mut learner {
-                if state.kl_coeffs.len() == p.kl_coeffs.len() {
-                    p.kl_coeffs = state.kl_coeffs.clone();
-                }
-            }
+            learner.restore(dir, &state)?;
         }
         tracing::info!(
             algo = %cfg.algo,
@@ -334,6 +273,31 @@ impl Run {
         })
     }
 
+    /// The collector of in-process actor `id`: its own envs and a copy of
+    /// the current policy.
+    pub fn collector(&self, id: u32) -> Result<Collector, TrainError> {
+        let cfg = &self.cfg;
+        let actor = u64::from(id);
+        let venv = VecEnv::new(
+            self.map.clone(),
+            env_config(cfg, self.actor_seed(actor)),
+            cfg.envs_per_actor,
+            cfg.mode.obs_kind(),
+            1,
+        )?;
+        let policy = Policy::new(self.spec.clone(), cfg.seed)?;
+        policy.copy_from(&self.policy)?;
+        let rows = buridan_env::BatchedEnv::rows(&venv);
+        let sampling = seed::actor_sampling(cfg.seed, actor, self.state.updates);
+        Ok(Collector {
+            id,
+            inference: Inference::new(policy, rows, sampling),
+            venv,
+            fragment_len: cfg.fragment_len,
+            version: self.state.updates,
+        })
+    }
+
     /// Stops the run (with a checkpoint, and without telling remote actors
     /// the run is over) once `flag` is set — Ctrl-C, SIGTERM, tests.
     pub fn interrupt_on(&mut self, flag: Arc<AtomicBool>) {
@@ -346,17 +310,35 @@ impl Run {
             .is_some_and(|f| f.load(Ordering::SeqCst))
     }
 
-    fn stop_interrupted(&mut self, ckpt_root: &Path) -> anyhow::Error {
-        let dir = ckpt_root.join(format!("update-{:06}", self.state.updates));
+    /// Checkpoints an interrupted run and says where.
+    fn stop_interrupted(&mut self) -> TrainError {
+        let dir = checkpoint::update_dir(&self.out, self.state.updates);
+        match self.save_checkpoint(&dir) {
+            Ok(()) => Interrupted {
+                updates: self.state.updates,
+                checkpoint: dir,
+            }
+            .into(),
+            Err(e) => TrainError::InterruptedWithoutCheckpoint {
+                updates: self.state.updates,
+                source: Box::new(e),
+            },
+        }
+    }
+
+    /// Writes the policy, the optimiser, the counters and the config into `dir`.
+    fn save_checkpoint(&mut self, dir: &Path) -> Result<(), TrainError> {
         self.state.wall_seconds = self.wall();
-        if let Err(e) = save_checkpoint(&dir, &self.policy, &self.learner, &self.state, &self.cfg) {
-            return e.context("interrupted, and the checkpoint failed");
-        }
-        Interrupted {
-            updates: self.state.updates,
-            checkpoint: dir,
-        }
-        .into()
+        self.policy.save(dir)?;
+        let path = dir.join(OPTIMIZER_FILE);
+        self.learner
+            .optim()
+            .adam
+            .save(&path)
+            .map_err(|source| TrainError::Optimizer { path, source })?;
+        let state = serde_json::to_string_pretty(&self.state).expect("trainer state serialises");
+        write_file(&dir.join(TRAINER_FILE), &state)?;
+        write_file(&dir.join(CONFIG_FILE), &self.cfg.to_toml())
     }
 
     /// The run's configuration.
@@ -380,66 +362,35 @@ impl Run {
     }
 
     /// The current weights, stamped with the current policy version.
-    pub fn weights(&self) -> Result<Weights> {
+    pub fn weights(&self) -> Result<Weights, TrainError> {
         Ok(self.policy.weights(self.state.updates)?)
     }
 
-    /// Env seed of actor `k`; a resumed run shifts the seeds so it does not
-    /// replay the episodes it has already seen.
+    /// Env seed of actor `k` ([`seed::actor_env`]).
     pub fn actor_seed(&self, k: u64) -> u64 {
-        let base = self.cfg.seed.wrapping_add(k);
-        if self.state.updates > 0 {
-            base.wrapping_add(self.state.updates.wrapping_mul(0x9E37_79B9))
-        } else {
-            base
-        }
+        seed::actor_env(self.cfg.seed, k, self.state.updates)
     }
 
     /// The learner loop: publish weights, gather a train batch from
     /// `exchange`, update, repeat until `cfg.steps` env steps; then the
     /// final checkpoint and `summary.json`. Always calls
-    /// [`Exchange::finish`].
+    /// [`Exchange::finish`]; an actor's failure is returned with its cause.
     pub fn learn(
         mut self,
         exchange: &mut dyn Exchange,
         progress: &mut dyn Progress,
-    ) -> Result<Summary> {
+    ) -> Result<Summary, TrainError> {
         let result = self.learn_loop(exchange, progress);
         let finished = exchange.finish(result.is_ok());
         let stopped_early = result?;
         finished?;
-        let cfg = &self.cfg;
-        let final_dir = self.out.join("checkpoints").join("final");
-        self.state.wall_seconds = self.wall();
-        save_checkpoint(&final_dir, &self.policy, &self.learner, &self.state, cfg)?;
+        let final_dir = checkpoint::final_dir(&self.out);
+        self.save_checkpoint(&final_dir)?;
         progress.on_checkpoint(&final_dir);
-        let window = &self.window;
-        let summary = Summary {
-            algo: cfg.algo.to_string(),
-            mode: cfg.mode.to_string(),
-            map: cfg.map.clone(),
-            agents: cfg.agents,
-            starts: match cfg.starts {
-                buridan_env::Starts::Fixed => "fixed".into(),
-                buridan_env::Starts::Random => "random".into(),
-            },
-            env_steps: self.state.env_steps,
-            agent_steps: self.state.agent_steps,
-            updates: self.state.updates,
-            wall_seconds: self.state.wall_seconds,
-            steps_per_s: self.state.env_steps as f64 / self.state.wall_seconds.max(1e-9),
-            episodes: window.total,
-            episode_return_mean: window.return_mean(),
-            success_rate: window.success_rate(),
-            episode_len_mean: window.len_mean(),
-            stale_fragments: self.state.stale_fragments,
-            stopped_early,
-            final_checkpoint: final_dir,
-        };
-        std::fs::write(
-            self.out.join("summary.json"),
-            serde_json::to_string_pretty(&summary_json(&summary)).expect("serialises"),
-        )?;
+        let summary = self.summary(final_dir, stopped_early);
+        let json = serde_json::to_value(&summary).unwrap_or(serde_json::Value::Null);
+        let json = serde_json::to_string_pretty(&json).expect("summary serialises");
+        write_file(&self.out.join(SUMMARY_FILE), &json)?;
         progress.on_finish(&summary);
         Ok(summary)
     }
@@ -454,115 +405,166 @@ impl Run {
         &mut self,
         exchange: &mut dyn Exchange,
         progress: &mut dyn Progress,
-    ) -> Result<bool> {
-        let cfg = self.cfg.clone();
-        let ckpt_root = self.out.join("checkpoints");
-        let mut metrics = MetricsWriter::open(&self.out.join("metrics.csv"))?;
-        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x5EED ^ self.state.updates);
-        let on_policy = cfg.algo == Algo::Ppo;
-        let target_steps = match cfg.algo {
-            Algo::Ppo => cfg.ppo.train_batch as u64,
-            Algo::Impala => cfg.impala.train_batch as u64,
-        };
-        let wanted = on_policy.then_some(target_steps);
-        progress.on_start(&cfg, cfg.steps, self.state.env_steps);
-        let mut last_row_time = self.wall_offset;
-        let mut last_row_steps = self.state.env_steps;
-        exchange.publish(self.weights()?, wanted)?;
-        while self.state.env_steps < cfg.steps {
-            if self.interrupted() {
-                return Err(self.stop_interrupted(&ckpt_root));
-            }
-            // Gather one train batch.
-            let mut batch: Vec<Fragment> = Vec::with_capacity(cfg.fragments_per_batch());
-            let mut batch_steps = 0u64;
-            while batch_steps < target_steps {
-                let Some(f) = exchange.next_fragment(Duration::from_millis(200))? else {
-                    if self.interrupted() {
-                        return Err(self.stop_interrupted(&ckpt_root));
-                    }
-                    continue;
-                };
-                let state = &mut self.state;
-                state.env_steps += f.env_steps;
-                state.agent_steps += f.env_steps * cfg.agents as u64;
-                ::metrics::counter!("buridan_env_steps_total").increment(f.env_steps);
-                self.window.extend(&f.episodes);
-                let lag = state.updates.saturating_sub(f.policy_version);
-                ::metrics::histogram!("buridan_policy_lag").record(lag as f64);
-                let stale = match cfg.algo {
-                    Algo::Ppo => lag > 0,
-                    Algo::Impala => lag > cfg.impala.max_policy_lag,
-                };
-                if stale {
-                    state.stale_fragments += 1;
-                    ::metrics::counter!("buridan_fragments_total", "outcome" => "stale_at_learner")
-                        .increment(1);
-                    continue;
-                }
-                batch_steps += f.env_steps;
-                batch.push(f);
-            }
-            let t_learn = Instant::now();
-            let stats: UpdateStats = match &mut self.learner {
-                Learner::Ppo(p) => p.update(&self.policy, &batch, &mut rng)?,
-                Learner::Impala(i) => i.update(&self.policy, &batch)?,
+    ) -> Result<bool, TrainError> {
+        let mut metrics = MetricsWriter::open(&self.out.join(METRICS_FILE))?;
+        let shuffle_seed = seed::learner_shuffle(self.cfg.seed, self.state.updates);
+        let mut rng = ChaCha8Rng::seed_from_u64(shuffle_seed);
+        progress.on_start(&self.cfg, self.cfg.steps, self.state.env_steps);
+        let mut since = (self.wall_offset, self.state.env_steps);
+        self.publish(exchange)?;
+        while self.state.env_steps < self.cfg.steps {
+            let Some(batch) = self.gather_batch(exchange)? else {
+                return Err(self.stop_interrupted());
             };
+            let t_learn = Instant::now();
+            let stats = self.learner.update(&self.policy, &batch, &mut rng)?;
             let learn_seconds = t_learn.elapsed().as_secs_f64();
             self.state.updates += 1;
-            exchange.publish(self.weights()?, wanted)?;
-            let wall = self.wall();
-            let state = &mut self.state;
-            state.episodes = self.window.total;
-            state.adam_steps = self.learner.adam().steps();
-            state.kl_coeffs = self.learner.kl_coeffs();
-            state.wall_seconds = wall;
-            state.recent_episodes = self.window.recent();
-            let row = MetricsRow {
-                update: state.updates,
-                env_steps: state.env_steps,
-                agent_steps: state.agent_steps,
-                wall_seconds: wall,
-                steps_per_s: (state.env_steps - last_row_steps) as f64
-                    / (wall - last_row_time).max(1e-9),
-                episodes: self.window.total,
-                episode_return_mean: self.window.return_mean(),
-                success_rate: self.window.success_rate(),
-                episode_len_mean: self.window.len_mean(),
-                total_loss: stats.total_loss,
-                policy_loss: stats.policy_loss,
-                vf_loss: stats.vf_loss,
-                entropy: stats.entropy,
-                kl: stats.kl,
-                kl_coeff: stats.kl_coeff,
-                grad_norm: stats.grad_norm,
-                mean_rho: stats.mean_rho,
-                stale_fragments: state.stale_fragments,
-                learn_seconds,
-            };
-            last_row_time = wall;
-            last_row_steps = state.env_steps;
+            self.publish(exchange)?;
+            let row = self.record_update(&stats, learn_seconds, &mut since);
             metrics.write(&row)?;
             export_metrics(&row, exchange);
             tracing::debug!(?row, "update");
             progress.on_update(&row);
-            if cfg.checkpoint_every > 0 && self.state.updates % cfg.checkpoint_every == 0 {
-                let dir = ckpt_root.join(format!("update-{:06}", self.state.updates));
-                save_checkpoint(&dir, &self.policy, &self.learner, &self.state, &cfg)?;
+            let every = self.cfg.checkpoint_every;
+            if every > 0 && self.state.updates % every == 0 {
+                let dir = checkpoint::update_dir(&self.out, self.state.updates);
+                self.save_checkpoint(&dir)?;
                 progress.on_checkpoint(&dir);
             }
-            if let Some(goal) = cfg.stop_return {
-                let len_ok = cfg.stop_len.is_none_or(|l| self.window.len_mean() <= l);
-                if self.window.len() >= metrics::EPISODE_WINDOW
-                    && self.window.return_mean() >= goal
-                    && len_ok
-                {
-                    return Ok(true);
-                }
+            if self.goal_reached() {
+                return Ok(true);
             }
         }
         Ok(false)
     }
+
+    /// Publishes the current weights; on-policy runs ask for one train batch.
+    fn publish(&self, exchange: &mut dyn Exchange) -> Result<(), TrainError> {
+        let wanted = self.cfg.on_policy().then_some(self.cfg.train_batch());
+        Ok(exchange.publish(self.weights()?, wanted)?)
+    }
+
+    /// Fragments until one train batch of fresh experience is there;
+    /// `None` if the run was interrupted meanwhile.
+    fn gather_batch(
+        &mut self,
+        exchange: &mut dyn Exchange,
+    ) -> Result<Option<Vec<Fragment>>, TrainError> {
+        let target = self.cfg.train_batch();
+        let staleness = self.cfg.staleness();
+        let mut batch = Vec::with_capacity(self.cfg.fragments_per_batch());
+        let mut batch_steps = 0u64;
+        while batch_steps < target {
+            if self.interrupted() {
+                return Ok(None);
+            }
+            let Some(f) = exchange.next_fragment(Duration::from_millis(200))? else {
+                continue;
+            };
+            self.state.env_steps += f.env_steps;
+            self.state.agent_steps += f.env_steps * self.cfg.agents as u64;
+            ::metrics::counter!("buridan_env_steps_total").increment(f.env_steps);
+            self.window.extend(&f.episodes);
+            let lag = self.state.updates.saturating_sub(f.policy_version);
+            ::metrics::histogram!("buridan_policy_lag").record(lag as f64);
+            if staleness.is_stale(f.policy_version, self.state.updates) {
+                self.state.stale_fragments += 1;
+                ::metrics::counter!("buridan_fragments_total", "outcome" => "stale_at_learner")
+                    .increment(1);
+                continue;
+            }
+            batch_steps += f.env_steps;
+            batch.push(f);
+        }
+        Ok(Some(batch))
+    }
+
+    /// Books an update into the counters and returns its metrics row;
+    /// `since` holds the wall time and env steps of the previous row.
+    fn record_update(
+        &mut self,
+        stats: &UpdateStats,
+        learn_seconds: f64,
+        since: &mut (f64, u64),
+    ) -> MetricsRow {
+        let wall = self.wall();
+        let state = &mut self.state;
+        state.episodes = self.window.total;
+        state.adam_steps = self.learner.optim().adam.steps();
+        state.kl_coeffs = self.learner.kl_coeffs();
+        state.wall_seconds = wall;
+        state.recent_episodes = self.window.recent();
+        let row = MetricsRow {
+            update: state.updates,
+            env_steps: state.env_steps,
+            agent_steps: state.agent_steps,
+            wall_seconds: wall,
+            steps_per_s: (state.env_steps - since.1) as f64 / (wall - since.0).max(1e-9),
+            episodes: self.window.total,
+            episode_return_mean: self.window.return_mean(),
+            success_rate: self.window.success_rate(),
+            episode_len_mean: self.window.len_mean(),
+            total_loss: stats.total_loss,
+            policy_loss: stats.policy_loss,
+            vf_loss: stats.vf_loss,
+            entropy: stats.entropy,
+            kl: stats.kl,
+            kl_coeff: stats.kl_coeff,
+            grad_norm: stats.grad_norm,
+            mean_rho: stats.mean_rho,
+            stale_fragments: state.stale_fragments,
+            learn_seconds,
+        };
+        *since = (wall, state.env_steps);
+        row
+    }
+
+    /// Whether the `stop_return` (and `stop_len`) goal holds over a full window.
+    fn goal_reached(&self) -> bool {
+        let Some(goal) = self.cfg.stop_return else {
+            return false;
+        };
+        let len_ok = self
+            .cfg
+            .stop_len
+            .is_none_or(|l| self.window.len_mean() <= l);
+        self.window.len() >= metrics::EPISODE_WINDOW && self.window.return_mean() >= goal && len_ok
+    }
+
+    fn summary(&self, final_checkpoint: PathBuf, stopped_early: bool) -> Summary {
+        let (cfg, window, state) = (&self.cfg, &self.window, &self.state);
+        Summary {
+            algo: cfg.algo.to_string(),
+            mode: cfg.mode.to_string(),
+            map: cfg.map.clone(),
+            agents: cfg.agents,
+            starts: match cfg.starts {
+                buridan_env::Starts::Fixed => "fixed".into(),
+                buridan_env::Starts::Random => "random".into(),
+            },
+            env_steps: state.env_steps,
+            agent_steps: state.agent_steps,
+            updates: state.updates,
+            wall_seconds: state.wall_seconds,
+            steps_per_s: state.env_steps as f64 / state.wall_seconds.max(1e-9),
+            episodes: window.total,
+            episode_return_mean: window.return_mean(),
+            success_rate: window.success_rate(),
+            episode_len_mean: window.len_mean(),
+            stale_fragments: state.stale_fragments,
+            stopped_early,
+            final_checkpoint,
+        }
+    }
+}
+
+/// The trainer counters of checkpoint `dir`.
+fn read_trainer_state(dir: &Path) -> Result<TrainerState, TrainError> {
+    let path = dir.join(TRAINER_FILE);
+    let text =
+        std::fs::read_to_string(&path).map_err(|e| TrainError::io("cannot read", &path, e))?;
+    serde_json::from_str(&text).map_err(|source| TrainError::TrainerState { path, source })
 }
 
 /// Publishes one update's figures as Prometheus metrics (no-ops unless an
@@ -595,12 +597,7 @@ fn export_metrics(row: &MetricsRow, exchange: &dyn Exchange) {
     ::metrics::gauge!("buridan_grad_norm").set(row.grad_norm);
     ::metrics::histogram!("buridan_learn_seconds").record(row.learn_seconds);
 }
-/// JSON of a summary with NaN (no episode yet) written as `null`.
-fn summary_json(s: &Summary) -> serde_json::Value {
-    serde_json::to_value(s).unwrap_or(serde_json::Value::Null)
-}
-
 /// The final checkpoint directory of a finished run in `out`.
 pub fn final_checkpoint(out: &Path) -> PathBuf {
-    out.join("checkpoints").join("final")
+    checkpoint::final_dir(out)
 }

@@ -3,8 +3,8 @@
 
 use std::sync::Arc;
 
-use anyhow::Result;
-use buridan_env::{EnvConfig, EpisodeStats, Map, ObsKind, VecEnv};
+use buridan_actor::CollectError;
+use buridan_env::{BatchedEnv, EnvConfig, EpisodeStats, Map, VecEnv};
 use buridan_policy::{ActMode, Inference, Policy};
 
 /// Plays `episodes` episodes of `policy` on `num_envs` parallel envs of
@@ -29,15 +29,10 @@ pub fn rollout(
     num_envs: usize,
     mode: ActMode,
     seed: u64,
-) -> Result<Vec<EpisodeStats>> {
+) -> Result<Vec<EpisodeStats>, CollectError> {
     let kind = policy.spec().mode.obs_kind();
-    let n = env.agents;
     let mut venv = VecEnv::new(map, env, num_envs.max(1), kind, 1)?;
-    let rows_per_env = match kind {
-        ObsKind::Local => n,
-        ObsKind::Central => 1,
-    };
-    let rows = venv.num_envs() * rows_per_env;
+    let rows = venv.rows();
     let heads = policy.spec().heads;
     let mut inf = Inference::new(policy.clone(), rows, seed);
     let mut actions = vec![0u8; rows * heads];
@@ -48,22 +43,10 @@ pub fn rollout(
     while out.len() < episodes {
         inf.act(venv.obs(), venv.masks(), mode, &mut actions, &mut logp)?;
         venv.step(&actions)?;
-        if inf.state().is_some() {
-            let rewards = venv.rewards();
-            for e in 0..venv.num_envs() {
-                let done = u8::from(venv.terminated()[e] != 0 || venv.truncated()[e] != 0);
-                for j in 0..rows_per_env {
-                    let r = e * rows_per_env + j;
-                    row_done[r] = done;
-                    row_rewards[r] = match kind {
-                        ObsKind::Local => rewards[r],
-                        ObsKind::Central => rewards[e * n..(e + 1) * n].iter().sum(),
-                    };
-                }
-            }
-            if let Some(st) = inf.state_mut() {
-                st.observe(&actions, &row_rewards, &row_done);
-            }
+        if let Some(st) = inf.state_mut() {
+            venv.write_row_rewards(&mut row_rewards);
+            venv.write_row_done(&mut row_done);
+            st.observe(&actions, &row_rewards, &row_done);
         }
         out.extend(venv.drain_episodes());
     }

@@ -2,37 +2,35 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
 use buridan_env::{GridEnv, NUM_ACTIONS};
-use buridan_eval::{Controller, GiveUp};
-use buridan_policy::{ActMode, Inference, Mode, Policy};
+use buridan_policy::{checkpoint, ActMode, Inference, Mode, Policy, PolicyError};
 
-/// Resolves a checkpoint argument: a `learner train --out` directory (its
-/// `checkpoints/final`, else the newest `checkpoints/update-*`) or a
-/// checkpoint directory itself.
-pub fn resolve_checkpoint(dir: &Path) -> Result<PathBuf> {
-    if dir.join("spec.json").is_file() {
-        return Ok(dir.to_path_buf());
-    }
-    let root = dir.join("checkpoints");
-    let last = root.join("final");
-    if last.join("spec.json").is_file() {
-        return Ok(last);
-    }
-    let mut updates: Vec<PathBuf> = std::fs::read_dir(&root)
-        .with_context(|| {
-            format!(
-                "{} holds no checkpoint (no spec.json, no checkpoints/ folder)",
-                dir.display()
-            )
-        })?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.join("spec.json").is_file())
-        .collect();
-    updates.sort();
-    updates
-        .pop()
-        .with_context(|| format!("{} holds no checkpoint", root.display()))
+use crate::{Controller, GiveUp};
+
+/// Why a trained policy cannot drive an evaluation.
+#[derive(Debug, thiserror::Error)]
+pub enum PolicyLoadError {
+    /// The checkpoint is missing or unreadable.
+    #[error("loading a policy from {}", dir.display())]
+    Checkpoint {
+        /// The directory given.
+        dir: PathBuf,
+        /// What went wrong.
+        source: PolicyError,
+    },
+    /// The policy was trained for another number of agents and cannot
+    /// control this many (CTE joint policies, DTE per-agent nets).
+    #[error("the {mode:?} policy in {} controls {trained} agents, not {asked}", dir.display())]
+    AgentCount {
+        /// The checkpoint.
+        dir: PathBuf,
+        /// Its mode.
+        mode: Mode,
+        /// Agents it was trained for.
+        trained: usize,
+        /// Agents asked for.
+        asked: usize,
+    },
 }
 
 /// Drives all agents with a trained policy: greedy or sampled actions.
@@ -49,32 +47,33 @@ pub struct PolicyController {
 
 impl PolicyController {
     /// Loads the policy at `checkpoint` for episodes with `agents` agents.
-    pub fn load(checkpoint: &Path, agents: usize, act_mode: ActMode, seed: u64) -> Result<Self> {
-        let dir = resolve_checkpoint(checkpoint)?;
-        let policy =
-            Policy::load(&dir).with_context(|| format!("loading policy from {}", dir.display()))?;
+    pub fn load(
+        path: &Path,
+        agents: usize,
+        act_mode: ActMode,
+        seed: u64,
+    ) -> Result<Self, PolicyLoadError> {
+        let failed = |source| PolicyLoadError::Checkpoint {
+            dir: path.to_path_buf(),
+            source,
+        };
+        let dir = checkpoint::resolve(path).map_err(failed)?;
+        let policy = Policy::load(&dir).map_err(failed)?;
         let spec = policy.spec().clone();
         let rows = match spec.mode {
-            Mode::Cte => {
-                if spec.agents != agents {
-                    bail!(
-                        "the CTE policy in {} controls {} agents, not {agents}",
-                        dir.display(),
-                        spec.agents
-                    );
-                }
-                1
+            // A CTDE policy trained with n agents runs with any number (scalability).
+            Mode::Ctde => agents,
+            Mode::Cte | Mode::Dte if spec.agents != agents => {
+                return Err(PolicyLoadError::AgentCount {
+                    dir,
+                    mode: spec.mode,
+                    trained: spec.agents,
+                    asked: agents,
+                })
             }
-            Mode::Dte if spec.agents != agents => {
-                bail!(
-                    "the DTE policy in {} has one net per agent for {} agents, not {agents}",
-                    dir.display(),
-                    spec.agents
-                )
-            }
-            Mode::Ctde | Mode::Dte => agents,
+            Mode::Cte => 1,
+            Mode::Dte => agents,
         };
-        // A CTDE policy trained with n agents runs with any number (scalability).
         let inference = Inference::new(policy, rows, seed);
         let heads = spec.heads;
         Ok(Self {

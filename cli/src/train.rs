@@ -8,7 +8,7 @@ use buridan_eval::plot::{line_chart, Series};
 use buridan_policy::Mode;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::train::{train, Algo, MetricsRow, Progress, Summary, TrainConfig};
+use buridan_learner::train::{train, Algo, MetricsRow, Progress, Summary, TrainConfig};
 
 /// Arguments of `learner train`.
 #[derive(Debug, clap::Args)]
@@ -28,7 +28,7 @@ pub struct TrainArgs {
     /// `random` starts and goals, or `fixed` (the map's `.scen`).
     #[arg(long)]
     pub starts: Option<Starts>,
-    /// A TOML run configuration (see `learner config`); flags override it.
+    /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it.
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Env-step budget.
@@ -60,9 +60,9 @@ pub struct TrainArgs {
 ///
 /// ```
 /// let mut t: toml::Table = toml::from_str("[ppo]\nlr = 0.001").unwrap();
-/// buridan_learner::cli::train::set_key(&mut t, "ppo.lr=5e-4").unwrap();
+/// buridan_cli::train::set_key(&mut t, "ppo.lr=5e-4").unwrap();
 /// assert_eq!(t["ppo"]["lr"].as_float(), Some(5e-4));
-/// assert!(buridan_learner::cli::train::set_key(&mut t, "no_equals_sign").is_err());
+/// assert!(buridan_cli::train::set_key(&mut t, "no_equals_sign").is_err());
 /// ```
 pub fn set_key(table: &mut toml::Table, assignment: &str) -> Result<()> {
     let (key, raw) = assignment
@@ -118,9 +118,9 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
     }
     if let Some(v) = &args.resume {
         cfg.resume = if v.as_os_str() == "auto" {
-            crate::policy_controller::resolve_checkpoint(&args.out).ok()
+            buridan_policy::checkpoint::resolve(&args.out).ok()
         } else {
-            Some(crate::policy_controller::resolve_checkpoint(v)?)
+            Some(buridan_policy::checkpoint::resolve(v)?)
         };
     }
     if !args.overrides.is_empty() {
@@ -219,7 +219,7 @@ impl Progress for TerminalProgress {
 /// Writes `learning_curve.png` (return and length) and `success_curve.png`
 /// from the run's `metrics.csv` (all rows, resumed runs included).
 pub fn write_curves(out: &Path, title: &str) -> Result<()> {
-    let path = out.join("metrics.csv");
+    let path = out.join(buridan_learner::train::METRICS_FILE);
     let rows: Vec<MetricsRow> = csv::Reader::from_path(&path)
         .with_context(|| format!("reading {}", path.display()))?
         .deserialize()
@@ -275,7 +275,7 @@ pub fn run(args: &TrainArgs) -> Result<Summary> {
 
 /// Refuses to overwrite a finished run.
 pub fn check_out(args: &TrainArgs, cfg: &TrainConfig) -> Result<()> {
-    if args.out.join("summary.json").exists() && cfg.resume.is_none() {
+    if args.out.join(buridan_learner::train::SUMMARY_FILE).exists() && cfg.resume.is_none() {
         bail!(
             "{} already holds a finished run; choose another --out or pass --resume {}",
             args.out.display(),

@@ -2,9 +2,9 @@
 
 use std::path::PathBuf;
 
+use buridan_cli::eval::{self, EvalArgs};
+use buridan_cli::train::{self, TrainArgs};
 use buridan_env::Starts;
-use buridan_learner::cli::eval::{self, EvalArgs};
-use buridan_learner::cli::train::{self, TrainArgs};
 use buridan_learner::train::Algo;
 use buridan_policy::Mode;
 

@@ -1,7 +1,7 @@
 //! `learner`: train, evaluate and serve Buridan policies.
 
 use anyhow::Result;
-use buridan_learner::cli;
+use buridan_cli as cli;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]

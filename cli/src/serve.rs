@@ -8,11 +8,11 @@ use std::time::Duration;
 
 use anyhow::{bail, Result};
 
-use crate::cli::train::{
+use crate::train::{
     check_out, install_metrics, report, resolve_config, TerminalProgress, TrainArgs,
 };
-use crate::serve::{serve, Listener, ServeOptions, DEFAULT_MAX_MESSAGE_BYTES};
-use crate::train::Summary;
+use buridan_learner::serve::{serve, Listener, ServeOptions, DEFAULT_MAX_MESSAGE_BYTES};
+use buridan_learner::train::Summary;
 
 /// Arguments of `learner serve`: the run options of `learner train` plus
 /// the server's.

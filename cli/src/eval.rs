@@ -12,7 +12,7 @@ use buridan_eval::planner::PlannerController;
 use buridan_eval::{evaluate, Controller, EvalSpec, EvalSummary, RandomController};
 use buridan_policy::ActMode;
 
-use crate::policy_controller::PolicyController;
+use buridan_eval::policy::PolicyController;
 use buridan_mapf::{planner_by_name, Limits, Planner};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -63,7 +63,7 @@ pub struct EvalArgs {
 /// Parses `4`, `4..20`, `4..20:2` or `4,8,12` into agent counts.
 ///
 /// ```
-/// use buridan_learner::cli::eval::parse_agent_counts;
+/// use buridan_cli::eval::parse_agent_counts;
 /// assert_eq!(parse_agent_counts("4").unwrap(), vec![4]);
 /// assert_eq!(parse_agent_counts("4..8:2").unwrap(), vec![4, 6, 8]);
 /// assert_eq!(parse_agent_counts("2,5").unwrap(), vec![2, 5]);

@@ -1,0 +1,8 @@
+//! The `learner` command line over the learner library: each subcommand's
+//! arguments (clap), its progress bar (indicatif), its report, and the
+//! Prometheus exporter. Logic lives in `buridan-learner`, `buridan-eval`
+//! and `buridan-mapf`; this crate only parses, calls and presents.
+
+pub mod eval;
+pub mod serve;
+pub mod train;

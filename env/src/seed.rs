@@ -1,0 +1,64 @@
+//! Seed derivation: how a run's one seed becomes the seed of every random
+//! stream — episodes, lifelong goals, each actor's envs and action sampling,
+//! the learner's minibatch shuffles, controllers. Every mixing constant of
+//! the workspace lives here, so two streams never share a seed by accident
+//! and a rerun with the same seed draws the same numbers.
+//!
+//! ```
+//! use buridan_env::seed;
+//! // Actors of one run get distinct env seeds; a resumed run shifts them.
+//! assert_ne!(seed::actor_env(7, 0, 0), seed::actor_env(7, 1, 0));
+//! assert_eq!(seed::actor_env(7, 1, 0), 8);
+//! assert_ne!(seed::actor_env(7, 1, 5), seed::actor_env(7, 1, 0));
+//! ```
+
+/// A large odd constant (⌊2³²/φ⌋): multiplying by it spreads consecutive
+/// integers far apart.
+const GOLDEN: u64 = 0x9E37_79B9;
+/// A prime step between sampling streams of successive updates and sessions.
+const STRIDE: u64 = 7919;
+
+/// Env seed of in-process actor `actor` of a run seeded `run` that has
+/// done `updates` updates: a resumed run shifts the seeds so that it does
+/// not replay the episodes it has already seen.
+pub fn actor_env(run: u64, actor: u64, updates: u64) -> u64 {
+    let base = run.wrapping_add(actor);
+    if updates > 0 {
+        base.wrapping_add(updates.wrapping_mul(GOLDEN))
+    } else {
+        base
+    }
+}
+
+/// Action-sampling seed of in-process actor `actor` after `updates` updates.
+pub fn actor_sampling(run: u64, actor: u64, updates: u64) -> u64 {
+    run ^ (0xA5A5_0000 + actor) ^ updates.wrapping_mul(STRIDE)
+}
+
+/// Seed of the learner's minibatch shuffles after `updates` updates.
+pub fn learner_shuffle(run: u64, updates: u64) -> u64 {
+    run ^ 0x5EED ^ updates
+}
+
+/// Env seed the learner gives remote session `session`, from the env seed
+/// `base` of the run's first actor.
+pub fn session_env(base: u64, session: u64) -> u64 {
+    base.wrapping_add(1000)
+        .wrapping_add(session.wrapping_mul(STRIDE))
+}
+
+/// Action-sampling seed of a remote actor whose env seed is `env_seed`.
+pub fn session_sampling(env_seed: u64) -> u64 {
+    env_seed ^ 0xAC70
+}
+
+/// Seed of the lifelong goal draws of an env seeded `env_seed` (a stream
+/// apart from the episode instances').
+pub fn lifelong_goals(env_seed: u64) -> u64 {
+    env_seed ^ 0x6c69_6665_6c6f_6e67 // "lifelong"
+}
+
+/// Seed of the random controller's action draws for evaluation seed `seed`.
+pub fn random_controller(seed: u64) -> u64 {
+    seed ^ 0x7261_6e64_6f6d // "random"
+}
