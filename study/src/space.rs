@@ -379,7 +379,9 @@ impl Domain {
         match self {
             Domain::Choice(list) => list[x.round() as usize].clone(),
             Domain::Uniform { .. } => toml::Value::Float(x),
-            Domain::LogUniform { low, high } => toml::Value::Float(x.exp().clamp(*low, *high)),
+            Domain::LogUniform { low, high } => {
+                toml::Value::Float(round_significant(x.exp(), 10).clamp(*low, *high))
+            }
             Domain::Int { low, step, .. } => toml::Value::Integer(low + step * x.round() as i64),
         }
     }
@@ -416,7 +418,7 @@ impl Domain {
     /// use buridan_study::space::Domain;
     /// let g = Domain::LogUniform { low: 1e-4, high: 1e-2 }.grid(3);
     /// let v: Vec<f64> = g.iter().map(|x| x.as_float().unwrap()).collect();
-    /// assert!((v[1] - 1e-3).abs() < 1e-12);
+    /// assert_eq!(v, [1e-4, 1e-3, 1e-2]);
     /// ```
     pub fn grid(&self, resolution: usize) -> Vec<toml::Value> {
         let resolution = resolution.max(1);
@@ -437,5 +439,20 @@ impl Domain {
                 out
             }
         }
+    }
+}
+
+/// `x` rounded to `digits` significant digits, so that `exp(ln 1e-3)` reads
+/// `0.001` in files and flags.
+fn round_significant(x: f64, digits: i32) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let scale = 10f64.powi(digits - 1 - x.abs().log10().floor() as i32);
+    let r = (x * scale).round() / scale;
+    if r.is_finite() {
+        r
+    } else {
+        x
     }
 }

@@ -14,7 +14,9 @@
 //! truncated Gaussian on each observation whose width is the larger gap to
 //! its neighbours, clipped to [range / min(100, n + 1), range], plus a wide
 //! prior Gaussian at the centre of the range. Choices use category counts
-//! plus one.
+//! plus one. Observations older than the newest 25 of a set weigh less
+//! (hyperopt's linear forgetting), so an early unlucky draw of a category
+//! does not bar it for good.
 //!
 //! Why not the `tpe` crate: its current version needs rand 0.10 and Rust
 //! 1.88 (the workspace is on rand 0.9 and Rust 1.85), the older one rand 0.8
@@ -74,21 +76,29 @@ impl TpeSampler {
 
 impl Sampler for TpeSampler {
     fn suggest(&self, space: &SearchSpace, index: u64, history: &[Observed]) -> Option<Overrides> {
-        let finished: Vec<&Observed> = history.iter().filter(|o| o.objective.is_finite()).collect();
+        // History order is time order (trial ids): it decides the forgetting weights.
+        let finished: Vec<(usize, &Observed)> = history
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| o.objective.is_finite())
+            .collect();
         if finished.len() < self.startup.max(2) {
             return RandomSampler::new(self.seed).suggest(space, index, history);
         }
-        let mut sorted = finished;
+        let mut ranked = finished;
         // Stable: equal objectives keep trial order, so the split is deterministic.
-        sorted.sort_by(|a, b| b.objective.total_cmp(&a.objective));
-        let n_good = ((self.gamma * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len() - 1);
-        let (good, bad) = sorted.split_at(n_good);
+        ranked.sort_by(|a, b| b.1.objective.total_cmp(&a.1.objective));
+        let n_good =
+            ((self.gamma * ranked.len() as f64).ceil() as usize).clamp(1, ranked.len() - 1);
+        let (good, bad) = ranked.split_at_mut(n_good);
+        good.sort_by_key(|(t, _)| *t);
+        bad.sort_by_key(|(t, _)| *t);
         let mut rng = trial_rng(self.seed, index);
         let mut out = Overrides::new();
         for p in space.params() {
-            let coords = |set: &[&Observed]| -> Vec<f64> {
+            let coords = |set: &[(usize, &Observed)]| -> Vec<f64> {
                 set.iter()
-                    .filter_map(|o| o.overrides.get(&p.key).and_then(|v| p.domain.coordinate(v)))
+                    .filter_map(|(_, o)| o.overrides.get(&p.key).and_then(|v| p.domain.coordinate(v)))
                     .collect()
             };
             let (g, b) = (coords(good), coords(bad));
@@ -102,12 +112,36 @@ impl Sampler for TpeSampler {
     }
 }
 
+/// hyperopt's linear forgetting: the newest `LF` observations weigh 1, older
+/// ones ramp linearly from 1/n up to 1 (by time order).
+fn forgetting_weights(n: usize) -> Vec<f64> {
+    if n <= FORGET_AFTER {
+        return vec![1.0; n];
+    }
+    let ramp = n - FORGET_AFTER;
+    let mut w: Vec<f64> = (0..ramp)
+        .map(|i| {
+            let lo = 1.0 / n as f64;
+            if ramp == 1 {
+                lo
+            } else {
+                lo + (1.0 - lo) * i as f64 / (ramp - 1) as f64
+            }
+        })
+        .collect();
+    w.extend(std::iter::repeat_n(1.0, FORGET_AFTER));
+    w
+}
+
+/// hyperopt's `LF`: observations beyond the newest 25 are gradually forgotten.
+const FORGET_AFTER: usize = 25;
+
 impl TpeSampler {
     fn categorical<R: Rng>(&self, k: usize, good: &[f64], bad: &[f64], rng: &mut R) -> f64 {
         let probs = |obs: &[f64]| -> Vec<f64> {
             let mut w = vec![self.prior_weight; k];
-            for &x in obs {
-                w[(x.round() as usize).min(k - 1)] += 1.0;
+            for (&x, f) in obs.iter().zip(forgetting_weights(obs.len())) {
+                w[(x.round() as usize).min(k - 1)] += f;
             }
             let total: f64 = w.iter().sum();
             w.iter().map(|c| c / total).collect()
@@ -169,12 +203,17 @@ struct Parzen {
 impl Parzen {
     /// hyperopt's `adaptive_parzen_normal`: the prior sits at the centre
     /// with width = range; each observation's width is the larger distance
-    /// to its sorted neighbours (the prior counts as one).
+    /// to its sorted neighbours (the prior counts as one); `obs` in time
+    /// order, weighted by [`forgetting_weights`].
     fn fit(obs: &[f64], lo: f64, hi: f64, prior_weight: f64) -> Parzen {
         let range = hi - lo;
         let prior_mu = (lo + hi) / 2.0;
-        let mut points: Vec<(f64, bool)> = obs.iter().map(|&x| (x, false)).collect();
-        points.push((prior_mu, true));
+        let mut points: Vec<(f64, Option<f64>)> = obs
+            .iter()
+            .zip(forgetting_weights(obs.len()))
+            .map(|(&x, w)| (x, Some(w)))
+            .collect();
+        points.push((prior_mu, None));
         points.sort_by(|a, b| a.0.total_cmp(&b.0));
         let min_sigma = range / (100f64).min(1.0 + obs.len() as f64);
         let n = points.len();
@@ -186,8 +225,8 @@ impl Parzen {
             hi,
         };
         for i in 0..n {
-            let (mu, is_prior) = points[i];
-            let sigma = if is_prior {
+            let (mu, weight) = points[i];
+            let sigma = if weight.is_none() {
                 range
             } else {
                 let left = if i > 0 { mu - points[i - 1].0 } else { mu - lo };
@@ -196,7 +235,7 @@ impl Parzen {
             };
             out.mus.push(mu);
             out.sigmas.push(sigma.max(1e-12));
-            out.weights.push(if is_prior { prior_weight } else { 1.0 });
+            out.weights.push(weight.unwrap_or(prior_weight));
         }
         let total: f64 = out.weights.iter().sum();
         out.weights.iter_mut().for_each(|w| *w /= total);
@@ -249,6 +288,15 @@ mod tests {
             .map(|i| p.log_pdf((i as f64 + 0.5) / n as f64).exp() / n as f64)
             .sum();
         assert!((integral - 1.0).abs() < 1e-3, "{integral}");
+    }
+
+    #[test]
+    fn forgetting_ramps_old_observations() {
+        assert_eq!(forgetting_weights(3), [1.0; 3]);
+        let w = forgetting_weights(27);
+        assert_eq!(w.len(), 27);
+        assert!((w[0] - 1.0 / 27.0).abs() < 1e-12);
+        assert_eq!(&w[1..], &[1.0; 26]);
     }
 
     #[test]
