@@ -1,6 +1,12 @@
 //! The median stopping rule (Golovin et al., "Google Vizier", KDD 2017):
 //! stop a trial at step s if its best value so far is below the median of
 //! the other trials' running means up to s.
+//!
+//! "The other trials" are all that have reported at or before s, including
+//! those not yet at s (their mean so far): with parallel trials reporting in
+//! turn, requiring others to have reached s would exempt whichever trial
+//! reports first in each round, for ever. Others behind s have lower means
+//! on rising curves, so this errs towards continuing.
 
 use std::collections::BTreeMap;
 
@@ -26,7 +32,7 @@ pub struct MedianStopping {
 
 impl MedianStopping {
     /// No decisions before `grace_steps` nor with fewer than `min_trials`
-    /// other trials that reached the step.
+    /// other trials that have reported.
     ///
     /// ```
     /// let _ = buridan_study::scheduler::MedianStopping::new(100_000, 3);
@@ -55,7 +61,7 @@ impl Scheduler for MedianStopping {
         let mut others: Vec<f64> = self
             .reports
             .iter()
-            .filter(|(&t, r)| t != trial && r.iter().any(|(s, _)| *s >= step))
+            .filter(|(&t, _)| t != trial)
             .filter_map(|(_, r)| {
                 let upto: Vec<f64> = r.iter().filter(|(s, _)| *s <= step).map(|(_, v)| *v).collect();
                 mean(&upto)
