@@ -262,8 +262,9 @@ impl Study {
 
     /// Samples `count` new trials without running them (status `Planned`)
     /// and writes each one's `trial.json` spec into its run directory — the
-    /// batch a Kubernetes Indexed Job runs, index = trial id. Returns the
-    /// new ids. Samplers see only finished trials, so TPE plans a batch from
+    /// batch a Kubernetes Indexed Job runs, index = trial id. At most the
+    /// study's `trials` exist in all (and a grid stops when exhausted).
+    /// Returns the new ids. Samplers see only finished trials, so TPE plans a batch from
     /// what earlier batches found.
     ///
     /// ```
@@ -280,7 +281,11 @@ impl Study {
             .build(self.config.seed, self.config.grid_points);
         let history = self.state.observed();
         let mut ids = Vec::new();
-        for _ in 0..count {
+        let room = self
+            .config
+            .trials
+            .saturating_sub(self.state.trials.len() as u64);
+        for _ in 0..count.min(room) {
             let id = self.state.trials.len() as u64;
             let Some(overrides) = sampler.suggest(&self.config.space, id, &history) else {
                 break;
