@@ -97,12 +97,16 @@ impl IndexedJob {
         let dns = |s: &str| {
             !s.is_empty()
                 && s.len() <= 63
-                && s.bytes().all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-')
+                && s.bytes()
+                    .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-')
                 && !s.starts_with('-')
                 && !s.ends_with('-')
         };
         if !dns(&self.name) {
-            return bad("name", "must be a DNS-1123 label (a-z, 0-9, '-', at most 63)");
+            return bad(
+                "name",
+                "must be a DNS-1123 label (a-z, 0-9, '-', at most 63)",
+            );
         }
         if let Some(ns) = &self.namespace {
             if !dns(ns) {
@@ -149,8 +153,14 @@ impl IndexedJob {
         y.push_str(&labels("    "));
         y.push_str("spec:\n  completionMode: Indexed\n");
         y.push_str(&format!("  completions: {}\n", self.completions));
-        y.push_str(&format!("  parallelism: {}\n", self.parallelism.min(self.completions)));
-        y.push_str(&format!("  backoffLimitPerIndex: {}\n", self.backoff_limit_per_index));
+        y.push_str(&format!(
+            "  parallelism: {}\n",
+            self.parallelism.min(self.completions)
+        ));
+        y.push_str(&format!(
+            "  backoffLimitPerIndex: {}\n",
+            self.backoff_limit_per_index
+        ));
         y.push_str("  template:\n    metadata:\n      labels:\n");
         y.push_str(&labels("        "));
         y.push_str("    spec:\n      restartPolicy: Never\n");
@@ -160,9 +170,14 @@ impl IndexedJob {
         y.push_str("          imagePullPolicy: \"IfNotPresent\"\n");
         y.push_str("          args:\n");
         for a in &self.args {
-            y.push_str(&format!("            - {}\n", q(&a.replace("{index}", "$(JOB_COMPLETION_INDEX)"))));
+            y.push_str(&format!(
+                "            - {}\n",
+                q(&a.replace("{index}", "$(JOB_COMPLETION_INDEX)"))
+            ));
         }
-        y.push_str("          env:\n            - name: \"NO_COLOR\"\n              value: \"1\"\n");
+        y.push_str(
+            "          env:\n            - name: \"NO_COLOR\"\n              value: \"1\"\n",
+        );
         y.push_str("          resources:\n");
         for section in ["requests", "limits"] {
             y.push_str(&format!("            {section}:\n"));
@@ -170,9 +185,17 @@ impl IndexedJob {
             y.push_str(&format!("              memory: {}\n", q(&self.memory)));
         }
         y.push_str("          volumeMounts:\n            - name: \"results\"\n");
-        y.push_str(&format!("              mountPath: {}\n", q(&self.mount_path)));
-        y.push_str("      volumes:\n        - name: \"results\"\n          persistentVolumeClaim:\n");
-        y.push_str(&format!("            claimName: {}\n", q(&self.volume_claim)));
+        y.push_str(&format!(
+            "              mountPath: {}\n",
+            q(&self.mount_path)
+        ));
+        y.push_str(
+            "      volumes:\n        - name: \"results\"\n          persistentVolumeClaim:\n",
+        );
+        y.push_str(&format!(
+            "            claimName: {}\n",
+            q(&self.volume_claim)
+        ));
         Ok(y)
     }
 }

@@ -57,6 +57,8 @@
 //! assert!(study.state().best().is_some());
 //! ```
 
+#![warn(missing_docs)]
+
 pub mod batch;
 pub mod config;
 pub mod k8s;

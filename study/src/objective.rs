@@ -111,8 +111,7 @@ impl Objective {
     /// assert_eq!(Objective::EvalGreedy.intermediate(&m).unwrap().value, 0.4);
     /// ```
     pub fn intermediate(&self, m: &Measurement) -> Option<Score> {
-        self.score(m)
-            .or_else(|| Objective::TrainSuccess.score(m))
+        self.score(m).or_else(|| Objective::TrainSuccess.score(m))
     }
 
     /// The objective's name as study files spell it.

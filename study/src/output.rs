@@ -47,7 +47,15 @@ pub fn trials_csv(state: &StudyState) -> String {
         .map(|p| p.key.as_str())
         .collect();
     let mut w = csv::Writer::from_writer(Vec::new());
-    let mut header = vec!["id", "status", "objective", "episode_len", "last_step", "seconds", "starts"];
+    let mut header = vec![
+        "id",
+        "status",
+        "objective",
+        "episode_len",
+        "last_step",
+        "seconds",
+        "starts",
+    ];
     header.extend(&keys);
     header.extend(["run_dir", "error"]);
     let _ = w.write_record(&header);
@@ -58,12 +66,20 @@ pub fn trials_csv(state: &StudyState) -> String {
             t.status.name().to_string(),
             opt(t.score.map(|s| s.value)),
             opt(t.score.and_then(|s| s.episode_len)),
-            t.last.as_ref().map(|m| m.step.to_string()).unwrap_or_default(),
+            t.last
+                .as_ref()
+                .map(|m| m.step.to_string())
+                .unwrap_or_default(),
             format!("{:.1}", t.seconds),
             t.starts.to_string(),
         ];
         for k in &keys {
-            row.push(t.overrides.get(*k).map(|v| v.to_string()).unwrap_or_default());
+            row.push(
+                t.overrides
+                    .get(*k)
+                    .map(|v| v.to_string())
+                    .unwrap_or_default(),
+            );
         }
         row.push(t.run_dir.display().to_string());
         row.push(t.error.clone().unwrap_or_default());
@@ -130,7 +146,10 @@ pub fn write_all(dir: &Path, state: &StudyState) -> Result<Vec<PathBuf>, OutputE
         write("best.toml", best)?;
     }
     for (name, draw) in [
-        ("objective.png", plot::objective_vs_trial as fn(&Path, &StudyState) -> _),
+        (
+            "objective.png",
+            plot::objective_vs_trial as fn(&Path, &StudyState) -> _,
+        ),
         ("params.png", plot::parameter_effects),
     ] {
         let path = dir.join(name);

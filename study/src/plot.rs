@@ -65,7 +65,9 @@ fn status_color(s: TrialStatus) -> RGBColor {
 }
 
 fn value_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
-    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
     if !lo.is_finite() {
         return (0.0, 1.0);
     }
@@ -92,7 +94,11 @@ pub fn objective_vs_trial(path: &Path, state: &StudyState) -> Result<(), PlotErr
     let (lo, hi) = value_range(points.iter().map(|p| p.1));
     let root = BitMapBackend::new(path, (900, 500)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(path, e))?;
-    let title = format!("{}: {} per trial", state.config.name, state.config.objective.name());
+    let title = format!(
+        "{}: {} per trial",
+        state.config.name,
+        state.config.objective.name()
+    );
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 20))
         .margin(12)
@@ -156,7 +162,10 @@ pub fn parameter_effects(path: &Path, state: &StudyState) -> Result<(), PlotErro
     for (param, area) in params.iter().zip(root.split_evenly((rows, cols))) {
         let x_of = |v: &toml::Value| -> Option<f64> {
             match &param.domain {
-                Domain::LogUniform { .. } => param.domain.coordinate(v).map(|x| x / std::f64::consts::LN_10),
+                Domain::LogUniform { .. } => param
+                    .domain
+                    .coordinate(v)
+                    .map(|x| x / std::f64::consts::LN_10),
                 Domain::Choice(_) => param.domain.coordinate(v),
                 _ => v.as_float().or_else(|| v.as_integer().map(|i| i as f64)),
             }
@@ -167,7 +176,10 @@ pub fn parameter_effects(path: &Path, state: &StudyState) -> Result<(), PlotErro
             Domain::Uniform { low, high } => (*low, *high),
             Domain::Int { low, high, .. } => (*low as f64 - 0.5, *high as f64 + 0.5),
         };
-        let pad = if matches!(param.domain, Domain::Uniform { .. } | Domain::LogUniform { .. }) {
+        let pad = if matches!(
+            param.domain,
+            Domain::Uniform { .. } | Domain::LogUniform { .. }
+        ) {
             (x1 - x0) * 0.04
         } else {
             0.0
@@ -201,7 +213,8 @@ pub fn parameter_effects(path: &Path, state: &StudyState) -> Result<(), PlotErro
             }
         };
         let mut mesh = chart.configure_mesh();
-        mesh.x_label_formatter(&format_x).y_desc(state.config.objective.name());
+        mesh.x_label_formatter(&format_x)
+            .y_desc(state.config.objective.name());
         if !labels.is_empty() {
             mesh.x_labels(labels.len() * 2 + 1);
         }
@@ -209,7 +222,11 @@ pub fn parameter_effects(path: &Path, state: &StudyState) -> Result<(), PlotErro
         chart
             .draw_series(state.trials.iter().filter_map(|t| {
                 let x = x_of(t.overrides.get(&param.key)?)?;
-                Some(Circle::new((x, shown(t)?), 4, status_color(t.status).filled()))
+                Some(Circle::new(
+                    (x, shown(t)?),
+                    4,
+                    status_color(t.status).filled(),
+                ))
             }))
             .map_err(|e| err(path, e))?;
     }

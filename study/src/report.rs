@@ -214,7 +214,11 @@ impl Table {
     /// ```
     pub fn to_csv(&self) -> String {
         let wide: Vec<bool> = (0..self.columns.len())
-            .map(|c| self.rows.iter().any(|r| matches!(r[c], Cell::Estimate { .. })))
+            .map(|c| {
+                self.rows
+                    .iter()
+                    .any(|r| matches!(r[c], Cell::Estimate { .. }))
+            })
             .collect();
         let mut w = csv::Writer::from_writer(Vec::new());
         let mut header = Vec::new();

@@ -117,5 +117,6 @@ pub trait TrialRunner: Sync {
     /// Trains `spec.overrides` for up to `spec.steps` in `spec.run_dir`,
     /// reporting intermediate measurements to `reporter`, and returns the
     /// final measurement (with the evaluation the objective asks for).
-    fn run(&self, spec: &TrialSpec, reporter: &mut dyn Reporter) -> Result<Measurement, TrialError>;
+    fn run(&self, spec: &TrialSpec, reporter: &mut dyn Reporter)
+        -> Result<Measurement, TrialError>;
 }

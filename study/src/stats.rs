@@ -270,7 +270,10 @@ mod tests {
         let few = [0.7, 0.9, 1.0, 0.8];
         let many: Vec<f64> = few.iter().cycle().take(40).copied().collect();
         let b = Bootstrap::default();
-        assert_eq!(b.interval(&few, Statistic::Mean), b.interval(&few, Statistic::Mean));
+        assert_eq!(
+            b.interval(&few, Statistic::Mean),
+            b.interval(&few, Statistic::Mean)
+        );
         let w = |i: Interval| i.high - i.low;
         let (a, c) = (
             b.interval(&few, Statistic::Mean).unwrap(),

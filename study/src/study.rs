@@ -99,7 +99,10 @@ impl Study {
                     ("grid_points", old.grid_points == config.grid_points),
                     ("seed", old.seed == config.seed),
                     ("objective", old.objective == config.objective),
-                    ("steps_per_trial", old.steps_per_trial == config.steps_per_trial),
+                    (
+                        "steps_per_trial",
+                        old.steps_per_trial == config.steps_per_trial,
+                    ),
                 ];
                 if let Some((field, _)) = checks.iter().find(|(_, same)| !same) {
                     return Err(StudyError::Mismatch { field });
@@ -381,8 +384,7 @@ impl Shared<'_> {
 
     fn out_of_time(&self, inner: &Inner) -> bool {
         self.config.wall_time.is_some_and(|budget| {
-            inner.wall_base + self.session_start.elapsed().as_secs_f64()
-                >= budget.as_secs_f64()
+            inner.wall_base + self.session_start.elapsed().as_secs_f64() >= budget.as_secs_f64()
         })
     }
 
@@ -419,7 +421,10 @@ fn next_trial(shared: &Shared<'_>, inner: &mut Inner) -> Option<TrialSpec> {
             let overrides = shared
                 .sampler
                 .suggest(&shared.config.space, started, &history)?;
-            inner.state.trials.push(TrialRecord::new(started, overrides));
+            inner
+                .state
+                .trials
+                .push(TrialRecord::new(started, overrides));
             started
         }
     };
@@ -448,8 +453,9 @@ fn worker(shared: &Shared<'_>, runner: &dyn TrialRunner) {
             stopped: false,
             cut: false,
         };
-        let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| runner.run(&spec, &mut reporter)))
-            .unwrap_or_else(|_| Err(crate::runner::TrialError::new("the runner panicked")));
+        let outcome =
+            std::panic::catch_unwind(AssertUnwindSafe(|| runner.run(&spec, &mut reporter)))
+                .unwrap_or_else(|_| Err(crate::runner::TrialError::new("the runner panicked")));
         let (stopped, cut) = (reporter.stopped, reporter.cut);
         let mut inner = shared.lock();
         let objective = shared.config.objective;
@@ -538,6 +544,7 @@ impl Study {
     /// assert!(files.iter().any(|f| f.ends_with("trials.csv")));
     /// ```
     pub fn write_outputs(&self) -> Result<Vec<PathBuf>, StudyError> {
-        crate::output::write_all(&self.dir, &self.state).map_err(|e| StudyError::Output(e.to_string()))
+        crate::output::write_all(&self.dir, &self.state)
+            .map_err(|e| StudyError::Output(e.to_string()))
     }
 }

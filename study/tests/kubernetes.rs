@@ -27,7 +27,10 @@ fn scalar(s: &str) -> Value {
     } else if s == "true" || s == "false" {
         json!(s == "true")
     } else {
-        assert!(!s.contains(": ") && !s.starts_with(['{', '[', '&', '*', '!', '|', '>']), "unsafe plain scalar {s:?}");
+        assert!(
+            !s.contains(": ") && !s.starts_with(['{', '[', '&', '*', '!', '|', '>']),
+            "unsafe plain scalar {s:?}"
+        );
         json!(s)
     }
 }
@@ -56,14 +59,24 @@ fn block(lines: &mut Vec<(usize, String)>, i: &mut usize, indent: usize) -> Valu
         *i += 1;
         let value = if rest.is_empty() {
             let child = lines[*i].0;
-            assert!(child > indent || lines[*i].1.starts_with("- "), "empty value for {key}");
+            assert!(
+                child > indent || lines[*i].1.starts_with("- "),
+                "empty value for {key}"
+            );
             block(lines, i, child)
         } else {
             scalar(rest)
         };
-        assert!(map.insert(key.to_string(), value).is_none(), "duplicate key {key}");
+        assert!(
+            map.insert(key.to_string(), value).is_none(),
+            "duplicate key {key}"
+        );
     }
-    assert!(*i >= lines.len() || lines[*i].0 < indent, "bad indent at {:?}", lines.get(*i));
+    assert!(
+        *i >= lines.len() || lines[*i].0 < indent,
+        "bad indent at {:?}",
+        lines.get(*i)
+    );
     Value::Object(map)
 }
 
@@ -91,20 +104,38 @@ fn the_manifest_parses_back_to_an_indexed_job() {
     assert_eq!(v["metadata"]["namespace"], "research");
     let spec = &v["spec"];
     assert_eq!(spec["completionMode"], "Indexed");
-    assert_eq!((spec["completions"].as_i64(), spec["parallelism"].as_i64()), (Some(40), Some(10)));
+    assert_eq!(
+        (spec["completions"].as_i64(), spec["parallelism"].as_i64()),
+        (Some(40), Some(10))
+    );
     assert_eq!(spec["backoffLimitPerIndex"], 1);
     let pod = &spec["template"]["spec"];
     assert_eq!(pod["restartPolicy"], "Never");
-    assert_eq!(spec["template"]["metadata"]["labels"], v["metadata"]["labels"]);
+    assert_eq!(
+        spec["template"]["metadata"]["labels"],
+        v["metadata"]["labels"]
+    );
     let c = &pod["containers"][0];
     assert_eq!(c["image"], "registry.example/buridan/learner:v1");
     assert_eq!(
         c["args"],
-        json!(["tune", "trial", "/study", "--index=$(JOB_COMPLETION_INDEX)", "--note=a \"quoted\": value"])
+        json!([
+            "tune",
+            "trial",
+            "/study",
+            "--index=$(JOB_COMPLETION_INDEX)",
+            "--note=a \"quoted\": value"
+        ])
     );
-    assert_eq!(c["resources"]["requests"], json!({"cpu": "2", "memory": "2Gi"}));
+    assert_eq!(
+        c["resources"]["requests"],
+        json!({"cpu": "2", "memory": "2Gi"})
+    );
     assert_eq!(c["resources"]["limits"], c["resources"]["requests"]);
-    assert_eq!(c["volumeMounts"][0], json!({"name": "results", "mountPath": "/study"}));
+    assert_eq!(
+        c["volumeMounts"][0],
+        json!({"name": "results", "mountPath": "/study"})
+    );
     assert_eq!(
         pod["volumes"][0],
         json!({"name": "results", "persistentVolumeClaim": {"claimName": "buridan-study"}})
@@ -115,14 +146,62 @@ fn the_manifest_parses_back_to_an_indexed_job() {
 fn invalid_jobs_are_refused_with_the_field() {
     let ok = IndexedJob::new("t", "img", vec![], 1);
     let cases: Vec<(IndexedJob, &str)> = vec![
-        (IndexedJob { name: "-t".into(), ..ok.clone() }, "name"),
-        (IndexedJob { name: "a".repeat(64), ..ok.clone() }, "name"),
-        (IndexedJob { image: " ".into(), ..ok.clone() }, "image"),
-        (IndexedJob { completions: 0, ..ok.clone() }, "completions"),
-        (IndexedJob { parallelism: 0, ..ok.clone() }, "parallelism"),
-        (IndexedJob { mount_path: "study".into(), ..ok.clone() }, "mount_path"),
-        (IndexedJob { volume_claim: "Claim".into(), ..ok.clone() }, "volume_claim"),
-        (IndexedJob { namespace: Some("a_b".into()), ..ok.clone() }, "namespace"),
+        (
+            IndexedJob {
+                name: "-t".into(),
+                ..ok.clone()
+            },
+            "name",
+        ),
+        (
+            IndexedJob {
+                name: "a".repeat(64),
+                ..ok.clone()
+            },
+            "name",
+        ),
+        (
+            IndexedJob {
+                image: " ".into(),
+                ..ok.clone()
+            },
+            "image",
+        ),
+        (
+            IndexedJob {
+                completions: 0,
+                ..ok.clone()
+            },
+            "completions",
+        ),
+        (
+            IndexedJob {
+                parallelism: 0,
+                ..ok.clone()
+            },
+            "parallelism",
+        ),
+        (
+            IndexedJob {
+                mount_path: "study".into(),
+                ..ok.clone()
+            },
+            "mount_path",
+        ),
+        (
+            IndexedJob {
+                volume_claim: "Claim".into(),
+                ..ok.clone()
+            },
+            "volume_claim",
+        ),
+        (
+            IndexedJob {
+                namespace: Some("a_b".into()),
+                ..ok.clone()
+            },
+            "namespace",
+        ),
     ];
     for (job, field) in cases {
         assert_eq!(job.to_yaml().unwrap_err().field, field);
@@ -146,7 +225,11 @@ fn a_batch_runs_by_index_and_is_collected() {
                 train_success: Some(x / 10.0),
                 ..Default::default()
             };
-            r.report(&Measurement { step: spec.steps / 2, train_success: Some(x / 20.0), ..Default::default() });
+            r.report(&Measurement {
+                step: spec.steps / 2,
+                train_success: Some(x / 20.0),
+                ..Default::default()
+            });
             Ok(m)
         }
     }
@@ -158,7 +241,17 @@ fn a_batch_runs_by_index_and_is_collected() {
     let mut study = Study::open(planner.path(), cfg.clone()).unwrap();
     let ids = study.plan(20).unwrap();
     assert_eq!(ids.len(), 9, "capped at the study's trials");
-    let job = IndexedJob::new("batch", "img", vec!["tune".into(), "trial".into(), "/study".into(), "--index={index}".into()], ids.len() as u32);
+    let job = IndexedJob::new(
+        "batch",
+        "img",
+        vec![
+            "tune".into(),
+            "trial".into(),
+            "/study".into(),
+            "--index={index}".into(),
+        ],
+        ids.len() as u32,
+    );
     assert!(job.to_yaml().is_ok());
     // The volume is mounted elsewhere in the pods: copy it, as a shared volume would appear.
     let volume = tempfile::tempdir().unwrap();

@@ -30,7 +30,10 @@ fn objective(c: &buridan_study::Overrides) -> f64 {
         "c" => 0.3,
         _ => 0.6,
     };
-    -(4.0 * (x - 0.73).powi(2) + 0.25 * (lr + 3.2).powi(2) + 0.01 * (epochs - 12.0).powi(2) + hidden)
+    -(4.0 * (x - 0.73).powi(2)
+        + 0.25 * (lr + 3.2).powi(2)
+        + 0.01 * (epochs - 12.0).powi(2)
+        + hidden)
 }
 
 const FOUND: f64 = -0.12;
@@ -57,14 +60,22 @@ fn trials_to_optimum(sampler: &dyn Sampler) -> u64 {
 #[test]
 fn tpe_finds_the_optimum_in_fewer_trials_than_random_search() {
     let seeds = 0..12u64;
-    let tpe: Vec<u64> = seeds.clone().map(|s| trials_to_optimum(&TpeSampler::new(s))).collect();
-    let random: Vec<u64> = seeds.map(|s| trials_to_optimum(&RandomSampler::new(s))).collect();
+    let tpe: Vec<u64> = seeds
+        .clone()
+        .map(|s| trials_to_optimum(&TpeSampler::new(s)))
+        .collect();
+    let random: Vec<u64> = seeds
+        .map(|s| trials_to_optimum(&RandomSampler::new(s)))
+        .collect();
     let mean = |v: &[u64]| v.iter().sum::<u64>() as f64 / v.len() as f64;
     let (t, r) = (mean(&tpe), mean(&random));
     eprintln!("trials to the optimum: TPE {tpe:?} mean {t:.1}; random {random:?} mean {r:.1}");
     // Deterministic (seeded); TPE must need well under random search's count.
     assert!(t < 0.6 * r, "TPE {t:.1} vs random {r:.1}");
-    assert!(tpe.iter().all(|&n| n < CAP), "TPE never found the optimum: {tpe:?}");
+    assert!(
+        tpe.iter().all(|&n| n < CAP),
+        "TPE never found the optimum: {tpe:?}"
+    );
 }
 
 #[test]
@@ -80,7 +91,10 @@ fn samplers_are_deterministic_per_seed_and_trial() {
         })
         .collect();
     for s in [&TpeSampler::new(3) as &dyn Sampler, &RandomSampler::new(3)] {
-        assert_eq!(s.suggest(&space, 20, &history), s.suggest(&space, 20, &history));
+        assert_eq!(
+            s.suggest(&space, 20, &history),
+            s.suggest(&space, 20, &history)
+        );
     }
     let a = TpeSampler::new(3).suggest(&space, 20, &history);
     let b = TpeSampler::new(4).suggest(&space, 20, &history);
@@ -95,7 +109,12 @@ fn every_suggestion_lies_in_its_domain() {
     for i in 0..60 {
         let c = tpe.suggest(&space, i, &history).unwrap();
         for p in space.params() {
-            assert!(p.domain.coordinate(&c[&p.key]).is_some(), "{} = {}", p.key, c[&p.key]);
+            assert!(
+                p.domain.coordinate(&c[&p.key]).is_some(),
+                "{} = {}",
+                p.key,
+                c[&p.key]
+            );
         }
         history.push(Observed {
             objective: objective(&c),

@@ -27,7 +27,10 @@ fn simulate(s: &mut dyn Scheduler) -> Vec<u64> {
             }
         }
     }
-    stopped_at.into_iter().map(|s| s.unwrap_or(10_000)).collect()
+    stopped_at
+        .into_iter()
+        .map(|s| s.unwrap_or(10_000))
+        .collect()
 }
 
 #[test]
@@ -118,10 +121,15 @@ fn pbt_moves_the_bottom_quarter_onto_the_top_quarter() {
     for m in &moves {
         assert!([1, 4].contains(&m.source), "{m:?}");
         let lr = m.overrides["lr"].as_float().unwrap();
-        assert!((lr - 8e-4).abs() < 1e-12 || (lr - 1.2e-3).abs() < 1e-12, "{lr}");
+        assert!(
+            (lr - 8e-4).abs() < 1e-12 || (lr - 1.2e-3).abs() < 1e-12,
+            "{lr}"
+        );
         let epochs = m.overrides["epochs"].as_integer().unwrap();
         assert!(epochs == 8 || epochs == 12, "{epochs}");
-        let hidden = m.overrides["hidden"].as_array().unwrap()[0].as_integer().unwrap();
+        let hidden = m.overrides["hidden"].as_array().unwrap()[0]
+            .as_integer()
+            .unwrap();
         assert!(hidden == 32 || hidden == 256, "{hidden}");
     }
     // Too small a population: nothing to exploit.

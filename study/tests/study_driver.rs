@@ -22,7 +22,11 @@ impl Counting {
 }
 
 impl TrialRunner for Counting {
-    fn run(&self, spec: &TrialSpec, reporter: &mut dyn Reporter) -> Result<Measurement, TrialError> {
+    fn run(
+        &self,
+        spec: &TrialSpec,
+        reporter: &mut dyn Reporter,
+    ) -> Result<Measurement, TrialError> {
         self.calls
             .lock()
             .unwrap()
@@ -79,9 +83,16 @@ fn a_study_resumes_without_rerunning_finished_trials() {
     let mut study = Study::open(dir.path(), config("", 6)).unwrap();
     let p = study.run(&second).unwrap();
     let calls = second.calls();
-    assert_eq!(calls.keys().copied().collect::<Vec<_>>(), [3, 4, 5], "{calls:?}");
+    assert_eq!(
+        calls.keys().copied().collect::<Vec<_>>(),
+        [3, 4, 5],
+        "{calls:?}"
+    );
     assert_eq!(calls[&3], [true], "the interrupted trial resumes");
-    assert_eq!((calls[&4].as_slice(), calls[&5].as_slice()), (&[false][..], &[false][..]));
+    assert_eq!(
+        (calls[&4].as_slice(), calls[&5].as_slice()),
+        (&[false][..], &[false][..])
+    );
     assert_eq!((p.completed, p.started_now), (6, 3));
     let after = study.state();
     for id in 0..3 {
@@ -94,7 +105,10 @@ fn a_study_resumes_without_rerunning_finished_trials() {
 
     // Session 3: nothing left to do, nothing runs.
     let third = Counting::default();
-    let p = Study::open(dir.path(), config("", 6)).unwrap().run(&third).unwrap();
+    let p = Study::open(dir.path(), config("", 6))
+        .unwrap()
+        .run(&third)
+        .unwrap();
     assert!(third.calls().is_empty());
     assert_eq!(p.started_now, 0);
 }
@@ -117,7 +131,10 @@ fn reopening_with_another_space_is_refused() {
 fn asha_inside_a_study_stops_bad_trials_early() {
     let dir = tempfile::tempdir().unwrap();
     let runner = Counting::default();
-    let cfg = config("[study.scheduler]\nkind = \"asha\"\ngrace_steps = 100\nreduction = 3", 12);
+    let cfg = config(
+        "[study.scheduler]\nkind = \"asha\"\ngrace_steps = 100\nreduction = 3",
+        12,
+    );
     // One at a time, so the order of reports (and the test) is deterministic.
     let mut study = Study::open(dir.path(), StudyConfig { parallel: 1, ..cfg }).unwrap();
     let p = study.run(&runner).unwrap();
@@ -125,14 +142,27 @@ fn asha_inside_a_study_stops_bad_trials_early() {
     assert!(p.stopped >= 6, "{p:?}");
     let state = study.state();
     // The trial nearest the optimum x = 0.6 ran its full budget and is the best.
-    let distance = |t: &buridan_study::state::TrialRecord| (t.overrides["x"].as_float().unwrap() - 0.6).abs();
-    let nearest = state.trials.iter().min_by(|a, b| distance(a).total_cmp(&distance(b))).unwrap();
+    let distance =
+        |t: &buridan_study::state::TrialRecord| (t.overrides["x"].as_float().unwrap() - 0.6).abs();
+    let nearest = state
+        .trials
+        .iter()
+        .min_by(|a, b| distance(a).total_cmp(&distance(b)))
+        .unwrap();
     assert_eq!(nearest.status, TrialStatus::Completed);
     assert_eq!(state.best().unwrap().id, nearest.id);
     // Stopped trials used fewer steps than the budget, the study far fewer in all.
-    let steps: u64 = state.trials.iter().map(|t| t.last.as_ref().unwrap().step).sum();
+    let steps: u64 = state
+        .trials
+        .iter()
+        .map(|t| t.last.as_ref().unwrap().step)
+        .sum();
     assert!(steps < 12 * 1000 / 2, "steps used {steps}");
-    for t in state.trials.iter().filter(|t| t.status == TrialStatus::Stopped) {
+    for t in state
+        .trials
+        .iter()
+        .filter(|t| t.status == TrialStatus::Stopped)
+    {
         assert!(t.last.as_ref().unwrap().step < 1000);
         assert!(t.score.is_some(), "a stopped trial keeps its last score");
     }
@@ -188,7 +218,10 @@ fn failures_and_panics_are_recorded_not_fatal() {
     assert_eq!(t[0].error.as_deref(), Some("invalid --set override"));
     assert_eq!(t[1].error.as_deref(), Some("the runner panicked"));
     // Failed trials are finished: a resume does not run them again.
-    let p = Study::open(dir.path(), config("", 3)).unwrap().run(&Failing).unwrap();
+    let p = Study::open(dir.path(), config("", 3))
+        .unwrap()
+        .run(&Failing)
+        .unwrap();
     assert_eq!(p.started_now, 0);
 }
 
@@ -205,10 +238,14 @@ fn outputs_name_the_best_configuration() {
     let best = std::fs::read_to_string(dir.path().join("best.toml")).unwrap();
     let table: toml::Table = toml::from_str(&best).unwrap();
     let x = table["x"].as_float().unwrap();
-    assert_eq!(Some(x), study.state().best().unwrap().overrides["x"].as_float());
+    assert_eq!(
+        Some(x),
+        study.state().best().unwrap().overrides["x"].as_float()
+    );
     let csv = std::fs::read_to_string(dir.path().join("trials.csv")).unwrap();
     assert_eq!(csv.lines().count(), 15);
-    assert!(csv.starts_with("id,status,objective,episode_len,last_step,seconds,starts,x,run_dir,error\n"));
+    assert!(csv
+        .starts_with("id,status,objective,episode_len,last_step,seconds,starts,x,run_dir,error\n"));
     let png = std::fs::read(dir.path().join("params.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
 }

@@ -44,10 +44,9 @@ impl GridSampler {
     /// assert_eq!(GridSampler::new(4).size(&space), 4);
     /// ```
     pub fn size(&self, space: &SearchSpace) -> u64 {
-        space
-            .params()
-            .iter()
-            .fold(1u64, |n, p| n.saturating_mul(p.domain.grid(self.resolution).len() as u64))
+        space.params().iter().fold(1u64, |n, p| {
+            n.saturating_mul(p.domain.grid(self.resolution).len() as u64)
+        })
     }
 }
 

@@ -98,7 +98,9 @@ impl Sampler for TpeSampler {
         for p in space.params() {
             let coords = |set: &[(usize, &Observed)]| -> Vec<f64> {
                 set.iter()
-                    .filter_map(|(_, o)| o.overrides.get(&p.key).and_then(|v| p.domain.coordinate(v)))
+                    .filter_map(|(_, o)| {
+                        o.overrides.get(&p.key).and_then(|v| p.domain.coordinate(v))
+                    })
                     .collect()
             };
             let (g, b) = (coords(good), coords(bad));
@@ -230,7 +232,11 @@ impl Parzen {
                 range
             } else {
                 let left = if i > 0 { mu - points[i - 1].0 } else { mu - lo };
-                let right = if i + 1 < n { points[i + 1].0 - mu } else { hi - mu };
+                let right = if i + 1 < n {
+                    points[i + 1].0 - mu
+                } else {
+                    hi - mu
+                };
                 left.max(right).clamp(min_sigma, range)
             };
             out.mus.push(mu);

@@ -70,7 +70,11 @@ impl Scheduler for Asha {
         if !self.seen.insert((trial, rung)) {
             return Decision::Continue;
         }
-        let value = if value.is_nan() { f64::NEG_INFINITY } else { value };
+        let value = if value.is_nan() {
+            f64::NEG_INFINITY
+        } else {
+            value
+        };
         self.recorded[rung].push(value);
         let mut sorted = self.recorded[rung].clone();
         sorted.sort_by(f64::total_cmp);

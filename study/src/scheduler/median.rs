@@ -48,7 +48,11 @@ impl MedianStopping {
 
 impl Scheduler for MedianStopping {
     fn report(&mut self, trial: u64, step: u64, value: f64) -> Decision {
-        let value = if value.is_nan() { f64::NEG_INFINITY } else { value };
+        let value = if value.is_nan() {
+            f64::NEG_INFINITY
+        } else {
+            value
+        };
         self.reports.entry(trial).or_default().push((step, value));
         if step < self.grace_steps {
             return Decision::Continue;
@@ -63,7 +67,11 @@ impl Scheduler for MedianStopping {
             .iter()
             .filter(|(&t, _)| t != trial)
             .filter_map(|(_, r)| {
-                let upto: Vec<f64> = r.iter().filter(|(s, _)| *s <= step).map(|(_, v)| *v).collect();
+                let upto: Vec<f64> = r
+                    .iter()
+                    .filter(|(s, _)| *s <= step)
+                    .map(|(_, v)| *v)
+                    .collect();
                 mean(&upto)
             })
             .collect();

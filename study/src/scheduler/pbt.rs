@@ -150,11 +150,17 @@ pub fn explore<R: Rng>(
         *value = match domain {
             Domain::Choice(list) => {
                 let i = domain.coordinate(value).unwrap_or(0.0) as usize;
-                let j = if up { (i + 1).min(list.len() - 1) } else { i.saturating_sub(1) };
+                let j = if up {
+                    (i + 1).min(list.len() - 1)
+                } else {
+                    i.saturating_sub(1)
+                };
                 list[j].clone()
             }
             Domain::Uniform { .. } | Domain::LogUniform { .. } => {
-                let x = value.as_float().or_else(|| value.as_integer().map(|i| i as f64));
+                let x = value
+                    .as_float()
+                    .or_else(|| value.as_integer().map(|i| i as f64));
                 match (x, domain) {
                     (Some(x), Domain::LogUniform { .. }) => domain.value_at((x * factor).ln()),
                     (Some(x), _) => domain.value_at(x * factor),
@@ -167,7 +173,11 @@ pub fn explore<R: Rng>(
                     continue;
                 };
                 let scaled = (i as f64 * factor).round() as i64;
-                let moved = if up { scaled.max(i + step) } else { scaled.min(i - step) };
+                let moved = if up {
+                    scaled.max(i + step)
+                } else {
+                    scaled.min(i - step)
+                };
                 domain.value_at(((moved - low) as f64 / *step as f64).round())
             }
         };
