@@ -102,13 +102,35 @@ impl Cell {
         }
     }
 
+    /// CSV keeps three more decimals than the table shows (trailing zeros
+    /// trimmed): precise enough to recompute, free of float noise.
     fn csv_fields(&self) -> Vec<String> {
+        let f = |x: f64, decimals: usize| {
+            let s = format!("{x:.*}", decimals + 3);
+            let s = if s.contains('.') {
+                s.trim_end_matches('0').trim_end_matches('.').to_string()
+            } else {
+                s
+            };
+            if s == "-0" {
+                "0".to_string()
+            } else {
+                s
+            }
+        };
         match self {
             Cell::Text { text } => vec![text.clone()],
-            Cell::Number { value, .. } => vec![value.to_string()],
+            Cell::Number { value, decimals } => vec![f(*value, *decimals)],
             Cell::Estimate {
-                value, low, high, ..
-            } => vec![value.to_string(), low.to_string(), high.to_string()],
+                value,
+                low,
+                high,
+                decimals,
+            } => vec![
+                f(*value, *decimals),
+                f(*low, *decimals),
+                f(*high, *decimals),
+            ],
             Cell::Empty => vec![String::new()],
         }
     }
