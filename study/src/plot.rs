@@ -55,6 +55,15 @@ fn shown(t: &TrialRecord) -> Option<f64> {
         .filter(|v| v.is_finite())
 }
 
+/// Integer ticks only: `3`, never `3.0` nor `2.5`.
+fn integer_label(x: &f64) -> String {
+    if (x - x.round()).abs() < 1e-6 {
+        format!("{:.0}", x.round())
+    } else {
+        String::new()
+    }
+}
+
 fn status_color(s: TrialStatus) -> RGBColor {
     match s {
         TrialStatus::Completed => RGBColor(31, 119, 180),
@@ -109,6 +118,7 @@ pub fn objective_vs_trial(path: &Path, state: &StudyState) -> Result<(), PlotErr
     chart
         .configure_mesh()
         .x_desc("trial")
+        .x_label_formatter(&integer_label)
         .y_desc(state.config.objective.name())
         .draw()
         .map_err(|e| err(path, e))?;
@@ -200,9 +210,13 @@ pub fn parameter_effects(path: &Path, state: &StudyState) -> Result<(), PlotErro
             Domain::Choice(list) => list.iter().map(|v| v.to_string()).collect(),
             _ => Vec::new(),
         };
+        let integer = matches!(param.domain, Domain::Int { .. });
         let format_x = |x: &f64| -> String {
-            if labels.is_empty() {
-                format!("{x:.3}")
+            if integer {
+                integer_label(x)
+            } else if labels.is_empty() {
+                let s = format!("{x:.3}");
+                s.trim_end_matches('0').trim_end_matches('.').to_string()
             } else {
                 let i = x.round();
                 if (x - i).abs() < 1e-6 && i >= 0.0 {
