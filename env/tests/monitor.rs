@@ -106,27 +106,30 @@ fn facing_agents_going_back_and_forth_are_livelocked_then_deadlocked_when_they_s
 
 #[test]
 fn an_agent_parked_on_its_goal_jams_the_one_behind_but_not_a_passer_by() {
-    // Row 1 is a corridor below an open row 0. Agent 1 sits on its goal
-    // (1,3), right in front of agent 0 (goal (1,9)), which waits. Agent 2
-    // walks along row 0 from (0,12) to (0,0): agent 0 is in its way for a
-    // while, but agent 0 does not wait on agent 2, so its deadlock goes on.
+    // Agent 1 sits on its goal (12,3), right in front of agent 0 at (12,1)
+    // (goal (12,9)), which waits. Agent 2 walks down column 0 from (0,0) to
+    // its goal (12,0). At steps 10 and 11 agent 0 is in agent 2's way (on a
+    // cell closer to agent 2's goal, within the radius), but agent 2 is
+    // never in agent 0's way: agent 0 does not wait on the passer-by, so its
+    // deadlock goes on while agent 2 passes.
+    let rows = [".........."; 13];
     let mut env = env_on(
-        &[".............", "............."],
-        &[(1, 1), (1, 3), (0, 12)],
-        &[(1, 9), (1, 3), (0, 0)],
+        &rows,
+        &[(12, 1), (12, 3), (0, 0)],
+        &[(12, 9), (12, 3), (12, 0)],
         100,
     );
-    for t in 1..=12u32 {
-        step(&mut env, &[0, 0, 4]);
+    for t in 1..=14u32 {
+        step(&mut env, &[0, 0, if t <= 12 { 3 } else { 0 }]);
         let expect = if t < 8 { Free } else { Deadlocked };
         assert_eq!(states(&env), [expect, Free, Free], "step {t}");
         assert_eq!(env.monitor().stuck(), usize::from(t >= 8));
     }
-    assert_eq!(pos(&env)[2], (0, 0));
+    assert_eq!(pos(&env)[2], (12, 0));
     assert!(env.at_goal(1) && env.at_goal(2));
     let s = env.stats();
-    assert_eq!((s.deadlock_steps, s.deadlock_events), (5, 1));
-    assert_eq!(env.monitor().agent_deadlock_steps(), [5, 0, 0]);
+    assert_eq!((s.deadlock_steps, s.deadlock_events), (7, 1));
+    assert_eq!(env.monitor().agent_deadlock_steps(), [7, 0, 0]);
 }
 
 #[test]
