@@ -47,8 +47,11 @@ pub struct EnvConfig {
     pub sensor_range: usize,
     /// Lifelong mode: an agent that reaches its goal gets a new one.
     pub lifelong: bool,
-    /// Steps without progress after which an agent counts as stalled
-    /// (deadlock/livelock detection, see [`crate::monitor`]).
+    /// The deadlock detector's window `k`: steps without getting closer to
+    /// its goal after which an agent off its goal counts as stuck (and, if
+    /// it waits on agents that are stuck too, as deadlocked or livelocked;
+    /// definitions in [`crate::monitor`]). Default
+    /// [`crate::monitor::DEFAULT_WINDOW`] = 8.
     pub stall_window: u32,
 }
 
@@ -61,7 +64,7 @@ impl Default for EnvConfig {
             seed: 0,
             sensor_range: 2,
             lifelong: false,
-            stall_window: 8,
+            stall_window: crate::monitor::DEFAULT_WINDOW,
         }
     }
 }

@@ -221,10 +221,10 @@ impl GridEnv {
         let raw = self.raw();
         let p = raw.pos[agent];
         out[0] = 1;
-        for (a, legal) in out.iter_mut().enumerate().skip(1) {
+        for (legal, &offset) in out.iter_mut().zip(raw.step_offsets).skip(1) {
             // The neighbour is never the agent itself: legal iff its shared
             // code is 0 (empty) or 4 (a goal, possibly the agent's own).
-            let q = p.wrapping_add_signed(raw.step_offsets[a]);
+            let q = p.wrapping_add_signed(offset);
             *legal = u8::from(raw.shared_code[q] & 3 == 0);
         }
         Ok(())

@@ -120,7 +120,6 @@ pub struct GridEnv {
     goals_reached: u32,
     visits: Vec<u64>,
     monitor: StallMonitor,
-    scratch_distance: Vec<u16>,
     scratch_cell: Vec<(usize, usize)>,
     scratch_at_goal: Vec<bool>,
     /// Lifelong mode: agents that reached a goal this step (and got a new one).
@@ -173,7 +172,6 @@ impl GridEnv {
             goals_reached: 0,
             visits: vec![0; h * w],
             monitor: StallMonitor::new(n, cfg.stall_window),
-            scratch_distance: vec![0; n],
             scratch_cell: vec![(0, 0); n],
             scratch_at_goal: vec![false; n],
             arrived: vec![false; n],
@@ -296,8 +294,9 @@ impl GridEnv {
             self.visits[grid.index(cell)] += 1;
         }
         self.fill_scratch();
+        let (width, distance) = (self.map.grid.width(), &self.goal_distance);
         self.monitor
-            .reset(&self.scratch_distance, &self.scratch_cell);
+            .reset(&self.scratch_cell, |i, (r, c)| distance[i][r * width + c]);
         Ok(())
     }
 
@@ -359,20 +358,18 @@ impl GridEnv {
         rewards.fill(0.0);
         let mut all_home = true;
         let grid_width = self.map.grid.width();
-        // Agent `i` indexes six parallel arrays here; an index loop reads best.
-        #[allow(clippy::needless_range_loop)]
-        for i in 0..n {
+        for (i, reward) in rewards.iter_mut().enumerate() {
             let p = self.pos[i];
             let cell = self.cells[i];
             self.visits[cell.row * grid_width + cell.col] += 1;
             // Collision check: under sequential moves the occupant array has one
             // agent per cell, so a mismatch would mean two agents in one cell.
             if self.occupant[p] != i as u16 + 1 {
-                rewards[i] += REWARD_COLLISION;
+                *reward += REWARD_COLLISION;
             }
             if p == self.goal[i] {
                 if self.cfg.lifelong {
-                    rewards[i] += REWARD_GOAL;
+                    *reward += REWARD_GOAL;
                     self.goals_reached += 1;
                     self.draw_new_goal(i);
                     self.arrived[i] = true;
@@ -381,7 +378,7 @@ impl GridEnv {
                 if !self.reached[i] {
                     self.reached[i] = true;
                     self.goals_reached += 1;
-                    rewards[i] += REWARD_GOAL;
+                    *reward += REWARD_GOAL;
                 }
             } else {
                 all_home = false;
@@ -396,9 +393,8 @@ impl GridEnv {
         } else if self.t >= self.cfg.t_max {
             outcome.truncated = true;
             if !self.cfg.lifelong {
-                let off_goal = self.pos.iter().zip(&self.goal).map(|(p, g)| p != g);
-                for (reward, off) in rewards.iter_mut().zip(off_goal) {
-                    if off {
+                for (reward, (p, g)) in rewards.iter_mut().zip(self.pos.iter().zip(&self.goal)) {
+                    if p != g {
                         *reward += REWARD_TRUNCATED_OFF_GOAL;
                     }
                 }
@@ -407,15 +403,14 @@ impl GridEnv {
         self.episode_reward += rewards.iter().sum::<f32>();
         self.blocked_moves += outcome.blocked_moves;
         self.fill_scratch();
-        for (at_goal, arrived) in self.scratch_at_goal.iter_mut().zip(&mut self.arrived) {
-            *at_goal |= std::mem::take(arrived);
-        }
+        let distance = &self.goal_distance;
         self.monitor.observe(
-            actions,
-            &self.scratch_distance,
             &self.scratch_cell,
             &self.scratch_at_goal,
+            &self.arrived,
+            |i, (r, c)| distance[i][r * grid_width + c],
         );
+        self.arrived.fill(false);
         self.over = outcome.done();
         Ok(outcome)
     }
@@ -455,11 +450,9 @@ impl GridEnv {
     }
 
     fn fill_scratch(&mut self) {
-        let width = self.map.grid.width();
         for i in 0..self.cfg.agents {
             let cell = self.cells[i];
             self.scratch_cell[i] = (cell.row, cell.col);
-            self.scratch_distance[i] = self.goal_distance[i][cell.row * width + cell.col];
             self.scratch_at_goal[i] = self.pos[i] == self.goal[i];
         }
     }

@@ -62,10 +62,38 @@ pub struct EpisodeRecord {
     pub plan_sum_of_costs: Option<u32>,
     /// Failed move requests.
     pub blocked_moves: u32,
-    /// Steps with a deadlocked agent.
+    /// Steps with a deadlocked agent (definitions in [`buridan_env::monitor`]:
+    /// stuck for `k` steps, waiting only on agents that are stuck or parked
+    /// on their goals, and not moving).
     pub deadlock_steps: u32,
-    /// Steps with a livelocked agent.
+    /// Steps with a livelocked agent (jammed the same way, but moving).
     pub livelock_steps: u32,
+    /// Times an agent became deadlocked.
+    pub deadlock_events: u32,
+    /// Agents deadlocked at least once.
+    pub deadlocked_agents: u32,
+    /// Each agent's deadlocked steps, space-separated in agent order.
+    #[serde(serialize_with = "space_separated")]
+    pub deadlock_steps_per_agent: Vec<u32>,
+    /// Each agent's livelocked steps, space-separated in agent order.
+    #[serde(serialize_with = "space_separated")]
+    pub livelock_steps_per_agent: Vec<u32>,
+    /// Agents deadlocked or livelocked after the last step: the episode
+    /// ended in a jam.
+    pub jammed_at_end: u32,
+    /// Agents stuck after the last step (off their goals, no progress for
+    /// `k` steps), jammed or on their own.
+    pub stuck_at_end: u32,
+}
+
+/// Writes `[3, 0, 5]` as `"3 0 5"`: one CSV cell, and still readable in JSON.
+fn space_separated<S: serde::Serializer>(values: &[u32], s: S) -> Result<S::Ok, S::Error> {
+    let text = values
+        .iter()
+        .map(u32::to_string)
+        .collect::<Vec<_>>()
+        .join(" ");
+    s.serialize_str(&text)
 }
 
 /// Aggregate of one evaluation: the JSON summary.
@@ -106,6 +134,16 @@ pub struct EvalSummary {
     pub gave_up: std::collections::BTreeMap<String, usize>,
     /// Mean steps with a deadlocked agent per episode.
     pub deadlock_steps_mean: f64,
+    /// Mean steps with a livelocked agent per episode.
+    pub livelock_steps_mean: f64,
+    /// Fraction of episodes with at least one deadlocked step.
+    pub deadlock_episode_rate: f64,
+    /// Failed episodes (the controller played, `T_max` reached) that ended
+    /// in a jam: some agent deadlocked or livelocked at the last step.
+    pub failures_ending_jammed: usize,
+    /// Failed episodes that ended with agents stuck, but none in a jam
+    /// (stuck on their own: the policy's failure, not a deadlock).
+    pub failures_ending_stuck_alone: usize,
     /// Wall time of the whole evaluation, seconds.
     pub wall_seconds: f64,
 }
@@ -221,6 +259,12 @@ pub fn run_episode(
             blocked_moves: 0,
             deadlock_steps: 0,
             livelock_steps: 0,
+            deadlock_events: 0,
+            deadlocked_agents: 0,
+            deadlock_steps_per_agent: vec![0; n],
+            livelock_steps_per_agent: vec![0; n],
+            jammed_at_end: 0,
+            stuck_at_end: 0,
         });
     }
     let mut actions = vec![0u8; n];
@@ -243,6 +287,7 @@ pub fn run_episode(
         }
     }
     let stats = env.stats();
+    let monitor = env.monitor();
     Ok(EpisodeRecord {
         episode,
         success: stats.success,
@@ -257,6 +302,12 @@ pub fn run_episode(
         blocked_moves: stats.blocked_moves,
         deadlock_steps: stats.deadlock_steps,
         livelock_steps: stats.livelock_steps,
+        deadlock_events: stats.deadlock_events,
+        deadlocked_agents: monitor.deadlocked_agents() as u32,
+        deadlock_steps_per_agent: monitor.agent_deadlock_steps().to_vec(),
+        livelock_steps_per_agent: monitor.agent_livelock_steps().to_vec(),
+        jammed_at_end: (monitor.deadlocked() + monitor.livelocked()) as u32,
+        stuck_at_end: monitor.stuck() as u32,
     })
 }
 
@@ -276,6 +327,10 @@ fn summarize(
         .iter()
         .filter_map(|r| r.sum_of_costs)
         .map(f64::from)
+        .collect();
+    let played_failures: Vec<&EpisodeRecord> = records
+        .iter()
+        .filter(|r| !r.success && r.gave_up.is_none())
         .collect();
     let mut gave_up = std::collections::BTreeMap::new();
     for why in records.iter().filter_map(|r| r.gave_up.clone()) {
@@ -310,6 +365,20 @@ fn summarize(
             .map(|r| f64::from(r.deadlock_steps))
             .sum::<f64>()
             / n,
+        livelock_steps_mean: records
+            .iter()
+            .map(|r| f64::from(r.livelock_steps))
+            .sum::<f64>()
+            / n,
+        deadlock_episode_rate: records.iter().filter(|r| r.deadlock_steps > 0).count() as f64 / n,
+        failures_ending_jammed: played_failures
+            .iter()
+            .filter(|r| r.jammed_at_end > 0)
+            .count(),
+        failures_ending_stuck_alone: played_failures
+            .iter()
+            .filter(|r| r.jammed_at_end == 0 && r.stuck_at_end > 0)
+            .count(),
         wall_seconds: wall.as_secs_f64(),
     }
 }

@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests: tiny hand-made maps and envs.
 #![allow(dead_code)]
 
+pub mod author;
+
 use std::sync::Arc;
 
 use buridan_env::{Cell, EnvConfig, GridEnv, Map, Scenario, Starts, StepOutcome};
