@@ -7,6 +7,10 @@
 //! - [`replay`](mod@replay): [`replay()`] a plan step by step in a [`buridan_env::GridEnv`].
 //! - [`maastar`]: [`MaAstar`], A* over joint states.
 //! - [`cbs`]: [`Cbs`], conflict-based search.
+//! - [`pibt`]: [`Pibt`], priority inheritance with backtracking, and the
+//!   configuration generator LaCAM builds on.
+//! - [`lacam`]: [`Lacam`] (complete) and [`LacamStar`] (anytime, eventually
+//!   optimal), search over configurations.
 //! - [`planner`]: the [`Planner`] trait (`Send + Sync`), [`Solution`], [`Stats`].
 //! - [`limits`]: [`Limits`] (time, memory, nodes, makespan cap), [`SolveError`].
 //! - [`rules`]: [`Rules`], the conflict model.
@@ -79,9 +83,11 @@
 
 pub mod cbs;
 mod graph;
+pub mod lacam;
 pub mod limits;
 mod lowlevel;
 pub mod maastar;
+pub mod pibt;
 pub mod plan;
 pub mod planner;
 pub mod replay;
@@ -89,6 +95,8 @@ pub mod rules;
 pub mod validate;
 
 pub use cbs::{Cbs, LowLevelHeuristic};
+pub use lacam::{Lacam, LacamStar, Objective, Outcome};
+pub use pibt::Pibt;
 pub use limits::{InstanceError, Limits, SolveError};
 pub use maastar::{Heuristic, MaAstar};
 pub use plan::Plan;
