@@ -85,6 +85,10 @@ impl TieBreaker {
     }
 }
 
+/// Marks a cell nobody may enter at `t + 1` (being cleared, see
+/// [`Generator::clear_way`]).
+const BLOCKED: u32 = NONE - 1;
+
 /// The one-step configuration generator (see the [module docs](self)).
 /// Holds per-cell scratch tables that are reset after every call.
 pub(crate) struct Generator<'a> {
@@ -204,8 +208,23 @@ impl<'a> Generator<'a> {
         }
         let cands = &mut cands[..k];
         cands.sort_unstable();
+        // Not pushed by anyone: `i` may wait while it clears its way.
+        let free_to_wait = self.occ_next[here as usize] == NONE;
         for &(_, _, _, v) in cands.iter() {
-            if self.occ_next[v as usize] != NONE || !self.may_enter(i, v, cur) {
+            if self.occ_next[v as usize] != NONE {
+                continue;
+            }
+            if !self.may_enter(i, v, cur) {
+                if free_to_wait {
+                    // Wait on `here` (reserved first, so that nobody pushed
+                    // by the clearing comes back to push `i`).
+                    self.reserve(i, here);
+                    if self.clear_way(i, v, cur) {
+                        return true;
+                    }
+                    self.occ_next[here as usize] = NONE;
+                    self.next[i as usize] = NONE;
+                }
                 continue;
             }
             self.reserve(i, v);
@@ -217,6 +236,23 @@ impl<'a> Generator<'a> {
         }
         self.reserve(i, here);
         false
+    }
+
+    /// Push-then-wait: `i` wants `v`, held by a higher-index agent `j`
+    /// that the env moves after `i`. If `j` is undecided it must leave `v`
+    /// (nobody may enter `v` at `t + 1`); if it manages, or has already
+    /// decided to leave, `i` waits one step and finds `v` free at the next.
+    fn clear_way(&mut self, i: u32, v: u32, cur: &[u32]) -> bool {
+        let j = self.occ_now[v as usize];
+        if !self.rules.forbid_following || j == NONE || j < i {
+            return false;
+        }
+        if self.next[j as usize] != NONE {
+            return self.next[j as usize] != v;
+        }
+        self.occ_next[v as usize] = BLOCKED;
+        self.touched.push(v);
+        self.pibt(j, cur)
     }
 
     /// The final check of a generated step against the rules.
