@@ -286,7 +286,7 @@ impl<'a> Search<'a> {
     ) -> Self {
         Self {
             setup,
-            gen: Generator::new(&setup.topo, &setup.dist, rules, seed),
+            gen: Generator::new(&setup.topo, rules, seed),
             star,
             budget: Budget::new(limits),
             nodes: Vec::new(),
@@ -421,7 +421,7 @@ impl<'a> Search<'a> {
             let node = &self.nodes[top as usize];
             if !self
                 .gen
-                .generate(&node.config, &node.order, &constraints, &mut next)
+                .generate(&self.setup.dist, &node.config, &node.order, &constraints, &mut next)
             {
                 continue;
             }

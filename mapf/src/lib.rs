@@ -11,6 +11,7 @@
 //!   configuration generator LaCAM builds on.
 //! - [`lacam`]: [`Lacam`] (complete) and [`LacamStar`] (anytime, eventually
 //!   optimal), search over configurations.
+//! - [`lifelong`]: [`LifelongPibt`], PIBT for goals that change on arrival.
 //! - [`planner`]: the [`Planner`] trait (`Send + Sync`), [`Solution`], [`Stats`].
 //! - [`limits`]: [`Limits`] (time, memory, nodes, makespan cap), [`SolveError`].
 //! - [`rules`]: [`Rules`], the conflict model.
@@ -84,6 +85,7 @@
 pub mod cbs;
 mod graph;
 pub mod lacam;
+pub mod lifelong;
 pub mod limits;
 mod lowlevel;
 pub mod maastar;
@@ -96,6 +98,7 @@ pub mod validate;
 
 pub use cbs::{Cbs, LowLevelHeuristic};
 pub use lacam::{Lacam, LacamStar, Objective, Outcome};
+pub use lifelong::LifelongPibt;
 pub use pibt::Pibt;
 pub use limits::{InstanceError, Limits, SolveError};
 pub use maastar::{Heuristic, MaAstar};

@@ -93,8 +93,6 @@ const BLOCKED: u32 = NONE - 1;
 /// Holds per-cell scratch tables that are reset after every call.
 pub(crate) struct Generator<'a> {
     topo: &'a Topology,
-    /// `dist[i][cell]`: shortest-path distance from `cell` to agent `i`'s goal.
-    dist: &'a [Vec<u32>],
     rules: Rules,
     /// Agent at each cell at `t` (or [`NONE`]).
     occ_now: Vec<u32>,
@@ -108,25 +106,26 @@ pub(crate) struct Generator<'a> {
 }
 
 impl<'a> Generator<'a> {
-    pub fn new(topo: &'a Topology, dist: &'a [Vec<u32>], rules: Rules, seed: u64) -> Self {
+    pub fn new(topo: &'a Topology, rules: Rules, seed: u64) -> Self {
         Self {
             topo,
-            dist,
             rules,
             occ_now: vec![NONE; topo.cells()],
             occ_next: vec![NONE; topo.cells()],
-            next: vec![NONE; dist.len()],
+            next: Vec::new(),
             rng: TieBreaker::new(seed),
             touched: Vec::new(),
         }
     }
 
     /// The next configuration after `cur`: agents visited in `order`
-    /// (highest priority first), `constraints` `(agent, cell)` placed first.
+    /// (highest priority first), `constraints` `(agent, cell)` placed first;
+    /// `dist[i][cell]` is the distance from `cell` to agent `i`'s goal.
     /// Writes it to `out` and returns `true`, or returns `false` when the
     /// constraints cannot be met by a legal step.
     pub fn generate(
         &mut self,
+        dist: &[Vec<u32>],
         cur: &[u32],
         order: &[u32],
         constraints: &[(u32, u32)],
@@ -135,8 +134,9 @@ impl<'a> Generator<'a> {
         for (i, &c) in cur.iter().enumerate() {
             self.occ_now[c as usize] = i as u32;
         }
-        self.next.fill(NONE);
-        let ok = self.place(cur, order, constraints);
+        self.next.clear();
+        self.next.resize(cur.len(), NONE);
+        let ok = self.place(dist, cur, order, constraints);
         let ok = ok && self.legal(cur);
         if ok {
             out.clear();
@@ -172,7 +172,13 @@ impl<'a> Generator<'a> {
         self.next[holder as usize] != cur[agent as usize]
     }
 
-    fn place(&mut self, cur: &[u32], order: &[u32], constraints: &[(u32, u32)]) -> bool {
+    fn place(
+        &mut self,
+        dist: &[Vec<u32>],
+        cur: &[u32],
+        order: &[u32],
+        constraints: &[(u32, u32)],
+    ) -> bool {
         for &(i, v) in constraints {
             let (iu, vu) = (i as usize, v as usize);
             if iu >= cur.len()
@@ -186,7 +192,7 @@ impl<'a> Generator<'a> {
             self.reserve(i, v);
         }
         for &i in order {
-            if self.next[i as usize] == NONE && !self.pibt(i, cur) {
+            if self.next[i as usize] == NONE && !self.pibt(dist, i, cur) {
                 return false;
             }
         }
@@ -195,14 +201,14 @@ impl<'a> Generator<'a> {
 
     /// PIBT for `i`: reserve a cell for `t + 1`, pushing undecided holders.
     /// On failure `i` stays (and reports `false` to the agent that pushed it).
-    fn pibt(&mut self, i: u32, cur: &[u32]) -> bool {
+    fn pibt(&mut self, dist: &[Vec<u32>], i: u32, cur: &[u32]) -> bool {
         let here = cur[i as usize];
         let mut cands = [(0u32, 0u32, 0u32, NONE); 5];
         let mut k = 0;
         for &v in self.topo.moves(here) {
             if v != NONE {
                 let busy = u32::from(self.occ_now[v as usize] != NONE && v != here);
-                cands[k] = (self.dist[i as usize][v as usize], busy, self.rng.next(), v);
+                cands[k] = (dist[i as usize][v as usize], busy, self.rng.next(), v);
                 k += 1;
             }
         }
@@ -219,7 +225,7 @@ impl<'a> Generator<'a> {
                     // Wait on `here` (reserved first, so that nobody pushed
                     // by the clearing comes back to push `i`).
                     self.reserve(i, here);
-                    if self.clear_way(i, v, cur) {
+                    if self.clear_way(dist, i, v, cur) {
                         return true;
                     }
                     self.occ_next[here as usize] = NONE;
@@ -229,7 +235,7 @@ impl<'a> Generator<'a> {
             }
             self.reserve(i, v);
             let j = self.occ_now[v as usize];
-            if j != NONE && j != i && self.next[j as usize] == NONE && !self.pibt(j, cur) {
+            if j != NONE && j != i && self.next[j as usize] == NONE && !self.pibt(dist, j, cur) {
                 continue; // j stays on v: try the next candidate
             }
             return true;
@@ -242,7 +248,7 @@ impl<'a> Generator<'a> {
     /// that the env moves after `i`. If `j` is undecided it must leave `v`
     /// (nobody may enter `v` at `t + 1`); if it manages, or has already
     /// decided to leave, `i` waits one step and finds `v` free at the next.
-    fn clear_way(&mut self, i: u32, v: u32, cur: &[u32]) -> bool {
+    fn clear_way(&mut self, dist: &[Vec<u32>], i: u32, v: u32, cur: &[u32]) -> bool {
         let j = self.occ_now[v as usize];
         if !self.rules.forbid_following || j == NONE || j < i {
             return false;
@@ -252,7 +258,7 @@ impl<'a> Generator<'a> {
         }
         self.occ_next[v as usize] = BLOCKED;
         self.touched.push(v);
-        self.pibt(j, cur)
+        self.pibt(dist, j, cur)
     }
 
     /// The final check of a generated step against the rules.
@@ -408,7 +414,7 @@ impl Planner for Pibt {
             .max_makespan
             .map_or(self.max_steps, |m| m.min(self.max_steps));
         let n = starts.len();
-        let mut gen = Generator::new(&setup.topo, &setup.dist, self.rules, self.seed);
+        let mut gen = Generator::new(&setup.topo, self.rules, self.seed);
         let mut priorities = setup.initial_priorities();
         let mut configs = vec![setup.starts.clone()];
         let mut next = Vec::with_capacity(n);
@@ -420,7 +426,7 @@ impl Planner for Pibt {
             budget.on_expand(|| configs.len() * row_bytes)?;
             let order = Setup::order(&priorities);
             let cur = configs.last().expect("starts are in");
-            if !gen.generate(cur, &order, &[], &mut next) {
+            if !gen.generate(&setup.dist, cur, &order, &[], &mut next) {
                 // Without constraints every agent can at least stay.
                 return Err(SolveError::StepLimit {
                     steps: configs.len() - 1,
