@@ -277,13 +277,7 @@ struct Search<'a> {
 }
 
 impl<'a> Search<'a> {
-    fn new(
-        setup: &'a Setup,
-        rules: Rules,
-        seed: u64,
-        star: Option<Star>,
-        limits: &Limits,
-    ) -> Self {
+    fn new(setup: &'a Setup, rules: Rules, seed: u64, star: Option<Star>, limits: &Limits) -> Self {
         Self {
             setup,
             gen: Generator::new(&setup.topo, rules, seed),
@@ -419,10 +413,13 @@ impl<'a> Search<'a> {
                 k = l.parent;
             }
             let node = &self.nodes[top as usize];
-            if !self
-                .gen
-                .generate(&self.setup.dist, &node.config, &node.order, &constraints, &mut next)
-            {
+            if !self.gen.generate(
+                &self.setup.dist,
+                &node.config,
+                &node.order,
+                &constraints,
+                &mut next,
+            ) {
                 continue;
             }
             self.budget.generated += 1;

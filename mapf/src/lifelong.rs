@@ -29,7 +29,7 @@
 
 use std::sync::Arc;
 
-use buridan_env::{Cell, EnvConfig, EnvError, EpisodeStats, GridEnv, Grid, Map};
+use buridan_env::{Cell, EnvConfig, EnvError, EpisodeStats, Grid, GridEnv, Map};
 
 use crate::graph::{distance_table, Topology};
 use crate::limits::{check_instance, InstanceError};
@@ -121,7 +121,11 @@ impl LifelongPibt {
 
     /// The env actions that move every agent from `positions` one PIBT step
     /// on (0 stay, 1 up, 2 right, 3 down, 4 left).
-    pub fn actions(&mut self, positions: &[Cell], goals: &[Cell]) -> Result<Vec<u8>, InstanceError> {
+    pub fn actions(
+        &mut self,
+        positions: &[Cell],
+        goals: &[Cell],
+    ) -> Result<Vec<u8>, InstanceError> {
         let next = self.step(positions, goals)?;
         Ok(positions
             .iter()

@@ -263,10 +263,8 @@ impl<'a> Generator<'a> {
 
     /// The final check of a generated step against the rules.
     fn legal(&self, cur: &[u32]) -> bool {
-        let n = cur.len();
-        let mut seen = Vec::with_capacity(n);
-        for i in 0..n {
-            let (from, to) = (cur[i], self.next[i]);
+        let mut seen = Vec::with_capacity(cur.len());
+        for (i, (&from, &to)) in cur.iter().zip(&self.next).enumerate() {
             if to == NONE || !self.topo.moves(from).contains(&to) {
                 return false;
             }
