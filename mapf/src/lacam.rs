@@ -17,8 +17,14 @@
 //! 2. pop the next constraint set `C` from `N`'s queue (an exhausted queue
 //!    pops `N` off the stack); if `C` fixes fewer than `n` agents, queue its
 //!    extensions by the next agent of `N`'s order (each of its cells);
-//! 3. ask PIBT for a successor of `N` that meets `C`; a configuration seen
-//!    before goes back on top of the stack, a new one becomes a new node.
+//! 3. ask PIBT for a successor of `N` that meets `C`; a new configuration
+//!    becomes a new node on top of the stack, a known one goes back on top
+//!    (*reinsertion*, from LaCAM*: it keeps the search near the region that
+//!    matters and the plans short).
+//!
+//! The plan is the fewest-steps path from the start to the goal over all
+//! edges the search has seen (breadth-first), not just the depth-first
+//! parent chain.
 //!
 //! **Completeness.** A constraint set fixing all `n` agents makes the
 //! generator return exactly that configuration if it is a legal step (and
@@ -424,13 +430,17 @@ impl<'a> Search<'a> {
             }
             self.budget.generated += 1;
             if let Some(&known) = self.explored.get(&next[..]) {
+                if !self.nodes[top as usize].neighbours.contains(&known) {
+                    self.nodes[top as usize].neighbours.push(known);
+                    self.bytes += 4;
+                }
                 if self.star.is_some() {
-                    if !self.nodes[top as usize].neighbours.contains(&known) {
-                        self.nodes[top as usize].neighbours.push(known);
-                        self.bytes += 4;
-                    }
                     self.relax(top);
                 }
+                // Reinsertion: the known node goes back on top of `Open`.
+                // Measured on rm-2.1b (4 agents, 100 episodes, 2 s): without
+                // it LaCAM plans 88 instances but only 63 within T_max (the
+                // depth-first chains wander); with it 81 and 81.
                 self.open.push(known);
             } else {
                 let node = &self.nodes[top as usize];
@@ -438,10 +448,8 @@ impl<'a> Search<'a> {
                 self.setup.update_priorities(&mut priorities, &next);
                 let g = node.g + self.edge_cost(&node.config, &next);
                 let id = self.add_node(next.clone(), top, priorities, g);
-                if self.star.is_some() {
-                    self.nodes[top as usize].neighbours.push(id);
-                    self.bytes += 4;
-                }
+                self.nodes[top as usize].neighbours.push(id);
+                self.bytes += 4;
                 self.open.push(id);
             }
         }
@@ -490,15 +498,53 @@ impl<'a> Search<'a> {
         }
     }
 
+    /// The fewest-steps path from the start to `goal` over the explored
+    /// graph (every edge seen during the search), by breadth-first search:
+    /// LaCAM's depth-first parent chain can be much longer.
+    fn shortest_chain(&self, goal: u32) -> Vec<u32> {
+        let mut parent = vec![NONE; self.nodes.len()];
+        let mut queue = VecDeque::from([0u32]);
+        parent[0] = 0;
+        while let Some(a) = queue.pop_front() {
+            if a == goal {
+                break;
+            }
+            for &b in &self.nodes[a as usize].neighbours {
+                if parent[b as usize] == NONE {
+                    parent[b as usize] = a;
+                    queue.push_back(b);
+                }
+            }
+        }
+        let mut chain = vec![goal];
+        let mut k = goal;
+        while k != 0 {
+            k = parent[k as usize];
+            chain.push(k);
+        }
+        chain.reverse();
+        chain
+    }
+
     fn outcome(&self, proven_optimal: bool) -> Outcome {
         let goal = self.goal_node.expect("called with a solution");
-        let mut configs = Vec::new();
-        let mut k = goal;
-        while k != NONE {
-            configs.push(self.nodes[k as usize].config.to_vec());
-            k = self.nodes[k as usize].parent;
-        }
-        configs.reverse();
+        let chain = if self.star.is_some() {
+            // LaCAM*: the parent chain is the cheapest known path.
+            let mut chain = Vec::new();
+            let mut k = goal;
+            while k != NONE {
+                chain.push(k);
+                k = self.nodes[k as usize].parent;
+            }
+            chain.reverse();
+            chain
+        } else {
+            self.shortest_chain(goal)
+        };
+        let configs: Vec<Vec<u32>> = chain
+            .iter()
+            .map(|&k| self.nodes[k as usize].config.to_vec())
+            .collect();
         Outcome {
             solution: Solution {
                 plan: self.setup.plan(&configs),
