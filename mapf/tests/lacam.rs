@@ -340,4 +340,35 @@ fn bad_instances_and_limits_give_typed_errors() {
         Lacam::default().solve(&corridor, &s, &g, &Limits::default()),
         Err(SolveError::NoSolution)
     );
+    // A tiny memory budget ends it too.
+    let small = Limits {
+        memory_bytes: 4096,
+        ..Limits::default()
+    };
+    assert!(matches!(
+        Lacam::default().solve(&corridor, &s, &g, &small),
+        Err(SolveError::MemoryLimit {
+            limit_bytes: 4096,
+            ..
+        })
+    ));
+    // LaCAM* with a solution returns it at the limit instead of an error.
+    let open = Grid::from_rows(&["......", "......", "......"]).unwrap();
+    let (s, g) = ([c(0, 0), c(1, 0), c(2, 0)], [c(2, 5), c(1, 5), c(0, 5)]);
+    let tight = Limits {
+        max_nodes: Some(2000),
+        ..Limits::default()
+    };
+    let out = star(Objective::SumOfLoss, Rules::ENV_EXECUTABLE)
+        .search(&open, &s, &g, &tight)
+        .unwrap();
+    assert!(!out.proven_optimal && out.cost <= out.first_cost);
+    check(
+        &open,
+        &s,
+        &g,
+        &out.solution.plan,
+        Rules::ENV_EXECUTABLE,
+        "tight",
+    );
 }
