@@ -52,6 +52,11 @@
 //! When `Open` runs empty the solution is optimal for the [`Objective`];
 //! otherwise the time budget returns the best plan so far.
 //!
+//! Both honour [`Limits::time`], [`Limits::memory_bytes`] (estimated from
+//! the stored nodes, constraint sets and explored table) and
+//! [`Limits::max_nodes`] (search iterations); [`Limits::max_makespan`] is
+//! not used (the search is finite without it).
+//!
 //! ```
 //! use std::sync::Arc;
 //! use buridan_env::Map;
