@@ -214,14 +214,14 @@ impl<'a> Generator<'a> {
         }
         let cands = &mut cands[..k];
         cands.sort_unstable();
-        // Not pushed by anyone: `i` may wait while it clears its way.
-        let free_to_wait = self.occ_next[here as usize] == NONE;
         for &(_, _, _, v) in cands.iter() {
             if self.occ_next[v as usize] != NONE {
                 continue;
             }
             if !self.may_enter(i, v, cur) {
-                if free_to_wait {
+                // Not pushed by anyone (nobody reserved `here`): `i` may
+                // wait while it clears its way.
+                if self.occ_next[here as usize] == NONE {
                     // Wait on `here` (reserved first, so that nobody pushed
                     // by the clearing comes back to push `i`).
                     self.reserve(i, here);
@@ -240,6 +240,8 @@ impl<'a> Generator<'a> {
             }
             return true;
         }
+        // All candidates failed: `i` stays. If someone else reserved `here`
+        // meanwhile, the final check rejects the step.
         self.reserve(i, here);
         false
     }
