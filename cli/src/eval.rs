@@ -118,7 +118,7 @@ pub fn controller_factory(
     }
     let planner: Arc<dyn Planner> = planner_by_name(name)
         .with_context(|| {
-            format!("unknown controller '{name}': expected ma-astar, cbs, random or checkpoint:DIR")
+            format!("unknown controller '{name}': expected ma-astar, cbs, pibt, lacam, lacam-star, random or checkpoint:DIR")
         })?
         .into();
     Ok(Box::new(move || {

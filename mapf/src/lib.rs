@@ -7,6 +7,11 @@
 //! - [`replay`](mod@replay): [`replay()`] a plan step by step in a [`buridan_env::GridEnv`].
 //! - [`maastar`]: [`MaAstar`], A* over joint states.
 //! - [`cbs`]: [`Cbs`], conflict-based search.
+//! - [`pibt`]: [`Pibt`], priority inheritance with backtracking, and the
+//!   configuration generator LaCAM builds on.
+//! - [`lacam`]: [`Lacam`] (complete) and [`LacamStar`] (anytime, eventually
+//!   optimal), search over configurations.
+//! - [`lifelong`]: [`LifelongPibt`], PIBT for goals that change on arrival.
 //! - [`planner`]: the [`Planner`] trait (`Send + Sync`), [`Solution`], [`Stats`].
 //! - [`limits`]: [`Limits`] (time, memory, nodes, makespan cap), [`SolveError`].
 //! - [`rules`]: [`Rules`], the conflict model.
@@ -79,9 +84,12 @@
 
 pub mod cbs;
 mod graph;
+pub mod lacam;
+pub mod lifelong;
 pub mod limits;
 mod lowlevel;
 pub mod maastar;
+pub mod pibt;
 pub mod plan;
 pub mod planner;
 pub mod replay;
@@ -89,8 +97,11 @@ pub mod rules;
 pub mod validate;
 
 pub use cbs::{Cbs, LowLevelHeuristic};
+pub use lacam::{Lacam, LacamStar, Objective, Outcome};
+pub use lifelong::LifelongPibt;
 pub use limits::{InstanceError, Limits, SolveError};
 pub use maastar::{Heuristic, MaAstar};
+pub use pibt::Pibt;
 pub use plan::Plan;
 pub use planner::{planner_by_name, Planner, Solution, Stats};
 pub use replay::{replay, replay_exact, BlockedFollowing, Divergence, ReplayError, ReplayResult};

@@ -152,6 +152,13 @@ pub enum SolveError {
         /// The cap.
         max_makespan: usize,
     },
+    /// An incomplete planner (PIBT) gave up after this many steps without
+    /// bringing every agent to its goal; the instance may still be solvable.
+    #[error("gave up after {steps} steps without reaching all goals (incomplete planner)")]
+    StepLimit {
+        /// Steps simulated.
+        steps: usize,
+    },
     /// The instance itself is malformed.
     #[error("invalid instance: {0}")]
     Instance(#[from] InstanceError),

@@ -15,12 +15,15 @@ use crate::plan::Plan;
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Stats {
-    /// Expanded nodes: joint states (MA-A*) or constraint-tree nodes (CBS).
+    /// Expanded nodes: joint states (MA-A*), constraint-tree nodes (CBS),
+    /// steps (PIBT) or search iterations, one constraint set each (LaCAM).
     pub expanded: u64,
     /// Generated nodes: joint successor states (MA-A*, before duplicate
-    /// detection) or constraint-tree children with a low-level path (CBS).
+    /// detection), constraint-tree children with a low-level path (CBS) or
+    /// configurations produced by PIBT (PIBT, LaCAM).
     pub generated: u64,
-    /// Low-level space-time A* expansions (CBS; 0 for MA-A*).
+    /// Low-level space-time A* expansions (CBS), constraint sets created
+    /// (LaCAM); 0 for MA-A* and PIBT.
     pub low_level_expanded: u64,
     /// Wall-clock time of the call.
     pub wall_time: Duration,
@@ -78,16 +81,23 @@ pub trait Planner: Send + Sync {
 }
 
 /// The default-configured planner of a name: `"ma-astar"` (also `"maastar"`,
-/// `"ma-a*"`) or `"cbs"`.
+/// `"ma-a*"`), `"cbs"`, `"pibt"`, `"lacam"` or `"lacam-star"` (also
+/// `"lacam*"`).
 ///
 /// ```
 /// assert_eq!(buridan_mapf::planner_by_name("cbs").unwrap().name(), "cbs");
+/// assert_eq!(buridan_mapf::planner_by_name("LaCAM*").unwrap().name(), "lacam-star");
 /// assert!(buridan_mapf::planner_by_name("dijkstra").is_none());
 /// ```
 pub fn planner_by_name(name: &str) -> Option<Box<dyn Planner>> {
     match name.to_ascii_lowercase().as_str() {
         "ma-astar" | "maastar" | "ma-a*" | "ma_astar" => Some(Box::new(crate::MaAstar::default())),
         "cbs" => Some(Box::new(crate::Cbs::default())),
+        "pibt" => Some(Box::new(crate::Pibt::default())),
+        "lacam" => Some(Box::new(crate::Lacam::default())),
+        "lacam-star" | "lacam*" | "lacam_star" | "lacamstar" => {
+            Some(Box::new(crate::LacamStar::default()))
+        }
         _ => None,
     }
 }

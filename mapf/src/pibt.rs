@@ -1,0 +1,449 @@
+//! PIBT, priority inheritance with backtracking (Okumura et al., IJCAI-19 /
+//! AIJ 2022), as a one-step **configuration generator** and as a planner.
+//!
+//! A *configuration* is one cell per agent. PIBT computes the next
+//! configuration from the current one: agents are visited in a priority
+//! order; each agent tries its candidate cells (its neighbours and its own
+//! cell) in order of increasing distance to its goal and *reserves* the first
+//! one that is free at `t + 1`. If the reserved cell is occupied at `t` by an
+//! agent `j` that has not decided yet, `j` **inherits** the priority and must
+//! move away first (recursively); if `j` cannot, it reports failure
+//! (**backtracking**) and the asking agent tries its next candidate. An agent
+//! whose candidates all fail stays where it is.
+//!
+//! # The environment's index order: how the generator respects it
+//!
+//! The env moves agents one after the other in index order, and a move
+//! succeeds only if its target is free *at that moment* (SPEC §2; see
+//! [`Rules`]). Under [`Rules::ENV_EXECUTABLE`] (the default) the generator
+//! therefore only lets agent `i` take a cell that, at time `t`, is
+//!
+//! 1. empty, or
+//! 2. its own cell (a wait), or
+//! 3. held by a **lower-index** agent `j < i` — which must then leave it
+//!    (priority inheritance pushes `j` if it has not decided yet). `j` moves
+//!    before `i` in the env, so the cell is free when `i`'s turn comes.
+//!
+//! A cell held by a higher-index agent `j > i` is never a candidate for `i`:
+//! if `j` stayed it would be a vertex conflict, and if `j` left, the env
+//! would still find `j` there when `i` moves (a *following conflict*). This
+//! one rule also excludes swaps (one of the two agents would enter the cell
+//! of a higher-index one) and rotations along cycles (some agent of the cycle
+//! follows a higher-index one), so every generated step is executed by the
+//! env exactly. Every output is checked once more against these rules before
+//! it is returned. Under [`Rules::SIMULTANEOUS`] rule 3 holds for any
+//! `j ≠ i`, and swaps are excluded explicitly (rotations are allowed, as in
+//! SPEC §5).
+//!
+//! The price of rule 3: a low-index agent cannot push a higher-index agent
+//! out of its way within one step; it can only take the cell one step after
+//! the other agent left. PIBT alone is incomplete anyway; LaCAM
+//! ([`crate::lacam`]) makes the search complete on top of this generator.
+//!
+//! # Constraints
+//!
+//! LaCAM calls the generator with *constraints* "agent `i` goes to cell `v`".
+//! Constrained agents are placed first (a constraint breaking the rules makes
+//! the call fail), then PIBT moves the others. If the constraints fix every
+//! agent, the result is exactly the constrained configuration if it is a
+//! legal step and a failure otherwise — the property LaCAM's completeness
+//! rests on.
+//!
+//! ```
+//! use buridan_env::Map;
+//! use buridan_mapf::{replay_exact, validate_with, Limits, Pibt, Planner, Rules};
+//! let map = std::sync::Arc::new(Map::load("rm-2.1").unwrap());
+//! let scen = map.scenario.clone().unwrap();
+//! let sol = Pibt::default().solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+//! validate_with(&map.grid, &scen.starts, &scen.goals, &sol.plan, Rules::ENV_EXECUTABLE).unwrap();
+//! replay_exact(&map, &scen.starts, &scen.goals, &sol.plan, 1000).unwrap();
+//! ```
+
+use buridan_env::{Cell, Grid};
+
+use crate::graph::{distance_table, Topology, NONE};
+use crate::limits::{check_instance, goals_reachable, Budget, Limits, SolveError};
+use crate::plan::Plan;
+use crate::planner::{Planner, Solution, Stats};
+use crate::rules::Rules;
+
+/// A small deterministic random number generator (xorshift64*) for PIBT's
+/// tie-breaking: the same instance always gives the same plan.
+#[derive(Debug, Clone)]
+pub(crate) struct TieBreaker(u64);
+
+impl TieBreaker {
+    pub fn new(seed: u64) -> Self {
+        Self(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+
+    pub fn next(&mut self) -> u32 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 32) as u32
+    }
+}
+
+/// Marks a cell nobody may enter at `t + 1` (being cleared, see
+/// [`Generator::clear_way`]).
+const BLOCKED: u32 = NONE - 1;
+
+/// The one-step configuration generator (see the [module docs](self)).
+/// Holds per-cell scratch tables that are reset after every call.
+pub(crate) struct Generator<'a> {
+    topo: &'a Topology,
+    rules: Rules,
+    /// Agent at each cell at `t` (or [`NONE`]).
+    occ_now: Vec<u32>,
+    /// Agent that reserved each cell for `t + 1` (or [`NONE`]).
+    occ_next: Vec<u32>,
+    /// Each agent's cell at `t + 1` ([`NONE`]: undecided).
+    next: Vec<u32>,
+    rng: TieBreaker,
+    /// Cells written into `occ_next` during this call, to reset.
+    touched: Vec<u32>,
+}
+
+impl<'a> Generator<'a> {
+    pub fn new(topo: &'a Topology, rules: Rules, seed: u64) -> Self {
+        Self {
+            topo,
+            rules,
+            occ_now: vec![NONE; topo.cells()],
+            occ_next: vec![NONE; topo.cells()],
+            next: Vec::new(),
+            rng: TieBreaker::new(seed),
+            touched: Vec::new(),
+        }
+    }
+
+    /// The next configuration after `cur`: agents visited in `order`
+    /// (highest priority first), `constraints` `(agent, cell)` placed first;
+    /// `dist[i][cell]` is the distance from `cell` to agent `i`'s goal.
+    /// Writes it to `out` and returns `true`, or returns `false` when the
+    /// constraints cannot be met by a legal step.
+    pub fn generate(
+        &mut self,
+        dist: &[Vec<u32>],
+        cur: &[u32],
+        order: &[u32],
+        constraints: &[(u32, u32)],
+        out: &mut Vec<u32>,
+    ) -> bool {
+        for (i, &c) in cur.iter().enumerate() {
+            self.occ_now[c as usize] = i as u32;
+        }
+        self.next.clear();
+        self.next.resize(cur.len(), NONE);
+        let ok = self.place(dist, cur, order, constraints);
+        let ok = ok && self.legal(cur);
+        if ok {
+            out.clear();
+            out.extend_from_slice(&self.next);
+        }
+        for &c in cur {
+            self.occ_now[c as usize] = NONE;
+        }
+        for &c in &self.touched {
+            self.occ_next[c as usize] = NONE;
+        }
+        self.touched.clear();
+        ok
+    }
+
+    fn reserve(&mut self, agent: u32, cell: u32) {
+        self.occ_next[cell as usize] = agent;
+        self.next[agent as usize] = cell;
+        self.touched.push(cell);
+    }
+
+    /// Whether `agent` may enter `cell` (held at `t` by `holder`) under the
+    /// rules, ignoring reservations.
+    fn may_enter(&self, agent: u32, cell: u32, cur: &[u32]) -> bool {
+        let holder = self.occ_now[cell as usize];
+        if holder == NONE || holder == agent {
+            return true;
+        }
+        if self.rules.forbid_following {
+            return holder < agent;
+        }
+        // Simultaneous moves: no swap with the holder.
+        self.next[holder as usize] != cur[agent as usize]
+    }
+
+    fn place(
+        &mut self,
+        dist: &[Vec<u32>],
+        cur: &[u32],
+        order: &[u32],
+        constraints: &[(u32, u32)],
+    ) -> bool {
+        for &(i, v) in constraints {
+            let (iu, vu) = (i as usize, v as usize);
+            if iu >= cur.len()
+                || self.next[iu] != NONE
+                || !self.topo.moves(cur[iu]).contains(&v)
+                || self.occ_next[vu] != NONE
+                || !self.may_enter(i, v, cur)
+            {
+                return false;
+            }
+            self.reserve(i, v);
+        }
+        for &i in order {
+            if self.next[i as usize] == NONE && !self.pibt(dist, i, cur) {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// PIBT for `i`: reserve a cell for `t + 1`, pushing undecided holders.
+    /// On failure `i` stays (and reports `false` to the agent that pushed it).
+    fn pibt(&mut self, dist: &[Vec<u32>], i: u32, cur: &[u32]) -> bool {
+        let here = cur[i as usize];
+        let mut cands = [(0u32, 0u32, 0u32, NONE); 5];
+        let mut k = 0;
+        for &v in self.topo.moves(here) {
+            if v != NONE {
+                let busy = u32::from(self.occ_now[v as usize] != NONE && v != here);
+                cands[k] = (dist[i as usize][v as usize], busy, self.rng.next(), v);
+                k += 1;
+            }
+        }
+        let cands = &mut cands[..k];
+        cands.sort_unstable();
+        for &(_, _, _, v) in cands.iter() {
+            if self.occ_next[v as usize] != NONE {
+                continue;
+            }
+            if !self.may_enter(i, v, cur) {
+                // Not pushed by anyone (nobody reserved `here`): `i` may
+                // wait while it clears its way.
+                if self.occ_next[here as usize] == NONE {
+                    // Wait on `here` (reserved first, so that nobody pushed
+                    // by the clearing comes back to push `i`).
+                    self.reserve(i, here);
+                    if self.clear_way(dist, i, v, cur) {
+                        return true;
+                    }
+                    self.occ_next[here as usize] = NONE;
+                    self.next[i as usize] = NONE;
+                }
+                continue;
+            }
+            self.reserve(i, v);
+            let j = self.occ_now[v as usize];
+            if j != NONE && j != i && self.next[j as usize] == NONE && !self.pibt(dist, j, cur) {
+                continue; // j stays on v: try the next candidate
+            }
+            return true;
+        }
+        // All candidates failed: `i` stays. If someone else reserved `here`
+        // meanwhile, the final check rejects the step.
+        self.reserve(i, here);
+        false
+    }
+
+    /// Push-then-wait: `i` wants `v`, held by a higher-index agent `j`
+    /// that the env moves after `i`. If `j` is undecided it must leave `v`
+    /// (nobody may enter `v` at `t + 1`); if it manages, or has already
+    /// decided to leave, `i` waits one step and finds `v` free at the next.
+    fn clear_way(&mut self, dist: &[Vec<u32>], i: u32, v: u32, cur: &[u32]) -> bool {
+        let j = self.occ_now[v as usize];
+        if !self.rules.forbid_following || j == NONE || j < i {
+            return false;
+        }
+        if self.next[j as usize] != NONE {
+            return self.next[j as usize] != v;
+        }
+        self.occ_next[v as usize] = BLOCKED;
+        self.touched.push(v);
+        self.pibt(dist, j, cur)
+    }
+
+    /// The final check of a generated step against the rules.
+    fn legal(&self, cur: &[u32]) -> bool {
+        let mut seen = Vec::with_capacity(cur.len());
+        for (i, (&from, &to)) in cur.iter().zip(&self.next).enumerate() {
+            if to == NONE || !self.topo.moves(from).contains(&to) {
+                return false;
+            }
+            seen.push(to);
+            if from == to {
+                continue;
+            }
+            let holder = self.occ_now[to as usize];
+            if holder != NONE {
+                let h = holder as usize;
+                let swap = self.next[h] == from;
+                let following = self.rules.forbid_following && h > i;
+                if swap || following {
+                    return false;
+                }
+            }
+        }
+        seen.sort_unstable();
+        seen.windows(2).all(|w| w[0] != w[1])
+    }
+}
+
+/// The shared setup of PIBT-based solvers: topology, distance tables,
+/// starts and goals as cell indices.
+pub(crate) struct Setup {
+    pub topo: Topology,
+    pub dist: Vec<Vec<u32>>,
+    pub starts: Vec<u32>,
+    pub goals: Vec<u32>,
+}
+
+impl Setup {
+    /// Checks the instance (typed errors, unreachable goals → `NoSolution`).
+    pub fn new(grid: &Grid, starts: &[Cell], goals: &[Cell]) -> Result<Self, SolveError> {
+        check_instance(grid, starts, goals)?;
+        if !goals_reachable(grid, starts, goals) {
+            return Err(SolveError::NoSolution);
+        }
+        let topo = Topology::new(grid);
+        let dist = goals.iter().map(|&g| distance_table(grid, g)).collect();
+        Ok(Self {
+            starts: starts.iter().map(|&s| topo.index(s)).collect(),
+            goals: goals.iter().map(|&g| topo.index(g)).collect(),
+            topo,
+            dist,
+        })
+    }
+
+    /// PIBT's initial priorities: a fraction below 1 growing with the
+    /// distance to the goal (farther agents first).
+    pub fn initial_priorities(&self) -> Vec<f64> {
+        let cells = self.topo.cells() as f64 + 1.0;
+        (0..self.starts.len())
+            .map(|i| f64::from(self.dist[i][self.starts[i] as usize]) / cells)
+            .collect()
+    }
+
+    /// PIBT's priority update after reaching `config`: +1 for agents not on
+    /// their goals, back to the fractional part on the goal.
+    pub fn update_priorities(&self, priorities: &mut [f64], config: &[u32]) {
+        for (i, p) in priorities.iter_mut().enumerate() {
+            if config[i] == self.goals[i] {
+                *p = p.fract();
+            } else {
+                *p += 1.0;
+            }
+        }
+    }
+
+    /// Agents by decreasing priority (ties: lower index first).
+    pub fn order(priorities: &[f64]) -> Vec<u32> {
+        let mut order: Vec<u32> = (0..priorities.len() as u32).collect();
+        order.sort_by(|&a, &b| priorities[b as usize].total_cmp(&priorities[a as usize]));
+        order
+    }
+
+    /// The plan visiting `configs` in order, trimmed.
+    pub fn plan(&self, configs: &[Vec<u32>]) -> Plan {
+        let n = self.starts.len();
+        Plan::new(
+            (0..n)
+                .map(|i| configs.iter().map(|q| self.topo.cell(q[i])).collect())
+                .collect(),
+        )
+        .trimmed()
+    }
+}
+
+/// PIBT as a one-shot planner: apply the generator step after step until
+/// every agent stands on its goal. Fast, but incomplete: agents can
+/// livelock, in which case it gives up after `max_steps` steps with
+/// [`SolveError::StepLimit`]. It never claims an instance unsolvable unless
+/// a goal is unreachable ([`crate::Lacam`] can prove it).
+///
+/// ```
+/// use buridan_env::{Cell, Grid};
+/// use buridan_mapf::{Limits, Pibt, Planner, SolveError};
+/// // Two agents must swap in a corridor: impossible, PIBT gives up.
+/// let grid = Grid::from_rows(&["..."]).unwrap();
+/// let (s, g) = ([Cell::new(0, 0), Cell::new(0, 1)], [Cell::new(0, 1), Cell::new(0, 0)]);
+/// let pibt = Pibt { max_steps: 50, ..Pibt::default() };
+/// let err = pibt.solve(&grid, &s, &g, &Limits::default()).unwrap_err();
+/// assert_eq!(err, SolveError::StepLimit { steps: 50 });
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Pibt {
+    /// The conflict model (default: env-executable, see the module docs).
+    pub rules: Rules,
+    /// Steps after which PIBT gives up (default 1000;
+    /// [`Limits::max_makespan`] lowers it).
+    pub max_steps: usize,
+    /// Seed of the tie-breaking between equally good cells.
+    pub seed: u64,
+}
+
+impl Default for Pibt {
+    fn default() -> Self {
+        Self {
+            rules: Rules::default(),
+            max_steps: 1000,
+            seed: 0,
+        }
+    }
+}
+
+impl Planner for Pibt {
+    fn name(&self) -> &str {
+        if self.rules.forbid_following {
+            "pibt"
+        } else {
+            "pibt-simultaneous"
+        }
+    }
+
+    fn solve(
+        &self,
+        grid: &Grid,
+        starts: &[Cell],
+        goals: &[Cell],
+        limits: &Limits,
+    ) -> Result<Solution, SolveError> {
+        let setup = Setup::new(grid, starts, goals)?;
+        let mut budget = Budget::new(limits);
+        let max_steps = limits
+            .max_makespan
+            .map_or(self.max_steps, |m| m.min(self.max_steps));
+        let n = starts.len();
+        let mut gen = Generator::new(&setup.topo, self.rules, self.seed);
+        let mut priorities = setup.initial_priorities();
+        let mut configs = vec![setup.starts.clone()];
+        let mut next = Vec::with_capacity(n);
+        let row_bytes = n * 4 + 24;
+        while configs.last() != Some(&setup.goals) {
+            if configs.len() > max_steps {
+                return Err(SolveError::StepLimit { steps: max_steps });
+            }
+            budget.on_expand(|| configs.len() * row_bytes)?;
+            let order = Setup::order(&priorities);
+            let cur = configs.last().expect("starts are in");
+            if !gen.generate(&setup.dist, cur, &order, &[], &mut next) {
+                // Without constraints every agent can at least stay.
+                return Err(SolveError::StepLimit {
+                    steps: configs.len() - 1,
+                });
+            }
+            budget.generated += 1;
+            setup.update_priorities(&mut priorities, &next);
+            configs.push(next.clone());
+        }
+        Ok(Solution {
+            plan: setup.plan(&configs),
+            stats: Stats {
+                expanded: budget.expanded,
+                generated: budget.generated,
+                low_level_expanded: 0,
+                wall_time: budget.elapsed(),
+            },
+        })
+    }
+}
