@@ -270,15 +270,6 @@ pub fn learning_band(label: String, curves: &[Vec<(u64, f64)>], points: usize) -
     Band { label, points: out }
 }
 
-fn file_name(layout: &str) -> String {
-    Path::new(layout)
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or(layout)
-        .chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '.' { c } else { '_' })
-        .collect()
-}
 
 /// Writes every report file of the experiment in `out`; returns the files.
 pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
@@ -365,7 +356,7 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
             })
             .collect();
         if !bands.is_empty() {
-            let path = out.join(format!("learning-{}.png", file_name(layout)));
+            let path = out.join(format!("learning-{}.png", crate::experiment::layout_dir(layout)));
             banded_lines(
                 &path,
                 &format!("{layout}: training success, last 100 episodes (mean, 95 % CI over seeds)"),
@@ -396,7 +387,7 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
             .filter(|b| !b.points.is_empty())
             .collect();
         if sweep.iter().any(|b| b.points.len() > 1) {
-            let path = out.join(format!("scalability-{}.png", file_name(layout)));
+            let path = out.join(format!("scalability-{}.png", crate::experiment::layout_dir(layout)));
             banded_lines(
                 &path,
                 &format!("{layout}: success against agents (mean, 95 % CI over seeds)"),

@@ -265,12 +265,20 @@ fn safe_name(s: &str) -> String {
         .collect()
 }
 
-/// A layout's directory name: its id, or a map path's file stem.
-fn layout_dir(layout: &str) -> String {
-    let stem = Path::new(layout)
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or(layout);
+/// A layout's directory (and file) name: its id, or a map path's file stem.
+///
+/// ```
+/// use buridan_cli::experiment::layout_dir;
+/// assert_eq!(layout_dir("rm-2.1"), "rm-2.1");
+/// assert_eq!(layout_dir("maps/my warehouse.map"), "my_warehouse");
+/// ```
+pub fn layout_dir(layout: &str) -> String {
+    let path = Path::new(layout);
+    let stem = if layout.ends_with(".map") || path.components().count() > 1 {
+        path.file_stem().and_then(|s| s.to_str()).unwrap_or(layout)
+    } else {
+        layout
+    };
     safe_name(stem)
 }
 
