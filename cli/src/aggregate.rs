@@ -89,9 +89,7 @@ pub fn records(x: &Experiment, out: &Path) -> Vec<CellRecord> {
                 success_rate: eval.as_ref().and_then(|v| num(v, "success_rate")),
                 timesteps_median: eval.as_ref().and_then(|v| num(v, "timesteps_median")),
                 train_success: summary.as_ref().and_then(|v| num(v, "success_rate")),
-                env_steps: summary
-                    .as_ref()
-                    .and_then(|v| v.get("env_steps")?.as_u64()),
+                env_steps: summary.as_ref().and_then(|v| v.get("env_steps")?.as_u64()),
                 train_seconds: summary.as_ref().and_then(|v| num(v, "wall_seconds")),
             }
         })
@@ -149,7 +147,11 @@ pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Ve
         }
     }
     let order = |k: &(String, String, Option<&'static str>, usize, bool)| {
-        let l = x.layouts.iter().position(|l| *l == k.0).unwrap_or(usize::MAX);
+        let l = x
+            .layouts
+            .iter()
+            .position(|l| *l == k.0)
+            .unwrap_or(usize::MAX);
         let m = x
             .methods
             .iter()
@@ -164,7 +166,10 @@ pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Ve
             let group: Vec<&CellRecord> = records
                 .iter()
                 .filter(|r| {
-                    r.layout == layout && r.method == method && r.actions == actions && r.agents == agents
+                    r.layout == layout
+                        && r.method == method
+                        && r.actions == actions
+                        && r.agents == agents
                 })
                 .collect();
             let values = |f: fn(&CellRecord) -> Option<f64>| -> Option<Aggregate> {
@@ -270,7 +275,6 @@ pub fn learning_band(label: String, curves: &[Vec<(u64, f64)>], points: usize) -
     Band { label, points: out }
 }
 
-
 /// Writes every report file of the experiment in `out`; returns the files.
 pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
     let bootstrap = Bootstrap::default();
@@ -350,16 +354,20 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
                     .map(|t| success_curve(&out.join(&t.run_dir)))
                     .filter(|c| !c.is_empty())
                     .collect();
-                (!curves.is_empty()).then(|| {
-                    learning_band(format!("{m} ({} runs)", curves.len()), &curves, 40)
-                })
+                (!curves.is_empty())
+                    .then(|| learning_band(format!("{m} ({} runs)", curves.len()), &curves, 40))
             })
             .collect();
         if !bands.is_empty() {
-            let path = out.join(format!("learning-{}.png", crate::experiment::layout_dir(layout)));
+            let path = out.join(format!(
+                "learning-{}.png",
+                crate::experiment::layout_dir(layout)
+            ));
             banded_lines(
                 &path,
-                &format!("{layout}: training success, last 100 episodes (mean, 95 % CI over seeds)"),
+                &format!(
+                    "{layout}: training success, last 100 episodes (mean, 95 % CI over seeds)"
+                ),
                 "env steps",
                 "success (%)",
                 &bands,
@@ -387,7 +395,10 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
             .filter(|b| !b.points.is_empty())
             .collect();
         if sweep.iter().any(|b| b.points.len() > 1) {
-            let path = out.join(format!("scalability-{}.png", crate::experiment::layout_dir(layout)));
+            let path = out.join(format!(
+                "scalability-{}.png",
+                crate::experiment::layout_dir(layout)
+            ));
             banded_lines(
                 &path,
                 &format!("{layout}: success against agents (mean, 95 % CI over seeds)"),
@@ -419,7 +430,10 @@ mod tests {
 
     #[test]
     fn learning_band_takes_each_runs_latest_value() {
-        let curves = vec![vec![(100, 0.0), (200, 50.0)], vec![(100, 20.0), (200, 70.0)]];
+        let curves = vec![
+            vec![(100, 0.0), (200, 50.0)],
+            vec![(100, 20.0), (200, 70.0)],
+        ];
         let band = learning_band("m".into(), &curves, 2);
         assert_eq!(band.points.len(), 2);
         let (x, y, lo, hi) = band.points[1];

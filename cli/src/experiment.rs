@@ -361,7 +361,7 @@ impl Experiment {
             .is_some_and(|a| a.is_empty() || a.contains(&0))
         {
             return Err(bad(
-                "[experiment.eval] agents: counts must be at least 1".into(),
+                "[experiment.eval] agents: counts must be at least 1".into()
             ));
         }
         let mut actions = e.actions.clone();
@@ -433,10 +433,7 @@ impl Experiment {
                         agents: 0,
                     };
                     let cfg = cell.config_in(Path::new(".")).map_err(|err| {
-                        bad(format!(
-                            "[[method]] '{}' on '{layout}': {err:#}",
-                            m.name
-                        ))
+                        bad(format!("[[method]] '{}' on '{layout}': {err:#}", m.name))
                     })?;
                     let trained = cfg.agents;
                     let counts = eval.agents.clone().unwrap_or_else(|| vec![trained]);
@@ -502,7 +499,10 @@ impl Experiment {
     pub fn controller(&self, cell: &EvalCell, out: &Path) -> String {
         match &cell.evaluated {
             Evaluated::Policy { train, .. } => {
-                format!("checkpoint:{}", out.join(&self.train[*train].run_dir).display())
+                format!(
+                    "checkpoint:{}",
+                    out.join(&self.train[*train].run_dir).display()
+                )
             }
             Evaluated::Planner => cell.method.clone(),
         }
@@ -614,9 +614,8 @@ pub fn shell_join(args: &[String]) -> String {
     args.iter()
         .map(|a| {
             let plain = !a.is_empty()
-                && a.chars().all(|c| {
-                    c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c)
-                });
+                && a.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c));
             if plain {
                 a.clone()
             } else {
@@ -671,10 +670,15 @@ mod tests {
         assert!(cmd.contains("--set ppo.lr=5e-4"), "{cmd}");
         assert!(cmd.ends_with("--out out/runs/rm-2.1/ppo/seed-1"), "{cmd}");
         let e = x.eval_command(&x.evals[0], Path::new("out"));
-        assert!(e.contains("--controller checkpoint:out/runs/rm-1.1/ppo/seed-0"), "{e}");
+        assert!(
+            e.contains("--controller checkpoint:out/runs/rm-1.1/ppo/seed-0"),
+            "{e}"
+        );
         assert!(e.contains("--sample"), "{e}");
         let p = x.evals.iter().find(|c| c.method == "cbs").unwrap();
-        assert!(x.eval_command(p, Path::new("out")).contains("--controller cbs"));
+        assert!(x
+            .eval_command(p, Path::new("out"))
+            .contains("--controller cbs"));
     }
 
     #[test]

@@ -126,7 +126,11 @@ fn run_train(x: &Experiment, out: &Path, index: usize, bars: &Bars) -> Result<()
     let what = format!("{} {} seed {}", cell.layout, cell.method, cell.seed);
     bars.say(format!(
         "train {what}{}: {}",
-        if cfg.resume.is_some() { " (resumed)" } else { "" },
+        if cfg.resume.is_some() {
+            " (resumed)"
+        } else {
+            ""
+        },
         cell.command(out)
     ));
     let bar = bars.bar(cfg.steps, what.clone());

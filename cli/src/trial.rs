@@ -16,7 +16,9 @@ use buridan_learner::train::{
     ConfigError, InProcess, MetricsRow, Progress, Run, Summary, TrainConfig, TrainError,
 };
 use buridan_policy::{checkpoint, ActMode};
-use buridan_study::{Measurement, Objective, Overrides, Reporter, TrialError, TrialRunner, TrialSpec};
+use buridan_study::{
+    Measurement, Objective, Overrides, Reporter, TrialError, TrialRunner, TrialSpec,
+};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 
 /// Why a trial could not be trained or measured.
@@ -39,7 +41,7 @@ pub enum TrialRunError {
         /// The run directory.
         dir: PathBuf,
         /// Why.
-        source: TrainError,
+        source: Box<TrainError>,
     },
     /// The trained policy cannot be loaded for the evaluation.
     #[error("evaluating {}", dir.display())]
@@ -47,7 +49,7 @@ pub enum TrialRunError {
         /// The run directory.
         dir: PathBuf,
         /// Why.
-        source: PolicyLoadError,
+        source: Box<PolicyLoadError>,
     },
     /// The evaluation's map cannot be loaded.
     #[error(transparent)]
@@ -146,7 +148,7 @@ pub fn evaluate_policy(
 ) -> Result<EvalReport, TrialRunError> {
     let failed = |source| TrialRunError::Policy {
         dir: dir.to_path_buf(),
-        source,
+        source: Box::new(source),
     };
     // Load once here so that a bad checkpoint fails with its reason.
     PolicyController::load(dir, spec.agents, act_mode, spec.seed).map_err(failed)?;
@@ -261,9 +263,9 @@ impl LearnerRunner {
         reporter: &mut dyn Reporter,
     ) -> Result<Measurement, TrialRunError> {
         let cfg = trial_config(&self.base, spec)?;
-        let train_failed = |source| TrialRunError::Train {
+        let train_failed = |source: TrainError| TrialRunError::Train {
             dir: spec.run_dir.clone(),
-            source,
+            source: Box::new(source),
         };
         tracing::info!(
             trial = spec.id,
@@ -272,10 +274,10 @@ impl LearnerRunner {
             "trial starts"
         );
         let mut run = Run::prepare(&cfg, &spec.run_dir).map_err(train_failed)?;
-        let collectors = (0..cfg.num_actors as u32)
-            .map(|i| run.collector(i))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(train_failed)?;
+        let mut collectors = Vec::with_capacity(cfg.num_actors);
+        for i in 0..cfg.num_actors as u32 {
+            collectors.push(run.collector(i).map_err(train_failed)?);
+        }
         let mut exchange = InProcess::spawn(collectors, cfg.queue_capacity(), cfg.staleness())
             .map_err(|e| train_failed(e.into()))?;
         let interrupt = Arc::new(AtomicBool::new(false));
@@ -325,8 +327,12 @@ impl LearnerRunner {
         let s = &report.summary;
         let len = mean_len(&report);
         match act_mode {
-            ActMode::Sample => (m.eval_sampled_success, m.eval_sampled_len) = (Some(s.success_rate), len),
-            ActMode::Greedy => (m.eval_greedy_success, m.eval_greedy_len) = (Some(s.success_rate), len),
+            ActMode::Sample => {
+                (m.eval_sampled_success, m.eval_sampled_len) = (Some(s.success_rate), len)
+            }
+            ActMode::Greedy => {
+                (m.eval_greedy_success, m.eval_greedy_len) = (Some(s.success_rate), len)
+            }
         }
         Ok(m)
     }
@@ -336,7 +342,14 @@ impl LearnerRunner {
 /// tie-breaker of eval objectives.
 fn mean_len(report: &EvalReport) -> Option<f64> {
     let n = report.records.len();
-    (n > 0).then(|| report.records.iter().map(|r| f64::from(r.timesteps)).sum::<f64>() / n as f64)
+    (n > 0).then(|| {
+        report
+            .records
+            .iter()
+            .map(|r| f64::from(r.timesteps))
+            .sum::<f64>()
+            / n as f64
+    })
 }
 
 impl TrialRunner for LearnerRunner {
@@ -430,7 +443,10 @@ mod tests {
         assert_eq!(m.step, stop.reports[1].step);
         assert!(m.step < 5000);
         assert!(!dir.path().join("summary.json").exists());
-        assert!(checkpoint::resolve(dir.path()).is_ok(), "checkpoint on stop");
+        assert!(
+            checkpoint::resolve(dir.path()).is_ok(),
+            "checkpoint on stop"
+        );
         // Resumed, the trial continues from its checkpoint to the budget.
         let resumed = TrialSpec {
             resume: true,

@@ -92,8 +92,8 @@ fn a_tiny_tune_writes_its_outputs_and_resumes_without_rerunning_trials() {
     assert_eq!(csv.lines().count(), 3, "{csv}");
     assert!(csv.lines().next().unwrap().contains("ppo.lr"), "{csv}");
     // The merged best config is a complete config with the best overrides.
-    let best = buridan_learner::train::TrainConfig::from_toml_file(&out.join("best-config.toml"))
-        .unwrap();
+    let best =
+        buridan_learner::train::TrainConfig::from_toml_file(&out.join("best-config.toml")).unwrap();
     let b = state.best().unwrap();
     assert_eq!(Some(best.ppo.lr), b.overrides["ppo.lr"].as_float());
     assert_eq!((best.map.as_str(), best.ppo.epochs), ("rm-1.1", 2));
@@ -105,7 +105,12 @@ fn a_tiny_tune_writes_its_outputs_and_resumes_without_rerunning_trials() {
     let again = tune::run(&tune_args(tune_file(dir.path(), 3), out.clone(), true)).unwrap();
     assert_eq!(again.trials.len(), 3);
     for (old, new) in state.trials.iter().zip(&again.trials) {
-        assert_eq!((new.starts, new.seconds), (old.starts, old.seconds), "trial {} reran", old.id);
+        assert_eq!(
+            (new.starts, new.seconds),
+            (old.starts, old.seconds),
+            "trial {} reran",
+            old.id
+        );
     }
     assert_eq!(again.trials[2].starts, 1);
 }
@@ -123,15 +128,23 @@ fn bad_study_files_name_the_file_and_the_problem() {
     for (i, (text, needle)) in cases.into_iter().enumerate() {
         let file = dir.path().join(format!("bad-{i}.toml"));
         std::fs::write(&file, text).unwrap();
-        let e = tune::run(&tune_args(file.clone(), dir.path().join(format!("o{i}")), false))
-            .unwrap_err();
+        let e = tune::run(&tune_args(
+            file.clone(),
+            dir.path().join(format!("o{i}")),
+            false,
+        ))
+        .unwrap_err();
         let msg = format!("{e:#}");
         assert!(msg.contains(&file.display().to_string()), "{msg}");
         assert!(msg.contains(needle), "{needle}: {msg}");
     }
     // Same for experiment files.
     let file = dir.path().join("bad-experiment.toml");
-    std::fs::write(&file, "[experiment]\nname = \"x\"\nlayouts = [\"rm-1.1\"]\nseeds = 2\nplanners = [\"dijkstra\"]").unwrap();
+    std::fs::write(
+        &file,
+        "[experiment]\nname = \"x\"\nlayouts = [\"rm-1.1\"]\nseeds = 2\nplanners = [\"dijkstra\"]",
+    )
+    .unwrap();
     let e = study::run(&StudyArgs {
         command: None,
         experiment: Some(file.clone()),
@@ -141,7 +154,10 @@ fn bad_study_files_name_the_file_and_the_problem() {
     })
     .unwrap_err();
     let msg = format!("{e:#}");
-    assert!(msg.contains(&file.display().to_string()) && msg.contains("dijkstra"), "{msg}");
+    assert!(
+        msg.contains(&file.display().to_string()) && msg.contains("dijkstra"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -192,7 +208,10 @@ config = "tiny.toml"
     }
     let csv = std::fs::read_to_string(out.join("table.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
-    assert!(lines[0].contains("success %_low") && lines[0].contains("success %_high"), "{csv}");
+    assert!(
+        lines[0].contains("success %_low") && lines[0].contains("success %_high"),
+        "{csv}"
+    );
     assert!(lines[0].contains("success % (IQM)_low"), "{csv}");
     assert_eq!(lines.len(), 4, "ppo sampled, ppo greedy, cbs: {csv}");
     assert!(lines[1].starts_with("rm-1.1,ppo,sampled,2,2/2,"), "{csv}");
@@ -206,11 +225,19 @@ config = "tiny.toml"
     assert_eq!(cells.len(), 5);
     for c in cells {
         assert!(c["success_rate"].is_number(), "{c}");
-        assert!(c["eval_command"].as_str().unwrap().starts_with("learner eval --map rm-1.1"));
+        assert!(c["eval_command"]
+            .as_str()
+            .unwrap()
+            .starts_with("learner eval --map rm-1.1"));
         if c["kind"] == "policy" {
             let cmd = c["train_command"].as_str().unwrap();
-            assert!(cmd.starts_with("learner train --config") && cmd.contains("--steps 2000"), "{cmd}");
-            assert!(Path::new(c["run_dir"].as_str().unwrap()).join("summary.json").is_file());
+            assert!(
+                cmd.starts_with("learner train --config") && cmd.contains("--steps 2000"),
+                "{cmd}"
+            );
+            assert!(Path::new(c["run_dir"].as_str().unwrap())
+                .join("summary.json")
+                .is_file());
         }
     }
     let png = std::fs::read(out.join("success.png")).unwrap();

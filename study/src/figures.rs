@@ -214,13 +214,18 @@ pub fn banded_lines(
                 .chain(pts.iter().rev().map(|p| (p.0, p.2)))
                 .collect();
             chart
-                .draw_series(std::iter::once(Polygon::new(outline, color.mix(0.2).filled())))
+                .draw_series(std::iter::once(Polygon::new(
+                    outline,
+                    color.mix(0.2).filled(),
+                )))
                 .map_err(|e| err(path, e))?;
         } else {
             chart
-                .draw_series(pts.iter().map(|p| {
-                    PathElement::new(vec![(p.0, p.2), (p.0, p.3)], color.stroke_width(2))
-                }))
+                .draw_series(
+                    pts.iter().map(|p| {
+                        PathElement::new(vec![(p.0, p.2), (p.0, p.3)], color.stroke_width(2))
+                    }),
+                )
                 .map_err(|e| err(path, e))?;
         }
         chart
@@ -235,7 +240,10 @@ pub fn banded_lines(
             });
         if pts.len() <= 30 {
             chart
-                .draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, color.filled())))
+                .draw_series(
+                    pts.iter()
+                        .map(|p| Circle::new((p.0, p.1), 3, color.filled())),
+                )
                 .map_err(|e| err(path, e))?;
         }
     }
