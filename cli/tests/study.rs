@@ -258,3 +258,29 @@ config = "tiny.toml"
     assert!(report.files.iter().any(|f| f.ends_with("table.csv")));
     assert_eq!(std::fs::read_to_string(out.join("table.csv")).unwrap(), csv);
 }
+
+#[test]
+fn the_shipped_study_and_experiment_files_load() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../learner/studies");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        if name.starts_with("tune-") {
+            let (config, base) =
+                tune::load_study_file(&path).unwrap_or_else(|e| panic!("{name}: {e:#}"));
+            assert!(config.trials > 0 && base.steps > 0, "{name}");
+            seen += 1;
+        } else if name.ends_with(".toml") {
+            let x = buridan_cli::experiment::Experiment::from_file(&path)
+                .unwrap_or_else(|e| panic!("{name}: {e:#}"));
+            assert!(x.seeds.len() >= 10, "{name}: at least 10 seeds");
+            assert!(
+                x.eval.actions.len() == 2 && x.eval.episodes >= 100,
+                "{name}"
+            );
+            seen += 1;
+        }
+    }
+    assert!(seen >= 10, "{seen} files");
+}
