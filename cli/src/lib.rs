@@ -3,6 +3,11 @@
 //! Prometheus exporter. Logic lives in `buridan-learner`, `buridan-eval`
 //! and `buridan-mapf`; this crate only parses, calls and presents.
 
+pub mod aggregate;
 pub mod eval;
+pub mod experiment;
 pub mod serve;
+pub mod study;
 pub mod train;
+pub mod trial;
+pub mod tune;

@@ -23,6 +23,10 @@ enum Command {
     Serve(cli::serve::ServeArgs),
     /// Evaluate a controller (planner, random or trained policy) on seeded episodes.
     Eval(cli::eval::EvalArgs),
+    /// Search hyperparameters: a study file's trials, in parallel, resumable (or on a cluster).
+    Tune(cli::tune::TuneArgs),
+    /// Run a declarative experiment: layouts x methods x seeds, planners, evaluation, report.
+    Study(cli::study::StudyArgs),
     /// Redraw a run's learning curves (PNG) from its metrics.csv.
     Curves {
         /// A `learner train --out` directory.
@@ -58,6 +62,8 @@ fn main() -> Result<()> {
         Command::Train(args) => cli::train::run(&args).map(|_| ()),
         Command::Serve(args) => cli::serve::run(&args).map(|_| ()),
         Command::Eval(args) => cli::eval::run(&args).map(|_| ()),
+        Command::Tune(args) => cli::tune::run(&args).map(|_| ()),
+        Command::Study(args) => cli::study::run(&args).map(|_| ()),
         Command::Curves { out, title } => cli::train::write_curves(&out, &title),
         Command::Maps => {
             for m in buridan_env::REFERENCE_MODELS {

@@ -21,6 +21,7 @@
 //! - [`stats`]: mean, IQM, percentile-bootstrap intervals.
 //! - [`report`]: Markdown, CSV and JSON tables.
 //! - [`output`], [`plot`]: a study's CSV/JSON/TOML files and PNG figures.
+//! - [`figures`]: an experiment's bars with CI whiskers and lines with CI bands.
 //!
 //! ```
 //! use buridan_study::*;
@@ -61,6 +62,7 @@
 
 pub mod batch;
 pub mod config;
+pub mod figures;
 pub mod k8s;
 pub mod objective;
 pub mod output;

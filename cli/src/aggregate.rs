@@ -1,0 +1,445 @@
+//! The report of an experiment: every cell's results read back from its
+//! run and evaluation directories, aggregated over seeds (mean, IQM and 95 %
+//! percentile-bootstrap intervals), written as `table.md/csv/json`,
+//! `cells.csv/json` (one row per cell, with its directories and the
+//! equivalent `learner train` / `learner eval` commands) and figures:
+//! `success.png` (success per layout and method, CI whiskers),
+//! `learning-<layout>.png` (mean training success against env steps over
+//! seeds, CI bands) and, for agent sweeps, `scalability-<layout>.png`.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use buridan_learner::train::{MetricsRow, METRICS_FILE, SUMMARY_FILE};
+use buridan_study::figures::{banded_lines, grouped_bars, Band, Bar};
+use buridan_study::report::{Cell, Table};
+use buridan_study::stats::{Aggregate, Bootstrap};
+use serde::Serialize;
+
+use crate::experiment::{Evaluated, Experiment, PLAN_FILE};
+
+/// One cell's record in `cells.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct CellRecord {
+    /// Layout.
+    pub layout: String,
+    /// Method or planner.
+    pub method: String,
+    /// `policy` or `planner`.
+    pub kind: &'static str,
+    /// Training seed (policies).
+    pub seed: Option<u64>,
+    /// `sampled` or `greedy` (policies).
+    pub actions: Option<&'static str>,
+    /// Agents per evaluated episode.
+    pub agents: usize,
+    /// The training run directory (policies).
+    pub run_dir: Option<PathBuf>,
+    /// The evaluation directory.
+    pub eval_dir: PathBuf,
+    /// The equivalent `learner train` command (policies).
+    pub train_command: Option<String>,
+    /// The equivalent `learner eval` command.
+    pub eval_command: String,
+    /// Evaluation success rate, if evaluated.
+    pub success_rate: Option<f64>,
+    /// Median timesteps of solved episodes.
+    pub timesteps_median: Option<f64>,
+    /// Training success over the last 100 episodes (policies).
+    pub train_success: Option<f64>,
+    /// Env steps trained.
+    pub env_steps: Option<u64>,
+    /// Wall seconds of training.
+    pub train_seconds: Option<f64>,
+}
+
+fn read_json(path: &Path) -> Option<serde_json::Value> {
+    serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()
+}
+
+fn num(v: &serde_json::Value, key: &str) -> Option<f64> {
+    v.get(key)?.as_f64().filter(|x| x.is_finite())
+}
+
+/// Every evaluation cell with whatever results exist so far.
+pub fn records(x: &Experiment, out: &Path) -> Vec<CellRecord> {
+    x.evals
+        .iter()
+        .map(|cell| {
+            let eval = read_json(&out.join(&cell.dir).join("summary.json"));
+            let (kind, seed, actions, train) = match &cell.evaluated {
+                Evaluated::Policy { train, actions } => {
+                    let t = &x.train[*train];
+                    ("policy", Some(t.seed), Some(actions.name()), Some(t))
+                }
+                Evaluated::Planner => ("planner", None, None, None),
+            };
+            let summary = train.and_then(|t| read_json(&out.join(&t.run_dir).join(SUMMARY_FILE)));
+            CellRecord {
+                layout: cell.layout.clone(),
+                method: cell.method.clone(),
+                kind,
+                seed,
+                actions,
+                agents: cell.agents,
+                run_dir: train.map(|t| out.join(&t.run_dir)),
+                eval_dir: out.join(&cell.dir),
+                train_command: train.map(|t| t.command(out)),
+                eval_command: x.eval_command(cell, out),
+                success_rate: eval.as_ref().and_then(|v| num(v, "success_rate")),
+                timesteps_median: eval.as_ref().and_then(|v| num(v, "timesteps_median")),
+                train_success: summary.as_ref().and_then(|v| num(v, "success_rate")),
+                env_steps: summary.as_ref().and_then(|v| v.get("env_steps")?.as_u64()),
+                train_seconds: summary.as_ref().and_then(|v| num(v, "wall_seconds")),
+            }
+        })
+        .collect()
+}
+
+/// One row of the table: a layout, a method (with its action mode) and an
+/// agent count, over seeds.
+#[derive(Debug, Clone)]
+pub struct Row {
+    /// Layout.
+    pub layout: String,
+    /// Method or planner.
+    pub method: String,
+    /// Action mode (policies).
+    pub actions: Option<&'static str>,
+    /// Agents.
+    pub agents: usize,
+    /// Whether a planner.
+    pub planner: bool,
+    /// Cells planned.
+    pub planned: usize,
+    /// Success over runs.
+    pub success: Option<Aggregate>,
+    /// Median timesteps over runs.
+    pub timesteps: Option<Aggregate>,
+    /// Training success over runs.
+    pub train_success: Option<Aggregate>,
+}
+
+impl Row {
+    /// `ppo-ctde sampled`, or the planner's name.
+    pub fn label(&self) -> String {
+        match self.actions {
+            Some(a) => format!("{} {a}", self.method),
+            None => self.method.clone(),
+        }
+    }
+}
+
+/// Groups the records by (layout, method, actions, agents) in the
+/// experiment's order and aggregates each group over seeds.
+pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Vec<Row> {
+    let mut keys: Vec<(String, String, Option<&'static str>, usize, bool)> = Vec::new();
+    for r in records {
+        let k = (
+            r.layout.clone(),
+            r.method.clone(),
+            r.actions,
+            r.agents,
+            r.kind == "planner",
+        );
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    let order = |k: &(String, String, Option<&'static str>, usize, bool)| {
+        let l = x
+            .layouts
+            .iter()
+            .position(|l| *l == k.0)
+            .unwrap_or(usize::MAX);
+        let m = x
+            .methods
+            .iter()
+            .chain(&x.planners)
+            .position(|m| *m == k.1)
+            .unwrap_or(usize::MAX);
+        (l, k.3, m, k.2.map(|a| a != "sampled"))
+    };
+    keys.sort_by_key(order);
+    keys.into_iter()
+        .map(|(layout, method, actions, agents, planner)| {
+            let group: Vec<&CellRecord> = records
+                .iter()
+                .filter(|r| {
+                    r.layout == layout
+                        && r.method == method
+                        && r.actions == actions
+                        && r.agents == agents
+                })
+                .collect();
+            let values = |f: fn(&CellRecord) -> Option<f64>| -> Option<Aggregate> {
+                let v: Vec<f64> = group.iter().filter_map(|r| f(r)).collect();
+                bootstrap.aggregate(&v)
+            };
+            Row {
+                planned: group.len(),
+                success: values(|r| r.success_rate),
+                timesteps: values(|r| r.timesteps_median),
+                train_success: values(|r| r.train_success),
+                layout,
+                method,
+                actions,
+                agents,
+                planner,
+            }
+        })
+        .collect()
+}
+
+/// The Markdown/CSV/JSON table of the rows: success (mean and IQM with 95 %
+/// bootstrap CIs, in %), median timesteps, training success.
+pub fn table(rows: &[Row]) -> Table {
+    let mut t = Table::new([
+        "layout",
+        "method",
+        "actions",
+        "agents",
+        "runs",
+        "success %",
+        "success % (IQM)",
+        "median timesteps",
+        "training success %",
+    ]);
+    for r in rows {
+        let est = |a: &Option<Aggregate>, scale: f64, iqm: bool| match a {
+            None => Cell::Empty,
+            Some(a) if r.planner => Cell::Number {
+                value: if iqm { a.iqm } else { a.mean } * scale,
+                decimals: 1,
+            },
+            Some(a) if iqm => Cell::iqm(a, scale, 1),
+            Some(a) => Cell::mean(a, scale, 1),
+        };
+        let runs = r.success.map_or(0, |a| a.count);
+        t.push(vec![
+            Cell::text(&r.layout),
+            Cell::text(&r.method),
+            Cell::text(r.actions.unwrap_or("plan")),
+            Cell::Number {
+                value: r.agents as f64,
+                decimals: 0,
+            },
+            Cell::text(format!("{runs}/{}", r.planned)),
+            est(&r.success, 100.0, false),
+            est(&r.success, 100.0, true),
+            est(&r.timesteps, 1.0, false),
+            est(&r.train_success, 100.0, false),
+        ])
+        .expect("one cell per column");
+    }
+    t
+}
+
+/// Training success (%) of one run's `metrics.csv` as a step function of env steps.
+fn success_curve(run_dir: &Path) -> Vec<(u64, f64)> {
+    let Ok(mut reader) = csv::Reader::from_path(run_dir.join(METRICS_FILE)) else {
+        return Vec::new();
+    };
+    reader
+        .deserialize::<MetricsRow>()
+        .filter_map(|r| r.ok())
+        .filter(|r| r.episodes > 0 && r.success_rate.is_finite())
+        .map(|r| (r.env_steps, 100.0 * r.success_rate))
+        .collect()
+}
+
+/// Mean curve with a bootstrap band over runs, on `points` evenly spaced
+/// env-step counts; each run contributes its latest value at or before a
+/// point (runs without one yet are left out there).
+pub fn learning_band(label: String, curves: &[Vec<(u64, f64)>], points: usize) -> Band {
+    let last = curves
+        .iter()
+        .filter_map(|c| c.last().map(|p| p.0))
+        .max()
+        .unwrap_or(0);
+    let bootstrap = Bootstrap {
+        resamples: 500,
+        ..Bootstrap::default()
+    };
+    let mut out = Vec::new();
+    for i in 1..=points.max(1) {
+        let x = last as f64 * i as f64 / points.max(1) as f64;
+        let values: Vec<f64> = curves
+            .iter()
+            .filter_map(|c| c.iter().take_while(|p| p.0 as f64 <= x).last().map(|p| p.1))
+            .collect();
+        if let Some(a) = bootstrap.aggregate(&values) {
+            out.push((x, a.mean, a.mean_ci.low, a.mean_ci.high));
+        }
+    }
+    Band { label, points: out }
+}
+
+/// Writes every report file of the experiment in `out`; returns the files.
+pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
+    let bootstrap = Bootstrap::default();
+    let records = records(x, out);
+    let rows = rows(x, &records, &bootstrap);
+    let mut files = Vec::new();
+    let t = table(&rows);
+    t.write_all(out, "table")?;
+    files.extend(["table.md", "table.csv", "table.json"].map(|f| out.join(f)));
+    let md = format!(
+        "# {}\n\nSuccess over seeds: mean and interquartile mean with 95 % percentile-bootstrap intervals (2,000 resamples) over independent training runs; evaluation on {} episodes, seed {}. Planners are deterministic: one evaluation each. `runs` = cells with results / cells planned.\n\n{}",
+        x.name,
+        x.eval.episodes,
+        x.eval.seed,
+        t.to_markdown()
+    );
+    std::fs::write(out.join("table.md"), md)?;
+    let json = serde_json::to_string_pretty(&records)?;
+    std::fs::write(out.join("cells.json"), json)?;
+    let mut w = csv::Writer::from_path(out.join("cells.csv"))?;
+    for r in &records {
+        w.serialize(r)?;
+    }
+    w.flush()?;
+    files.extend(["cells.json", "cells.csv"].map(|f| out.join(f)));
+
+    // Success per layout and method at each method's smallest agent count.
+    let labels: Vec<String> = {
+        let mut v: Vec<String> = Vec::new();
+        for r in &rows {
+            if !v.contains(&r.label()) {
+                v.push(r.label());
+            }
+        }
+        v
+    };
+    let mut bars = Vec::new();
+    for (g, layout) in x.layouts.iter().enumerate() {
+        for (s, label) in labels.iter().enumerate() {
+            let first = rows
+                .iter()
+                .filter(|r| r.layout == *layout && r.label() == *label)
+                .min_by_key(|r| r.agents);
+            if let Some(a) = first.and_then(|r| r.success) {
+                bars.push(Bar {
+                    group: g,
+                    series: s,
+                    value: 100.0 * a.mean,
+                    ci: (a.count > 1).then_some(buridan_study::stats::Interval {
+                        low: 100.0 * a.mean_ci.low,
+                        high: 100.0 * a.mean_ci.high,
+                    }),
+                });
+            }
+        }
+    }
+    let path = out.join("success.png");
+    grouped_bars(
+        &path,
+        &format!("{}: evaluation success (mean, 95 % CI over seeds)", x.name),
+        "success (%)",
+        &x.layouts,
+        &labels,
+        &bars,
+    )?;
+    files.push(path);
+
+    for layout in &x.layouts {
+        let bands: Vec<Band> = x
+            .methods
+            .iter()
+            .filter_map(|m| {
+                let curves: Vec<_> = x
+                    .train
+                    .iter()
+                    .filter(|t| t.layout == *layout && t.method == *m)
+                    .map(|t| success_curve(&out.join(&t.run_dir)))
+                    .filter(|c| !c.is_empty())
+                    .collect();
+                (!curves.is_empty())
+                    .then(|| learning_band(format!("{m} ({} runs)", curves.len()), &curves, 40))
+            })
+            .collect();
+        if !bands.is_empty() {
+            let path = out.join(format!(
+                "learning-{}.png",
+                crate::experiment::layout_dir(layout)
+            ));
+            banded_lines(
+                &path,
+                &format!(
+                    "{layout}: training success, last 100 episodes (mean, 95 % CI over seeds)"
+                ),
+                "env steps",
+                "success (%)",
+                &bands,
+            )?;
+            files.push(path);
+        }
+        let sweep: Vec<Band> = labels
+            .iter()
+            .map(|label| Band {
+                label: label.clone(),
+                points: rows
+                    .iter()
+                    .filter(|r| r.layout == *layout && r.label() == *label)
+                    .filter_map(|r| {
+                        let a = r.success?;
+                        Some((
+                            r.agents as f64,
+                            100.0 * a.mean,
+                            100.0 * a.mean_ci.low,
+                            100.0 * a.mean_ci.high,
+                        ))
+                    })
+                    .collect(),
+            })
+            .filter(|b| !b.points.is_empty())
+            .collect();
+        if sweep.iter().any(|b| b.points.len() > 1) {
+            let path = out.join(format!(
+                "scalability-{}.png",
+                crate::experiment::layout_dir(layout)
+            ));
+            banded_lines(
+                &path,
+                &format!("{layout}: success against agents (mean, 95 % CI over seeds)"),
+                "agents",
+                "success (%)",
+                &sweep,
+            )?;
+            files.push(path);
+        }
+    }
+    Ok(files)
+}
+
+/// Reads an experiment directory's plan (written by `learner study`).
+pub fn read_plan(dir: &Path) -> Result<Experiment> {
+    let path = dir.join(PLAN_FILE);
+    let text = std::fs::read_to_string(&path).with_context(|| {
+        format!(
+            "{} is not an experiment directory (no {PLAN_FILE})",
+            dir.display()
+        )
+    })?;
+    serde_json::from_str(&text).with_context(|| format!("{} is not a plan", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn learning_band_takes_each_runs_latest_value() {
+        let curves = vec![
+            vec![(100, 0.0), (200, 50.0)],
+            vec![(100, 20.0), (200, 70.0)],
+        ];
+        let band = learning_band("m".into(), &curves, 2);
+        assert_eq!(band.points.len(), 2);
+        let (x, y, lo, hi) = band.points[1];
+        assert_eq!((x, y), (200.0, 60.0));
+        assert!(lo >= 50.0 && hi <= 70.0 && lo < hi);
+        // At x = 100 both runs have their first value.
+        assert_eq!(band.points[0].1, 10.0);
+    }
+}

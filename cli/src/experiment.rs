@@ -1,0 +1,705 @@
+//! `learner study`: a declarative experiment — layouts × methods (training
+//! configurations) × seeds, plus classical planners on the same seeded
+//! episodes; every trained policy evaluated with sampled and greedy
+//! actions, optionally over a sweep of agent counts. Each cell is a normal
+//! `learner train --out` run directory and a normal `learner eval --out`
+//! directory; finished runs and evaluations are skipped on the next
+//! invocation. [`crate::report`] aggregates the cells over seeds.
+//!
+//! ```toml
+//! [experiment]
+//! name = "comparison"
+//! layouts = ["rm-2.1", "rm-2.2"]
+//! seeds = 10                        # seeds 0..10, or a list [0, 1, 5]
+//! steps = 2_000_000                 # per run (default: each config's steps)
+//! planners = ["cbs", "ma-astar"]    # any name `learner eval --controller` knows
+//! parallel = 1                      # cells at once
+//!
+//! [experiment.eval]
+//! episodes = 100                    # 1000 for generalization
+//! seed = 42
+//! actions = ["sampled", "greedy"]
+//! agents = "4..20"                  # default: the agents each policy trained with
+//! time_limit = 60.0                 # planners, seconds per instance
+//!
+//! [[method]]
+//! name = "ppo-ctde"
+//! config = "../configs/ppo-ctde-rm-2.1.toml"        # relative to this file (or the working dir)
+//! configs = { "rm-2.2" = "../configs/ppo-ctde-rm-2.2.toml" }  # per-layout configs
+//! set = ["ppo.lr=5e-4"]             # `learner train --set` overrides
+//! ```
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+use buridan_env::Starts;
+use buridan_learner::train::TrainConfig;
+use serde::{Deserialize, Serialize};
+
+use crate::train::{resolve_config, TrainArgs};
+use crate::trial::chain;
+
+/// The resolved plan inside an experiment directory (what `report` reads).
+pub const PLAN_FILE: &str = "plan.json";
+
+/// An experiment file that cannot be used: the file and the problem.
+///
+/// ```
+/// let e = buridan_cli::experiment::Experiment::from_str("[experiment]\nname = 1", "x.toml".as_ref()).unwrap_err();
+/// assert!(e.to_string().starts_with("x.toml: "), "{e}");
+/// ```
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {problem}", file.display())]
+pub struct ExperimentError {
+    /// The experiment file.
+    pub file: PathBuf,
+    /// What is wrong with it.
+    pub problem: String,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileToml {
+    experiment: ExperimentToml,
+    #[serde(default)]
+    method: Vec<MethodToml>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum SeedsToml {
+    Count(u64),
+    List(Vec<u64>),
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum AgentsToml {
+    One(usize),
+    List(Vec<usize>),
+    Text(String),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ExperimentToml {
+    name: String,
+    layouts: Vec<String>,
+    seeds: SeedsToml,
+    steps: Option<u64>,
+    #[serde(default)]
+    planners: Vec<String>,
+    #[serde(default = "one")]
+    parallel: usize,
+    #[serde(default)]
+    eval: EvalToml,
+}
+
+fn one() -> usize {
+    1
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct EvalToml {
+    episodes: usize,
+    seed: u64,
+    actions: Vec<Actions>,
+    agents: Option<AgentsToml>,
+    starts: Starts,
+    t_max: u32,
+    time_limit: f64,
+    memory_limit: usize,
+}
+
+impl Default for EvalToml {
+    fn default() -> Self {
+        EvalToml {
+            episodes: 100,
+            seed: 42,
+            actions: vec![Actions::Sampled, Actions::Greedy],
+            agents: None,
+            starts: Starts::Random,
+            t_max: 100,
+            time_limit: 60.0,
+            memory_limit: 2048,
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MethodToml {
+    name: String,
+    config: Option<String>,
+    #[serde(default)]
+    configs: BTreeMap<String, String>,
+    #[serde(default)]
+    set: Vec<String>,
+}
+
+/// How a policy picks its actions in the evaluation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Actions {
+    /// Sampled from the policy (as in training).
+    Sampled,
+    /// The most probable action.
+    Greedy,
+}
+
+impl Actions {
+    /// `sampled` or `greedy`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Actions::Sampled => "sampled",
+            Actions::Greedy => "greedy",
+        }
+    }
+}
+
+/// The evaluation protocol of an experiment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EvalProtocol {
+    /// Episodes per evaluation.
+    pub episodes: usize,
+    /// Seed of the episode generator.
+    pub seed: u64,
+    /// Action modes of the policies.
+    pub actions: Vec<Actions>,
+    /// Agent counts (`None`: each policy's training count).
+    pub agents: Option<Vec<usize>>,
+    /// Random or fixed starts.
+    pub starts: Starts,
+    /// Truncation step count.
+    pub t_max: u32,
+    /// Planner time limit per instance, seconds.
+    pub time_limit: f64,
+    /// Planner memory cap, MiB.
+    pub memory_limit: usize,
+}
+
+/// One training cell: a layout, a method and a seed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainCell {
+    /// Layout (reference model id or map path).
+    pub layout: String,
+    /// Method name.
+    pub method: String,
+    /// Seed.
+    pub seed: u64,
+    /// Run directory, relative to the experiment directory.
+    pub run_dir: PathBuf,
+    /// The configuration file.
+    pub config: PathBuf,
+    /// Step budget (`None`: the config's).
+    pub steps: Option<u64>,
+    /// `--set` overrides.
+    pub set: Vec<String>,
+    /// Agents it trains with.
+    pub agents: usize,
+}
+
+/// What an evaluation cell evaluates.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Evaluated {
+    /// The policy of training cell `train` (index into the plan's train cells).
+    Policy {
+        /// The training cell.
+        train: usize,
+        /// Sampled or greedy.
+        actions: Actions,
+    },
+    /// A planner (deterministic: one evaluation, no seeds).
+    Planner,
+}
+
+/// One evaluation cell.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EvalCell {
+    /// Layout evaluated on.
+    pub layout: String,
+    /// Method or planner name.
+    pub method: String,
+    /// What is evaluated.
+    pub evaluated: Evaluated,
+    /// Agents per episode.
+    pub agents: usize,
+    /// The evaluation directory, relative to the experiment directory.
+    pub dir: PathBuf,
+}
+
+/// A resolved experiment: every cell, in order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Experiment {
+    /// Name.
+    pub name: String,
+    /// Layouts, in file order.
+    pub layouts: Vec<String>,
+    /// Methods, in file order.
+    pub methods: Vec<String>,
+    /// Planners, in file order.
+    pub planners: Vec<String>,
+    /// Seeds.
+    pub seeds: Vec<u64>,
+    /// Cells at once.
+    pub parallel: usize,
+    /// The evaluation protocol.
+    pub eval: EvalProtocol,
+    /// Training cells.
+    pub train: Vec<TrainCell>,
+    /// Evaluation cells.
+    pub evals: Vec<EvalCell>,
+}
+
+fn safe_name(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '.' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// A layout's directory (and file) name: its id, or a map path's file stem.
+///
+/// ```
+/// use buridan_cli::experiment::layout_dir;
+/// assert_eq!(layout_dir("rm-2.1"), "rm-2.1");
+/// assert_eq!(layout_dir("maps/my warehouse.map"), "my_warehouse");
+/// ```
+pub fn layout_dir(layout: &str) -> String {
+    let path = Path::new(layout);
+    let stem = if layout.ends_with(".map") || path.components().count() > 1 {
+        path.file_stem().and_then(|s| s.to_str()).unwrap_or(layout)
+    } else {
+        layout
+    };
+    safe_name(stem)
+}
+
+impl Experiment {
+    /// Reads and resolves an experiment file.
+    pub fn from_file(path: &Path) -> Result<Experiment, ExperimentError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ExperimentError {
+            file: path.to_path_buf(),
+            problem: format!("cannot read: {e}"),
+        })?;
+        Experiment::from_str(&text, path)
+    }
+
+    /// Parses and resolves an experiment file's text; `file` names it in
+    /// errors and anchors its relative paths.
+    #[allow(clippy::should_implement_trait)]
+    pub fn from_str(text: &str, file: &Path) -> Result<Experiment, ExperimentError> {
+        let bad = |problem: String| ExperimentError {
+            file: file.to_path_buf(),
+            problem,
+        };
+        let parsed: FileToml = toml::from_str(text).map_err(|e| {
+            bad(e
+                .to_string()
+                .lines()
+                .filter(|l| !l.trim().is_empty())
+                .collect::<Vec<_>>()
+                .join(" "))
+        })?;
+        let x = parsed.experiment;
+        if x.name.trim().is_empty() {
+            return Err(bad("[experiment] name is empty".into()));
+        }
+        if x.layouts.is_empty() {
+            return Err(bad("[experiment] layouts: name at least one layout".into()));
+        }
+        let seeds: Vec<u64> = match x.seeds {
+            SeedsToml::Count(n) => (0..n).collect(),
+            SeedsToml::List(v) => v,
+        };
+        if seeds.is_empty() && !parsed.method.is_empty() {
+            return Err(bad("[experiment] seeds: at least one seed".into()));
+        }
+        if parsed.method.is_empty() && x.planners.is_empty() {
+            return Err(bad(
+                "nothing to run: add a [[method]] table or [experiment] planners".into(),
+            ));
+        }
+        if x.parallel == 0 {
+            return Err(bad("[experiment] parallel must be at least 1".into()));
+        }
+        if x.steps == Some(0) {
+            return Err(bad("[experiment] steps must be at least 1".into()));
+        }
+        let e = x.eval;
+        if e.episodes == 0 {
+            return Err(bad("[experiment.eval] episodes must be at least 1".into()));
+        }
+        if e.actions.is_empty() && !parsed.method.is_empty() {
+            return Err(bad(
+                "[experiment.eval] actions: name sampled, greedy or both".into(),
+            ));
+        }
+        if !(e.time_limit > 0.0 && e.time_limit.is_finite()) {
+            return Err(bad(
+                "[experiment.eval] time_limit must be a positive number of seconds".into(),
+            ));
+        }
+        let agents = match e.agents {
+            None => None,
+            Some(AgentsToml::One(n)) => Some(vec![n]),
+            Some(AgentsToml::List(v)) => Some(v),
+            Some(AgentsToml::Text(t)) => Some(
+                crate::eval::parse_agent_counts(&t)
+                    .map_err(|err| bad(format!("[experiment.eval] agents: {err}")))?,
+            ),
+        };
+        if agents
+            .as_ref()
+            .is_some_and(|a| a.is_empty() || a.contains(&0))
+        {
+            return Err(bad(
+                "[experiment.eval] agents: counts must be at least 1".into()
+            ));
+        }
+        let mut actions = e.actions.clone();
+        actions.dedup();
+        let eval = EvalProtocol {
+            episodes: e.episodes,
+            seed: e.seed,
+            actions,
+            agents,
+            starts: e.starts,
+            t_max: e.t_max,
+            time_limit: e.time_limit,
+            memory_limit: e.memory_limit,
+        };
+        for layout in &x.layouts {
+            buridan_env::Map::load(layout)
+                .map_err(|err| bad(format!("layout '{layout}': {}", chain(&err))))?;
+        }
+        for p in &x.planners {
+            if buridan_mapf::planner_by_name(p).is_none() && p != "random" {
+                return Err(bad(format!(
+                    "planner '{p}' is unknown: expected ma-astar, cbs or random"
+                )));
+            }
+        }
+        let mut names = BTreeSet::new();
+        for m in &parsed.method {
+            if m.name.is_empty() || safe_name(&m.name) != m.name {
+                return Err(bad(format!(
+                    "[[method]] name '{}': use letters, digits, '-', '_' or '.'",
+                    m.name
+                )));
+            }
+            if !names.insert(m.name.clone()) || x.planners.contains(&m.name) {
+                return Err(bad(format!("[[method]] name '{}' is used twice", m.name)));
+            }
+            if let Some(l) = m.configs.keys().find(|l| !x.layouts.contains(l)) {
+                return Err(bad(format!(
+                    "[[method]] '{}': configs names layout '{l}', which is not in layouts",
+                    m.name
+                )));
+            }
+        }
+        let mut train = Vec::new();
+        let mut evals = Vec::new();
+        for layout in &x.layouts {
+            let ldir = PathBuf::from(layout_dir(layout));
+            let mut planner_agents = BTreeSet::new();
+            for m in &parsed.method {
+                let Some(config) = m.configs.get(layout).or(m.config.as_ref()) else {
+                    return Err(bad(format!(
+                        "[[method]] '{}': no config for layout '{layout}' (set config or configs)",
+                        m.name
+                    )));
+                };
+                let config = crate::tune::resolve_relative(file, config);
+                for &seed in &seeds {
+                    let cell = TrainCell {
+                        layout: layout.clone(),
+                        method: m.name.clone(),
+                        seed,
+                        run_dir: PathBuf::from("runs")
+                            .join(&ldir)
+                            .join(&m.name)
+                            .join(format!("seed-{seed}")),
+                        config: config.clone(),
+                        steps: x.steps,
+                        set: m.set.clone(),
+                        agents: 0,
+                    };
+                    let cfg = cell.config_in(Path::new(".")).map_err(|err| {
+                        bad(format!("[[method]] '{}' on '{layout}': {err:#}", m.name))
+                    })?;
+                    let trained = cfg.agents;
+                    let counts = eval.agents.clone().unwrap_or_else(|| vec![trained]);
+                    planner_agents.extend(counts.iter().copied());
+                    let index = train.len();
+                    train.push(TrainCell {
+                        agents: trained,
+                        ..cell
+                    });
+                    for &actions in &eval.actions {
+                        for &agents in &counts {
+                            evals.push(EvalCell {
+                                layout: layout.clone(),
+                                method: m.name.clone(),
+                                evaluated: Evaluated::Policy {
+                                    train: index,
+                                    actions,
+                                },
+                                agents,
+                                dir: PathBuf::from("evals")
+                                    .join(&ldir)
+                                    .join(&m.name)
+                                    .join(format!("seed-{seed}"))
+                                    .join(actions.name())
+                                    .join(format!("agents-{agents}")),
+                            });
+                        }
+                    }
+                }
+            }
+            if planner_agents.is_empty() {
+                planner_agents.extend(eval.agents.clone().unwrap_or_else(|| vec![4]));
+            }
+            for p in &x.planners {
+                for &agents in &planner_agents {
+                    evals.push(EvalCell {
+                        layout: layout.clone(),
+                        method: p.clone(),
+                        evaluated: Evaluated::Planner,
+                        agents,
+                        dir: PathBuf::from("evals")
+                            .join(&ldir)
+                            .join(safe_name(p))
+                            .join(format!("agents-{agents}")),
+                    });
+                }
+            }
+        }
+        Ok(Experiment {
+            name: x.name,
+            layouts: x.layouts,
+            methods: parsed.method.into_iter().map(|m| m.name).collect(),
+            planners: x.planners,
+            seeds,
+            parallel: x.parallel,
+            eval,
+            train,
+            evals,
+        })
+    }
+
+    /// The `learner eval --controller` value of an evaluation cell.
+    pub fn controller(&self, cell: &EvalCell, out: &Path) -> String {
+        match &cell.evaluated {
+            Evaluated::Policy { train, .. } => {
+                format!(
+                    "checkpoint:{}",
+                    out.join(&self.train[*train].run_dir).display()
+                )
+            }
+            Evaluated::Planner => cell.method.clone(),
+        }
+    }
+
+    /// The equivalent `learner eval` command line of an evaluation cell.
+    pub fn eval_command(&self, cell: &EvalCell, out: &Path) -> String {
+        let e = &self.eval;
+        let mut args = vec![
+            "learner".to_string(),
+            "eval".into(),
+            "--map".into(),
+            cell.layout.clone(),
+            "--agents".into(),
+            cell.agents.to_string(),
+            "--episodes".into(),
+            e.episodes.to_string(),
+            "--seed".into(),
+            e.seed.to_string(),
+            "--starts".into(),
+            match e.starts {
+                Starts::Random => "random".into(),
+                Starts::Fixed => "fixed".into(),
+            },
+            "--t-max".into(),
+            e.t_max.to_string(),
+            "--controller".into(),
+            self.controller(cell, out),
+        ];
+        match &cell.evaluated {
+            Evaluated::Policy { actions, .. } => {
+                if *actions == Actions::Sampled {
+                    args.push("--sample".into());
+                }
+            }
+            Evaluated::Planner => args.extend([
+                "--time-limit".into(),
+                e.time_limit.to_string(),
+                "--memory-limit".into(),
+                e.memory_limit.to_string(),
+            ]),
+        }
+        args.extend(["--out".into(), out.join(&cell.dir).display().to_string()]);
+        shell_join(&args)
+    }
+}
+
+impl TrainCell {
+    /// The `learner train` arguments of this cell in experiment directory `out`
+    /// (resuming from the run directory's newest checkpoint if it has one).
+    pub fn train_args(&self, out: &Path) -> TrainArgs {
+        TrainArgs {
+            map: Some(self.layout.clone()),
+            agents: None,
+            algo: None,
+            mode: None,
+            starts: None,
+            config: Some(self.config.clone()),
+            steps: self.steps,
+            seed: Some(self.seed),
+            resume: Some(PathBuf::from("auto")),
+            metrics: None,
+            overrides: self.set.clone(),
+            out: out.join(&self.run_dir),
+            quiet: true,
+        }
+    }
+
+    /// The resolved configuration, exactly as `learner train` resolves it.
+    pub fn config_in(&self, out: &Path) -> anyhow::Result<TrainConfig> {
+        resolve_config(&self.train_args(out))
+    }
+
+    /// The equivalent `learner train` command line.
+    pub fn command(&self, out: &Path) -> String {
+        let a = self.train_args(out);
+        let mut args = vec![
+            "learner".to_string(),
+            "train".into(),
+            "--config".into(),
+            self.config.display().to_string(),
+            "--map".into(),
+            self.layout.clone(),
+            "--seed".into(),
+            self.seed.to_string(),
+        ];
+        if let Some(s) = self.steps {
+            args.extend(["--steps".into(), s.to_string()]);
+        }
+        for s in &self.set {
+            args.extend(["--set".into(), s.clone()]);
+        }
+        args.extend([
+            "--resume".into(),
+            "auto".into(),
+            "--out".into(),
+            a.out.display().to_string(),
+        ]);
+        shell_join(&args)
+    }
+}
+
+/// Joins arguments into a shell command line, quoting where needed.
+///
+/// ```
+/// assert_eq!(buridan_cli::experiment::shell_join(&["a".into(), "b c".into(), "x=[1, 2]".into()]), "a 'b c' 'x=[1, 2]'");
+/// ```
+pub fn shell_join(args: &[String]) -> String {
+    args.iter()
+        .map(|a| {
+            let plain = !a.is_empty()
+                && a.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c));
+            if plain {
+                a.clone()
+            } else {
+                format!("'{}'", a.replace('\'', r"'\''"))
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write_config(dir: &Path) -> PathBuf {
+        let p = dir.join("tiny.toml");
+        std::fs::write(
+            &p,
+            "map = \"rm-1.1\"\nagents = 2\nsteps = 3000\n[ppo]\ntrain_batch = 1000\n",
+        )
+        .unwrap();
+        p
+    }
+
+    #[test]
+    fn cells_cover_layouts_methods_seeds_actions_and_agents() {
+        let dir = tempfile::tempdir().unwrap();
+        write_config(dir.path());
+        let file = dir.path().join("exp.toml");
+        let x = Experiment::from_str(
+            r#"
+            [experiment]
+            name = "t"
+            layouts = ["rm-1.1", "rm-2.1"]
+            seeds = 3
+            planners = ["cbs"]
+            [experiment.eval]
+            agents = "2..4"
+            [[method]]
+            name = "ppo"
+            config = "tiny.toml"
+            set = ["ppo.lr=5e-4"]
+            "#,
+            &file,
+        )
+        .unwrap();
+        assert_eq!(x.train.len(), 2 * 3);
+        // 2 layouts × 3 seeds × 2 action modes × 3 agent counts, + 2 × cbs × 3.
+        assert_eq!(x.evals.len(), 36 + 6);
+        let cmd = x.train[4].command(Path::new("out"));
+        assert!(cmd.contains("--map rm-2.1 --seed 1"), "{cmd}");
+        assert!(cmd.contains("--set ppo.lr=5e-4"), "{cmd}");
+        assert!(cmd.ends_with("--out out/runs/rm-2.1/ppo/seed-1"), "{cmd}");
+        let e = x.eval_command(&x.evals[0], Path::new("out"));
+        assert!(
+            e.contains("--controller checkpoint:out/runs/rm-1.1/ppo/seed-0"),
+            "{e}"
+        );
+        assert!(e.contains("--sample"), "{e}");
+        let p = x.evals.iter().find(|c| c.method == "cbs").unwrap();
+        assert!(x
+            .eval_command(p, Path::new("out"))
+            .contains("--controller cbs"));
+    }
+
+    #[test]
+    fn errors_name_the_file_and_the_problem() {
+        let dir = tempfile::tempdir().unwrap();
+        write_config(dir.path());
+        let file = dir.path().join("bad.toml");
+        let cases = [
+            ("[experiment]\nname = \"x\"\nlayouts = [\"rm-1.1\"]\nseeds = 2\nplanners = [\"dijkstra\"]", "planner 'dijkstra'"),
+            ("[experiment]\nname = \"x\"\nlayouts = [\"rm-9.9\"]\nseeds = 2\nplanners = [\"cbs\"]", "layout 'rm-9.9'"),
+            ("[experiment]\nname = \"x\"\nlayouts = [\"rm-1.1\"]\nseeds = 2\nsteps = 10\nplaners = [\"cbs\"]", "planers"),
+            ("[experiment]\nname = \"x\"\nlayouts = [\"rm-1.1\"]\nseeds = 2", "nothing to run"),
+            ("[experiment]\nname = \"x\"\nlayouts = [\"rm-1.1\"]\nseeds = 2\n[[method]]\nname = \"m\"\nconfig = \"missing.toml\"", "missing.toml"),
+            ("[experiment]\nname = \"x\"\nlayouts = [\"rm-1.1\"]\nseeds = 2\n[[method]]\nname = \"m\"\nconfig = \"tiny.toml\"\nset = [\"ppo.nope=1\"]", "'m' on 'rm-1.1'"),
+            ("[experiment]\nname = \"x\"\nlayouts = [\"rm-1.1\"]\nseeds = 2\n[experiment.eval]\nagents = \"5..2\"\n[[method]]\nname = \"m\"\nconfig = \"tiny.toml\"", "agents"),
+            ("[experiment\nname = \"x\"", "line"),
+        ];
+        for (text, needle) in cases {
+            let e = Experiment::from_str(text, &file).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("{}: ", file.display())), "{e}");
+            assert!(e.contains(needle), "{needle}: {e}");
+        }
+    }
+}

@@ -1,0 +1,473 @@
+//! The learner's side of a study: [`LearnerRunner`] trains one trial in
+//! process (a normal run directory), forwards its progress to the study's
+//! scheduler, stops it on the scheduler's word (with a checkpoint), and
+//! measures the declared objective — training success, or the seed-42
+//! evaluation of the final policy with sampled or greedy actions.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use buridan_env::{EnvError, Map, MapError};
+use buridan_eval::output::{write_report, OutputError};
+use buridan_eval::policy::{PolicyController, PolicyLoadError};
+use buridan_eval::{evaluate, Controller, EvalReport, EvalSpec};
+use buridan_learner::train::{
+    ConfigError, InProcess, MetricsRow, Progress, Run, Summary, TrainConfig, TrainError,
+};
+use buridan_policy::{checkpoint, ActMode};
+use buridan_study::{
+    Measurement, Objective, Overrides, Reporter, TrialError, TrialRunner, TrialSpec,
+};
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+
+/// Why a trial could not be trained or measured.
+#[derive(Debug, thiserror::Error)]
+pub enum TrialRunError {
+    /// The base configuration and the overrides do not form a configuration.
+    #[error("the overrides {overrides} do not fit the configuration")]
+    Overrides {
+        /// The overrides, as `--set` flags.
+        overrides: String,
+        /// What the configuration parser says.
+        source: toml::de::Error,
+    },
+    /// The configuration is out of range.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// Training failed.
+    #[error("training in {}", dir.display())]
+    Train {
+        /// The run directory.
+        dir: PathBuf,
+        /// Why.
+        source: Box<TrainError>,
+    },
+    /// The trained policy cannot be loaded for the evaluation.
+    #[error("evaluating {}", dir.display())]
+    Policy {
+        /// The run directory.
+        dir: PathBuf,
+        /// Why.
+        source: Box<PolicyLoadError>,
+    },
+    /// The evaluation's map cannot be loaded.
+    #[error(transparent)]
+    Map(#[from] MapError),
+    /// The evaluation's envs cannot be built.
+    #[error("evaluation envs")]
+    Env(#[from] EnvError),
+    /// The evaluation's files cannot be written.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+/// The message of `e` and all its causes, `a: b: c`.
+pub fn chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        text.push_str(": ");
+        text.push_str(&s.to_string());
+        source = s.source();
+    }
+    text
+}
+
+/// `base` with `overrides` (dotted keys) applied, as `learner train --set` would.
+///
+/// ```
+/// use buridan_cli::trial::apply_overrides;
+/// let mut o = buridan_study::Overrides::new();
+/// o.insert("ppo.lr".into(), toml::Value::Float(5e-4));
+/// o.insert("hidden".into(), toml::Value::Array(vec![32.into(), 32.into()]));
+/// let cfg = apply_overrides(&Default::default(), &o).unwrap();
+/// assert_eq!((cfg.ppo.lr, cfg.hidden.clone()), (5e-4, vec![32, 32]));
+/// o.insert("ppo.no_such_key".into(), 1.into());
+/// assert!(apply_overrides(&Default::default(), &o).is_err());
+/// ```
+pub fn apply_overrides(
+    base: &TrainConfig,
+    overrides: &Overrides,
+) -> Result<TrainConfig, TrialRunError> {
+    let mut table: toml::Table =
+        toml::from_str(&base.to_toml()).expect("a configuration round-trips through TOML");
+    for (key, value) in overrides {
+        buridan_study::overrides::merge_key(&mut table, key, value.clone());
+    }
+    let cfg: TrainConfig = table
+        .try_into()
+        .map_err(|source| TrialRunError::Overrides {
+            overrides: buridan_study::overrides::describe(overrides),
+            source,
+        })?;
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+/// The configuration of trial `spec`: the base, the overrides, the trial's
+/// seed and step budget, and — when resuming — the newest checkpoint of
+/// its run directory, if it has one.
+pub fn trial_config(base: &TrainConfig, spec: &TrialSpec) -> Result<TrainConfig, TrialRunError> {
+    let mut cfg = apply_overrides(base, &spec.overrides)?;
+    cfg.seed = spec.seed;
+    cfg.steps = spec.steps;
+    cfg.resume = if spec.resume {
+        checkpoint::resolve(&spec.run_dir).ok()
+    } else {
+        None
+    };
+    Ok(cfg)
+}
+
+/// What the evaluation protocol runs on: seed-42 episodes, as in SPEC §6.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EvalProtocol {
+    /// Episodes (100 in the dissertation, 1,000 for generalization).
+    pub episodes: usize,
+    /// Seed of the episode generator (42).
+    pub seed: u64,
+}
+
+impl Default for EvalProtocol {
+    fn default() -> Self {
+        EvalProtocol {
+            episodes: 100,
+            seed: 42,
+        }
+    }
+}
+
+/// Evaluates the policy of run directory (or checkpoint) `dir` on `map`
+/// with `agents` agents, as `learner eval --controller checkpoint:DIR` does.
+pub fn evaluate_policy(
+    dir: &Path,
+    map: &Arc<Map>,
+    spec: &EvalSpec,
+    act_mode: ActMode,
+) -> Result<EvalReport, TrialRunError> {
+    let failed = |source| TrialRunError::Policy {
+        dir: dir.to_path_buf(),
+        source: Box::new(source),
+    };
+    // Load once here so that a bad checkpoint fails with its reason.
+    PolicyController::load(dir, spec.agents, act_mode, spec.seed).map_err(failed)?;
+    let make = || -> Box<dyn Controller> {
+        Box::new(
+            PolicyController::load(dir, spec.agents, act_mode, spec.seed)
+                .expect("loaded once already"),
+        )
+    };
+    Ok(evaluate(map, spec, &make, &|_| {})?)
+}
+
+/// The scheduler's view of one metrics row.
+///
+/// ```
+/// let row = buridan_learner::train::MetricsRow { env_steps: 4000, success_rate: f64::NAN, ..Default::default() };
+/// let m = buridan_cli::trial::measurement(&row);
+/// assert_eq!((m.step, m.train_success), (4000, None));
+/// ```
+pub fn measurement(row: &MetricsRow) -> Measurement {
+    let finite = |x: f64| x.is_finite().then_some(x);
+    Measurement {
+        step: row.env_steps,
+        train_success: finite(row.success_rate),
+        train_len: finite(row.episode_len_mean),
+        ..Measurement::default()
+    }
+}
+
+fn summary_measurement(s: &Summary) -> Measurement {
+    let finite = |x: f64| x.is_finite().then_some(x);
+    Measurement {
+        step: s.env_steps,
+        train_success: finite(s.success_rate),
+        train_len: finite(s.episode_len_mean),
+        ..Measurement::default()
+    }
+}
+
+/// Forwards training progress to the study and to an optional bar; stops
+/// the run when the study says so.
+struct TrialProgress<'a> {
+    reporter: &'a mut dyn Reporter,
+    interrupt: Arc<AtomicBool>,
+    last: Measurement,
+    stopped: bool,
+    bar: Option<ProgressBar>,
+}
+
+impl Progress for TrialProgress<'_> {
+    fn on_start(&mut self, _cfg: &TrainConfig, total_steps: u64, env_steps: u64) {
+        if let Some(bar) = &self.bar {
+            bar.set_length(total_steps);
+            bar.set_position(env_steps);
+        }
+    }
+
+    fn on_update(&mut self, row: &MetricsRow) {
+        self.last = measurement(row);
+        if let Some(bar) = &self.bar {
+            bar.set_position(row.env_steps);
+            bar.set_message(format!(
+                "success {:>5.1}%  len {:>5.1}  {:>6.0} steps/s",
+                100.0 * row.success_rate,
+                row.episode_len_mean,
+                row.steps_per_s
+            ));
+        }
+        if !self.stopped && !self.reporter.report(&self.last).keeps_going() {
+            self.stopped = true;
+            self.interrupt.store(true, Ordering::SeqCst);
+        }
+    }
+}
+
+/// Trains trials with the learner in this process.
+pub struct LearnerRunner {
+    /// The configuration every trial starts from.
+    pub base: TrainConfig,
+    /// The evaluation an `eval_*` objective runs.
+    pub eval: EvalProtocol,
+    /// Where to draw one bar per running trial (none: no bars).
+    pub bars: Option<MultiProgress>,
+}
+
+impl LearnerRunner {
+    /// A runner without progress bars.
+    pub fn new(base: TrainConfig) -> LearnerRunner {
+        LearnerRunner {
+            base,
+            eval: EvalProtocol::default(),
+            bars: None,
+        }
+    }
+
+    fn bar(&self, spec: &TrialSpec) -> Option<ProgressBar> {
+        let multi = self.bars.as_ref()?;
+        let bar = multi.add(ProgressBar::new(spec.steps));
+        bar.set_style(
+            ProgressStyle::with_template("{prefix} [{bar:20}] {human_pos}/{human_len} {msg}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        bar.set_prefix(format!("trial {:>3}", spec.id));
+        Some(bar)
+    }
+
+    /// Trains and measures trial `spec`; `Ok` also when the study stopped it.
+    pub fn run_trial(
+        &self,
+        spec: &TrialSpec,
+        reporter: &mut dyn Reporter,
+    ) -> Result<Measurement, TrialRunError> {
+        let cfg = trial_config(&self.base, spec)?;
+        let train_failed = |source: TrainError| TrialRunError::Train {
+            dir: spec.run_dir.clone(),
+            source: Box::new(source),
+        };
+        tracing::info!(
+            trial = spec.id,
+            overrides = %buridan_study::overrides::describe(&spec.overrides),
+            resume = ?cfg.resume,
+            "trial starts"
+        );
+        let mut run = Run::prepare(&cfg, &spec.run_dir).map_err(train_failed)?;
+        let mut collectors = Vec::with_capacity(cfg.num_actors);
+        for i in 0..cfg.num_actors as u32 {
+            collectors.push(run.collector(i).map_err(train_failed)?);
+        }
+        let mut exchange = InProcess::spawn(collectors, cfg.queue_capacity(), cfg.staleness())
+            .map_err(|e| train_failed(e.into()))?;
+        let interrupt = Arc::new(AtomicBool::new(false));
+        run.interrupt_on(interrupt.clone());
+        let bar = self.bar(spec);
+        let mut progress = TrialProgress {
+            reporter,
+            interrupt,
+            last: Measurement::default(),
+            stopped: false,
+            bar: bar.clone(),
+        };
+        let outcome = run.learn(&mut exchange, &mut progress);
+        if let (Some(bar), Some(multi)) = (&bar, &self.bars) {
+            bar.finish_and_clear();
+            multi.remove(bar);
+        }
+        let summary = match outcome {
+            Ok(summary) => summary,
+            Err(TrainError::Interrupted(_)) if progress.stopped => {
+                tracing::info!(trial = spec.id, step = progress.last.step, "trial stopped");
+                return Ok(progress.last);
+            }
+            Err(e) => return Err(train_failed(e)),
+        };
+        let mut m = summary_measurement(&summary);
+        let act_mode = match spec.objective {
+            Objective::TrainSuccess => return Ok(m),
+            Objective::EvalSampled => ActMode::Sample,
+            Objective::EvalGreedy => ActMode::Greedy,
+        };
+        let map = Arc::new(Map::load(&cfg.map)?);
+        let eval_spec = EvalSpec {
+            agents: cfg.agents,
+            episodes: self.eval.episodes,
+            seed: self.eval.seed,
+            starts: cfg.starts,
+            t_max: cfg.t_max,
+            jobs: 1,
+        };
+        let report = evaluate_policy(&spec.run_dir, &map, &eval_spec, act_mode)?;
+        let name = match act_mode {
+            ActMode::Sample => "eval-sampled",
+            ActMode::Greedy => "eval-greedy",
+        };
+        write_report(&spec.run_dir.join(name), &report, &map.grid)?;
+        let s = &report.summary;
+        let len = mean_len(&report);
+        match act_mode {
+            ActMode::Sample => {
+                (m.eval_sampled_success, m.eval_sampled_len) = (Some(s.success_rate), len)
+            }
+            ActMode::Greedy => {
+                (m.eval_greedy_success, m.eval_greedy_len) = (Some(s.success_rate), len)
+            }
+        }
+        Ok(m)
+    }
+}
+
+/// Mean length of the evaluated episodes (failures count `T_max`-long): the
+/// tie-breaker of eval objectives.
+fn mean_len(report: &EvalReport) -> Option<f64> {
+    let n = report.records.len();
+    (n > 0).then(|| {
+        report
+            .records
+            .iter()
+            .map(|r| f64::from(r.timesteps))
+            .sum::<f64>()
+            / n as f64
+    })
+}
+
+impl TrialRunner for LearnerRunner {
+    fn run(
+        &self,
+        spec: &TrialSpec,
+        reporter: &mut dyn Reporter,
+    ) -> Result<Measurement, TrialError> {
+        self.run_trial(spec, reporter)
+            .map_err(|e| TrialError::new(chain(&e)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use buridan_study::Decision;
+
+    fn tiny_base() -> TrainConfig {
+        toml::from_str(
+            r#"
+            map = "rm-1.1"
+            agents = 2
+            starts = "fixed"
+            envs_per_actor = 4
+            checkpoint_every = 1
+            [ppo]
+            train_batch = 1000
+            minibatch = 500
+            epochs = 2
+            "#,
+        )
+        .unwrap()
+    }
+
+    fn spec(dir: &Path, steps: u64, objective: Objective) -> TrialSpec {
+        TrialSpec {
+            id: 0,
+            overrides: [("ppo.lr".to_string(), toml::Value::Float(3e-4))].into(),
+            steps,
+            seed: 5,
+            run_dir: dir.to_path_buf(),
+            resume: false,
+            objective,
+        }
+    }
+
+    struct StopAfter {
+        reports: Vec<Measurement>,
+        stop_at: usize,
+    }
+
+    impl Reporter for StopAfter {
+        fn report(&mut self, m: &Measurement) -> Decision {
+            self.reports.push(m.clone());
+            if self.reports.len() >= self.stop_at {
+                Decision::Stop
+            } else {
+                Decision::Continue
+            }
+        }
+    }
+
+    #[test]
+    fn the_config_takes_overrides_seed_steps_and_resume() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = spec(dir.path(), 1234, Objective::TrainSuccess);
+        let cfg = trial_config(&tiny_base(), &s).unwrap();
+        assert_eq!((cfg.ppo.lr, cfg.seed, cfg.steps), (3e-4, 5, 1234));
+        assert_eq!(cfg.resume, None);
+        // Resuming without a checkpoint starts fresh.
+        s.resume = true;
+        assert_eq!(trial_config(&tiny_base(), &s).unwrap().resume, None);
+        s.overrides
+            .insert("ppo.epochs".into(), toml::Value::String("many".into()));
+        let e = trial_config(&tiny_base(), &s).unwrap_err();
+        assert!(chain(&e).contains("ppo.epochs=\"many\""), "{}", chain(&e));
+    }
+
+    #[test]
+    fn a_stop_decision_interrupts_the_run_with_a_checkpoint_and_resume_continues() {
+        let dir = tempfile::tempdir().unwrap();
+        let runner = LearnerRunner::new(tiny_base());
+        let s = spec(dir.path(), 5000, Objective::TrainSuccess);
+        let mut stop = StopAfter {
+            reports: vec![],
+            stop_at: 2,
+        };
+        let m = runner.run_trial(&s, &mut stop).unwrap();
+        assert_eq!(stop.reports.len(), 2, "no reports after the stop");
+        assert_eq!(m.step, stop.reports[1].step);
+        assert!(m.step < 5000);
+        assert!(!dir.path().join("summary.json").exists());
+        assert!(
+            checkpoint::resolve(dir.path()).is_ok(),
+            "checkpoint on stop"
+        );
+        // Resumed, the trial continues from its checkpoint to the budget.
+        let resumed = TrialSpec {
+            resume: true,
+            objective: Objective::EvalGreedy,
+            ..s
+        };
+        let mut go = StopAfter {
+            reports: vec![],
+            stop_at: usize::MAX,
+        };
+        let runner = LearnerRunner {
+            eval: EvalProtocol {
+                episodes: 3,
+                seed: 42,
+            },
+            ..runner
+        };
+        let m = runner.run_trial(&resumed, &mut go).unwrap();
+        assert!(m.step >= 5000);
+        assert!(go.reports.first().unwrap().step > stop.reports[1].step);
+        assert!(m.eval_greedy_success.is_some() && m.eval_greedy_len.is_some());
+        assert!(dir.path().join("eval-greedy/summary.json").is_file());
+    }
+}

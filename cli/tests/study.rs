@@ -1,0 +1,286 @@
+//! `learner tune` and `learner study` end to end, in process, on tiny budgets.
+
+use std::path::{Path, PathBuf};
+
+use buridan_cli::study::{self, StudyArgs, StudyCommand};
+use buridan_cli::tune::{self, TuneArgs};
+
+/// A PPO config on rm-1.1 small enough for a trial of a few thousand steps.
+fn tiny_config(dir: &Path) -> PathBuf {
+    let path = dir.join("tiny.toml");
+    std::fs::write(
+        &path,
+        r#"
+algo = "ppo"
+mode = "ctde"
+map = "rm-1.1"
+agents = 2
+starts = "fixed"
+envs_per_actor = 4
+checkpoint_every = 1
+[ppo]
+train_batch = 1000
+minibatch = 500
+epochs = 2
+"#,
+    )
+    .unwrap();
+    path
+}
+
+fn tune_file(dir: &Path, trials: u64) -> PathBuf {
+    let path = dir.join("tune.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"
+[study]
+name = "tiny"
+base_config = "tiny.toml"
+sampler = "random"
+trials = {trials}
+steps_per_trial = 2000
+objective = "train_success"
+[space]
+"ppo.lr" = {{ choice = [3e-4, 1e-3] }}
+"ppo.clip" = {{ uniform = [0.05, 0.3] }}
+"#
+        ),
+    )
+    .unwrap();
+    path
+}
+
+fn tune_args(file: PathBuf, out: PathBuf, resume: bool) -> TuneArgs {
+    TuneArgs {
+        command: None,
+        study: Some(file),
+        out: Some(out),
+        parallel: Some(1),
+        resume,
+        eval_episodes: 5,
+        quiet: true,
+    }
+}
+
+#[test]
+fn a_tiny_tune_writes_its_outputs_and_resumes_without_rerunning_trials() {
+    let dir = tempfile::tempdir().unwrap();
+    tiny_config(dir.path());
+    let out = dir.path().join("tune-out");
+    let state = tune::run(&tune_args(tune_file(dir.path(), 2), out.clone(), false)).unwrap();
+    assert_eq!(state.trials.len(), 2);
+    for t in &state.trials {
+        assert_eq!(t.status.name(), "completed", "{t:?}");
+        assert!(t.score.is_some() && t.last.as_ref().unwrap().step >= 2000);
+        assert!(out.join(&t.run_dir).join("summary.json").is_file());
+        assert!(out.join(&t.run_dir).join("metrics.csv").is_file());
+    }
+    for f in [
+        "trials.csv",
+        "trials.json",
+        "best.toml",
+        "best-config.toml",
+        "objective.png",
+        "params.png",
+        "study.toml",
+        "base.toml",
+    ] {
+        assert!(out.join(f).is_file(), "missing {f}");
+    }
+    let csv = std::fs::read_to_string(out.join("trials.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+    assert!(csv.lines().next().unwrap().contains("ppo.lr"), "{csv}");
+    // The merged best config is a complete config with the best overrides.
+    let best =
+        buridan_learner::train::TrainConfig::from_toml_file(&out.join("best-config.toml")).unwrap();
+    let b = state.best().unwrap();
+    assert_eq!(Some(best.ppo.lr), b.overrides["ppo.lr"].as_float());
+    assert_eq!((best.map.as_str(), best.ppo.epochs), ("rm-1.1", 2));
+
+    // Without --resume, the directory is refused.
+    let e = tune::run(&tune_args(tune_file(dir.path(), 2), out.clone(), false)).unwrap_err();
+    assert!(format!("{e:#}").contains("--resume"), "{e:#}");
+    // With --resume and one more trial: only the new one runs.
+    let again = tune::run(&tune_args(tune_file(dir.path(), 3), out.clone(), true)).unwrap();
+    assert_eq!(again.trials.len(), 3);
+    for (old, new) in state.trials.iter().zip(&again.trials) {
+        assert_eq!(
+            (new.starts, new.seconds),
+            (old.starts, old.seconds),
+            "trial {} reran",
+            old.id
+        );
+    }
+    assert_eq!(again.trials[2].starts, 1);
+}
+
+#[test]
+fn bad_study_files_name_the_file_and_the_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    tiny_config(dir.path());
+    let cases = [
+        ("[study]\nname = \"x\"\ntrials = 0\nsteps_per_trial = 1\n[space]\nx = { int = [1, 2] }", "trials"),
+        ("[study]\nname = \"x\"\nbase_config = \"tiny.toml\"\ntrials = 1\nsteps_per_trial = 1\n[space]\n\"ppo.nope\" = { int = [1, 2] }", "ppo.nope"),
+        ("[study]\nname = \"x\"\nbase_config = \"missing.toml\"\ntrials = 1\nsteps_per_trial = 1\n[space]\n\"ppo.lr\" = { uniform = [0.1, 0.2] }", "missing.toml"),
+        ("[study]\nname = \"x\"\ntrials = 1\nsteps_per_trial = 1\n[space]\n\"ppo.lr\" = { uniform = [0.3, 0.2] }", "ppo.lr"),
+    ];
+    for (i, (text, needle)) in cases.into_iter().enumerate() {
+        let file = dir.path().join(format!("bad-{i}.toml"));
+        std::fs::write(&file, text).unwrap();
+        let e = tune::run(&tune_args(
+            file.clone(),
+            dir.path().join(format!("o{i}")),
+            false,
+        ))
+        .unwrap_err();
+        let msg = format!("{e:#}");
+        assert!(msg.contains(&file.display().to_string()), "{msg}");
+        assert!(msg.contains(needle), "{needle}: {msg}");
+    }
+    // Same for experiment files.
+    let file = dir.path().join("bad-experiment.toml");
+    std::fs::write(
+        &file,
+        "[experiment]\nname = \"x\"\nlayouts = [\"rm-1.1\"]\nseeds = 2\nplanners = [\"dijkstra\"]",
+    )
+    .unwrap();
+    let e = study::run(&StudyArgs {
+        command: None,
+        experiment: Some(file.clone()),
+        out: Some(dir.path().join("x")),
+        parallel: None,
+        quiet: true,
+    })
+    .unwrap_err();
+    let msg = format!("{e:#}");
+    assert!(
+        msg.contains(&file.display().to_string()) && msg.contains("dijkstra"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn a_tiny_study_aggregates_seeds_and_planners_and_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    tiny_config(dir.path());
+    let file = dir.path().join("experiment.toml");
+    std::fs::write(
+        &file,
+        r#"
+[experiment]
+name = "tiny"
+layouts = ["rm-1.1"]
+seeds = 2
+steps = 2000
+planners = ["cbs"]
+[experiment.eval]
+episodes = 4
+starts = "random"
+time_limit = 5.0
+[[method]]
+name = "ppo"
+config = "tiny.toml"
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("study-out");
+    let args = StudyArgs {
+        command: None,
+        experiment: Some(file),
+        out: Some(out.clone()),
+        parallel: Some(1),
+        quiet: true,
+    };
+    let first = study::run(&args).unwrap();
+    assert_eq!(first.jobs_run, 3, "2 training cells + 1 planner evaluation");
+    for f in [
+        "table.md",
+        "table.csv",
+        "table.json",
+        "cells.json",
+        "cells.csv",
+        "plan.json",
+        "success.png",
+        "learning-rm-1.1.png",
+    ] {
+        assert!(out.join(f).is_file(), "missing {f}");
+    }
+    let csv = std::fs::read_to_string(out.join("table.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert!(
+        lines[0].contains("success %_low") && lines[0].contains("success %_high"),
+        "{csv}"
+    );
+    assert!(lines[0].contains("success % (IQM)_low"), "{csv}");
+    assert_eq!(lines.len(), 4, "ppo sampled, ppo greedy, cbs: {csv}");
+    assert!(lines[1].starts_with("rm-1.1,ppo,sampled,2,2/2,"), "{csv}");
+    assert!(lines[2].starts_with("rm-1.1,ppo,greedy,2,2/2,"), "{csv}");
+    assert!(lines[3].starts_with("rm-1.1,cbs,plan,2,1/1,"), "{csv}");
+    let md = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(md.contains("| rm-1.1 | ppo | sampled | 2 | 2/2 |"), "{md}");
+    let cells: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("cells.json")).unwrap()).unwrap();
+    let cells = cells.as_array().unwrap();
+    assert_eq!(cells.len(), 5);
+    for c in cells {
+        assert!(c["success_rate"].is_number(), "{c}");
+        assert!(c["eval_command"]
+            .as_str()
+            .unwrap()
+            .starts_with("learner eval --map rm-1.1"));
+        if c["kind"] == "policy" {
+            let cmd = c["train_command"].as_str().unwrap();
+            assert!(
+                cmd.starts_with("learner train --config") && cmd.contains("--steps 2000"),
+                "{cmd}"
+            );
+            assert!(Path::new(c["run_dir"].as_str().unwrap())
+                .join("summary.json")
+                .is_file());
+        }
+    }
+    let png = std::fs::read(out.join("success.png")).unwrap();
+    assert_eq!(&png[..4], b"\x89PNG");
+
+    // Everything is finished: a second invocation runs nothing.
+    assert_eq!(study::run(&args).unwrap().jobs_run, 0);
+    // `learner study report DIR` re-aggregates from the files.
+    std::fs::remove_file(out.join("table.csv")).unwrap();
+    let report = study::run(&StudyArgs {
+        command: Some(StudyCommand::Report { dir: out.clone() }),
+        experiment: None,
+        out: None,
+        parallel: None,
+        quiet: true,
+    })
+    .unwrap();
+    assert!(report.files.iter().any(|f| f.ends_with("table.csv")));
+    assert_eq!(std::fs::read_to_string(out.join("table.csv")).unwrap(), csv);
+}
+
+#[test]
+fn the_shipped_study_and_experiment_files_load() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../learner/studies");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        if name.starts_with("tune-") {
+            let (config, base) =
+                tune::load_study_file(&path).unwrap_or_else(|e| panic!("{name}: {e:#}"));
+            assert!(config.trials > 0 && base.steps > 0, "{name}");
+            seen += 1;
+        } else if name.ends_with(".toml") {
+            let x = buridan_cli::experiment::Experiment::from_file(&path)
+                .unwrap_or_else(|e| panic!("{name}: {e:#}"));
+            assert!(x.seeds.len() >= 10, "{name}: at least 10 seeds");
+            assert!(
+                x.eval.actions.len() == 2 && x.eval.episodes >= 100,
+                "{name}"
+            );
+            seen += 1;
+        }
+    }
+    assert!(seen >= 10, "{seen} files");
+}

@@ -1,0 +1,258 @@
+//! Figures of a multi-seed experiment: grouped bars with confidence-interval
+//! whiskers (success per layout and method), and lines with confidence
+//! bands (learning curves over env steps, success against agent count).
+
+use std::path::Path;
+use std::sync::Once;
+
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+use crate::plot::PlotError;
+use crate::stats::Interval;
+
+fn register_fonts() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            dejavu::sans::regular(),
+        );
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold());
+    });
+}
+
+fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
+    PlotError {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    }
+}
+
+/// One bar: the value of `series` in `group`, with its interval if any.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bar {
+    /// Index into the groups (x positions).
+    pub group: usize,
+    /// Index into the series (colours, legend).
+    pub series: usize,
+    /// Height.
+    pub value: f64,
+    /// Whiskers.
+    pub ci: Option<Interval>,
+}
+
+/// Grouped bars: one cluster per group (e.g. layout), one colour per series
+/// (e.g. method), whiskers at the confidence interval.
+///
+/// ```
+/// use buridan_study::figures::{grouped_bars, Bar};
+/// use buridan_study::stats::Interval;
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("bars.png");
+/// let bars = [Bar { group: 0, series: 1, value: 90.0, ci: Some(Interval { low: 85.0, high: 95.0 }) }];
+/// grouped_bars(&path, "success", "success (%)", &["rm-2.1".into()], &["cbs".into(), "ppo".into()], &bars).unwrap();
+/// assert!(path.is_file());
+/// ```
+pub fn grouped_bars(
+    path: &Path,
+    title: &str,
+    y_label: &str,
+    groups: &[String],
+    series: &[String],
+    bars: &[Bar],
+) -> Result<(), PlotError> {
+    register_fonts();
+    let root = BitMapBackend::new(path, (1000, 560)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let top = bars
+        .iter()
+        .map(|b| b.ci.map_or(b.value, |c| c.high.max(b.value)))
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, f64::max);
+    let top = if top > 0.0 { top * 1.08 } else { 1.0 };
+    let n = groups.len().max(1) as f64;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(-0.5..(n - 0.5), 0.0..top)
+        .map_err(|e| err(path, e))?;
+    let names = groups.to_vec();
+    let label = move |x: &f64| {
+        let i = x.round();
+        if (x - i).abs() < 1e-6 && i >= 0.0 {
+            names.get(i as usize).cloned().unwrap_or_default()
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(groups.len() * 4 + 1)
+        .x_label_formatter(&label)
+        .y_desc(y_label)
+        .draw()
+        .map_err(|e| err(path, e))?;
+    let k = series.len().max(1) as f64;
+    let width = 0.8 / k;
+    let left = |b: &Bar| b.group as f64 - 0.4 + b.series as f64 * width;
+    for (s, name) in series.iter().enumerate() {
+        let color = Palette99::pick(s).to_rgba();
+        let mine: Vec<&Bar> = bars
+            .iter()
+            .filter(|b| b.series == s && b.value.is_finite())
+            .collect();
+        chart
+            .draw_series(mine.iter().map(|b| {
+                let x0 = left(b);
+                Rectangle::new(
+                    [(x0 + 0.1 * width, 0.0), (x0 + 0.9 * width, b.value)],
+                    color.filled(),
+                )
+            }))
+            .map_err(|e| err(path, e))?
+            .label(name.clone())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 15, y + 5)], color.filled()));
+        let whiskers = mine.iter().filter_map(|b| {
+            let ci = b.ci?;
+            let mid = left(b) + 0.5 * width;
+            let cap = 0.2 * width;
+            Some(PathElement::new(
+                vec![
+                    (mid - cap, ci.low),
+                    (mid + cap, ci.low),
+                    (mid, ci.low),
+                    (mid, ci.high),
+                    (mid - cap, ci.high),
+                    (mid + cap, ci.high),
+                ],
+                BLACK.stroke_width(2),
+            ))
+        });
+        chart.draw_series(whiskers).map_err(|e| err(path, e))?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(path, e))?;
+    root.present().map_err(|e| err(path, e))
+}
+
+/// A line with a band: `(x, y, low, high)` points.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Band {
+    /// Legend label.
+    pub label: String,
+    /// Points in x order.
+    pub points: Vec<(f64, f64, f64, f64)>,
+}
+
+/// Lines with shaded confidence bands (learning curves, scalability).
+///
+/// ```
+/// use buridan_study::figures::{banded_lines, Band};
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("curves.png");
+/// let band = Band { label: "ppo".into(), points: vec![(0.0, 0.1, 0.0, 0.2), (1e6, 0.9, 0.8, 1.0)] };
+/// banded_lines(&path, "learning", "env steps", "success (%)", &[band]).unwrap();
+/// assert!(path.is_file());
+/// ```
+pub fn banded_lines(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    bands: &[Band],
+) -> Result<(), PlotError> {
+    register_fonts();
+    let root = BitMapBackend::new(path, (1000, 560)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for &(x, y, lo, hi) in bands.iter().flat_map(|b| b.points.iter()) {
+        if [x, y, lo, hi].iter().all(|v| v.is_finite()) {
+            (x0, x1) = (x0.min(x), x1.max(x));
+            (y0, y1) = (y0.min(lo.min(y)), y1.max(hi.max(y)));
+        }
+    }
+    if x0 > x1 {
+        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+    }
+    let pad_x = if x1 > x0 { 0.0 } else { 0.5 };
+    let pad_y = ((y1 - y0) * 0.05).max(1e-3);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((x0 - pad_x)..(x1 + pad_x), (y0 - pad_y)..(y1 + pad_y))
+        .map_err(|e| err(path, e))?;
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .draw()
+        .map_err(|e| err(path, e))?;
+    for (k, band) in bands.iter().enumerate() {
+        let color = Palette99::pick(k).to_rgba();
+        let pts: Vec<_> = band
+            .points
+            .iter()
+            .copied()
+            .filter(|p| [p.0, p.1, p.2, p.3].iter().all(|v| v.is_finite()))
+            .collect();
+        if pts.len() > 1 {
+            let outline: Vec<(f64, f64)> = pts
+                .iter()
+                .map(|p| (p.0, p.3))
+                .chain(pts.iter().rev().map(|p| (p.0, p.2)))
+                .collect();
+            chart
+                .draw_series(std::iter::once(Polygon::new(
+                    outline,
+                    color.mix(0.2).filled(),
+                )))
+                .map_err(|e| err(path, e))?;
+        } else {
+            chart
+                .draw_series(
+                    pts.iter().map(|p| {
+                        PathElement::new(vec![(p.0, p.2), (p.0, p.3)], color.stroke_width(2))
+                    }),
+                )
+                .map_err(|e| err(path, e))?;
+        }
+        chart
+            .draw_series(LineSeries::new(
+                pts.iter().map(|p| (p.0, p.1)),
+                color.stroke_width(2),
+            ))
+            .map_err(|e| err(path, e))?
+            .label(band.label.clone())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+            });
+        if pts.len() <= 30 {
+            chart
+                .draw_series(
+                    pts.iter()
+                        .map(|p| Circle::new((p.0, p.1), 3, color.filled())),
+                )
+                .map_err(|e| err(path, e))?;
+        }
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(path, e))?;
+    root.present().map_err(|e| err(path, e))
+}
