@@ -91,8 +91,71 @@ pub enum AgentState {
     Livelocked,
 }
 
+/// Radii above this are all the same (coordinates are below 2^24).
+const MAX_RADIUS: usize = 1 << 26;
+
+/// The rotated coordinate of the padding: farther than [`MAX_RADIUS`] from
+/// any cell.
+const FAR: i32 = i32::MIN / 2;
+
+/// Fills an agent's window (`groups` of eight, `w` slots used) with `d`.
+fn fill_window(groups: &mut [[u16; 8]], w: usize, d: u16) {
+    for (k, slot) in groups.as_flattened_mut().iter_mut().enumerate() {
+        *slot = if k < w { d } else { u16::MAX };
+    }
+}
+
+/// The smallest distance in an agent's window.
+fn window_low(groups: &[[u16; 8]]) -> u16 {
+    let mut low = [u16::MAX; 8];
+    for group in groups {
+        for (low, &d) in low.iter_mut().zip(group) {
+            *low = (*low).min(d);
+        }
+    }
+    low.into_iter().fold(u16::MAX, u16::min)
+}
+
+/// One agent's progress bookkeeping.
+#[derive(Debug, Clone, Copy, Default)]
+struct Track {
+    /// Its cell after the last step.
+    cell: (usize, usize),
+    /// Its goal distance after the last step.
+    dist: u16,
+    /// The smallest of its goal distances in `history` (the window's low).
+    low: u16,
+    /// Step of its last progress (or reset, or new goal).
+    since: u32,
+    /// Step at which it last changed cell (0 = since reset).
+    last_move: u32,
+    /// Has stood on its (current) goal in this episode.
+    reached: bool,
+    /// Off its goal and without progress for `window` steps.
+    stuck: bool,
+    /// Off its goal and not stuck: the agents waiting on it can escape.
+    progressing: bool,
+}
+
+/// A stuck agent with someone in its way: its in-way agents are
+/// `ways[start..end]`.
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    agent: u32,
+    start: u32,
+    end: u32,
+    /// Waits on an agent making progress, or on a candidate that escapes.
+    escapes: bool,
+}
+
 /// Per-agent progress tracking, jam detection and per-episode counters
 /// (definitions in the [module docs](self)).
+///
+/// A step costs O(agents) without allocation while nobody is stuck; the jam
+/// search then looks, for each stuck agent, at the agents within the radius
+/// only (a branch-free sweep over packed coordinates), and follows the
+/// wait-for links among the few stuck agents that have someone in their way.
+/// Coordinates must be below 2^24 (as on any [`crate::Grid`]).
 #[derive(Debug, Clone)]
 pub struct StallMonitor {
     window: u32,
@@ -100,27 +163,29 @@ pub struct StallMonitor {
     /// Steps observed in this episode.
     t: u32,
     /// Per agent, its goal distances of the last `window` steps, a ring
-    /// indexed by `t % window`.
-    history: Vec<u16>,
-    /// Steps since the agent's last progress (or reset, or new goal).
-    streak: Vec<u32>,
-    /// Off its goal and `streak >= window`.
-    stuck: Vec<bool>,
-    /// Has stood on its (current) goal in this episode.
-    reached: Vec<bool>,
-    /// Each agent's cell after the last step.
-    cell: Vec<(usize, usize)>,
-    /// Step at which the agent last changed cell (0 = since reset).
-    last_move: Vec<u32>,
+    /// indexed by `t % window`, in groups of eight (padded with
+    /// `u16::MAX`, so that the window's low is a branch-free minimum).
+    history: Vec<[u16; 8]>,
+    /// Groups of eight per agent in `history`.
+    groups: usize,
+    track: Vec<Track>,
+    /// Each agent's cell rotated by 45°, `row + col` and `row - col`: the
+    /// Manhattan distance of two cells is the larger of the differences of
+    /// these (Chebyshev distance), so "within the radius" is two range tests.
+    /// Padded to whole groups of eight with [`FAR`].
+    diag: Vec<i32>,
+    anti: Vec<i32>,
     state: Vec<AgentState>,
     agent_deadlock_steps: Vec<u32>,
     agent_livelock_steps: Vec<u32>,
-    // Scratch of the jam search: per stuck agent the agents in its way,
-    // whether it can escape (waits on someone making progress), the result.
-    in_way: Vec<Vec<usize>>,
+    // Scratch of one step, reused: the stuck agents; the candidates and their in-way lists; which candidates escape (all false
+    // between steps); the agents not `Free` and their next states.
+    stuck_list: Vec<u32>,
+    candidates: Vec<Candidate>,
+    ways: Vec<u32>,
     escapes: Vec<bool>,
-    jammed: Vec<bool>,
-    stuck_now: usize,
+    flagged: Vec<u32>,
+    next_flagged: Vec<(u32, AgentState)>,
     deadlocked_now: usize,
     livelocked_now: usize,
     deadlock_steps: u32,
@@ -137,19 +202,20 @@ impl StallMonitor {
             window,
             radius: DEFAULT_RADIUS,
             t: 0,
-            history: vec![0; agents * window as usize],
-            streak: vec![0; agents],
-            stuck: vec![false; agents],
-            reached: vec![false; agents],
-            cell: vec![(0, 0); agents],
-            last_move: vec![0; agents],
+            history: vec![[u16::MAX; 8]; agents * (window as usize).div_ceil(8)],
+            groups: (window as usize).div_ceil(8),
+            track: vec![Track::default(); agents],
+            diag: vec![FAR; agents.div_ceil(8) * 8],
+            anti: vec![FAR; agents.div_ceil(8) * 8],
             state: vec![AgentState::Free; agents],
             agent_deadlock_steps: vec![0; agents],
             agent_livelock_steps: vec![0; agents],
-            in_way: vec![Vec::new(); agents],
+            stuck_list: Vec::with_capacity(agents),
+            candidates: Vec::with_capacity(agents),
+            ways: Vec::with_capacity(agents),
             escapes: vec![false; agents],
-            jammed: vec![false; agents],
-            stuck_now: 0,
+            flagged: Vec::with_capacity(agents),
+            next_flagged: Vec::with_capacity(agents),
             deadlocked_now: 0,
             livelocked_now: 0,
             deadlock_steps: 0,
@@ -180,7 +246,13 @@ impl StallMonitor {
     }
 
     fn agents(&self) -> usize {
-        self.streak.len()
+        self.track.len()
+    }
+
+    /// Records agent `i`'s cell in the rotated coordinates.
+    fn place(&mut self, i: usize, (row, col): (usize, usize)) {
+        self.diag[i] = row as i32 + col as i32;
+        self.anti[i] = row as i32 - col as i32;
     }
 
     /// Starts a new episode from each agent's `(row, col)`;
@@ -190,21 +262,28 @@ impl StallMonitor {
         cells: &[(usize, usize)],
         distance: impl Fn(usize, (usize, usize)) -> u16,
     ) {
-        let w = self.window as usize;
+        let (w, g) = (self.window as usize, self.groups);
         self.t = 0;
-        for (i, &cell) in cells.iter().enumerate() {
+        for (i, &cell) in cells[..self.agents()].iter().enumerate() {
             let d = distance(i, cell);
-            self.history[i * w..(i + 1) * w].fill(d);
-            self.reached[i] = d == 0;
+            fill_window(&mut self.history[i * g..(i + 1) * g], w, d);
+            self.track[i] = Track {
+                cell,
+                dist: d,
+                low: d,
+                since: 0,
+                last_move: 0,
+                reached: d == 0,
+                stuck: false,
+                progressing: false,
+            };
+            self.place(i, cell);
         }
-        self.streak.fill(0);
-        self.stuck.fill(false);
-        self.cell.copy_from_slice(cells);
-        self.last_move.fill(0);
+        self.stuck_list.clear();
         self.state.fill(AgentState::Free);
+        self.flagged.clear();
         self.agent_deadlock_steps.fill(0);
         self.agent_livelock_steps.fill(0);
-        self.stuck_now = 0;
         self.deadlocked_now = 0;
         self.livelocked_now = 0;
         self.deadlock_steps = 0;
@@ -225,111 +304,164 @@ impl StallMonitor {
         distance: impl Fn(usize, (usize, usize)) -> u16,
     ) {
         let n = self.agents();
-        let w = self.window as usize;
+        let (cells, at_goal, new_goal) = (&cells[..n], &at_goal[..n], &new_goal[..n]);
+        let (w, g) = (self.window as usize, self.groups);
         self.t += 1;
-        let slot = self.t as usize % w;
-        self.stuck_now = 0;
-        for i in 0..n {
-            if cells[i] != self.cell[i] {
-                self.cell[i] = cells[i];
-                self.last_move[i] = self.t;
+        let t = self.t;
+        let slot = t as usize % w;
+        let (group, lane) = (slot / 8, slot % 8);
+        self.stuck_list.clear();
+        for (i, history) in self.history.chunks_exact_mut(g).enumerate() {
+            let (cell, home) = (cells[i], at_goal[i]);
+            let track = &mut self.track[i];
+            if cell != track.cell {
+                track.cell = cell;
+                track.last_move = t;
+                self.diag[i] = cell.0 as i32 + cell.1 as i32;
+                self.anti[i] = cell.0 as i32 - cell.1 as i32;
             }
-            let d = distance(i, cells[i]);
-            let history = &mut self.history[i * w..(i + 1) * w];
+            let d = distance(i, cell);
+            track.dist = d;
             if new_goal[i] {
-                history.fill(d);
-                self.streak[i] = 0;
-                self.stuck[i] = false;
-                self.reached[i] = at_goal[i];
+                fill_window(history, w, d);
+                track.low = d;
+                track.since = t;
+                track.stuck = false;
+                track.progressing = !home;
+                track.reached = home;
                 continue;
             }
             // `history` holds the last `w` distances before this step. Only
             // the first arrival counts: coming back home is no progress.
-            let repeat_arrival = at_goal[i] && self.reached[i];
-            self.reached[i] |= at_goal[i];
-            if !repeat_arrival && history.iter().all(|&h| d < h) {
-                self.streak[i] = 0;
-            } else {
-                self.streak[i] = self.streak[i].saturating_add(1);
+            let repeat_arrival = home && track.reached;
+            track.reached |= home;
+            if !repeat_arrival && d < track.low {
+                track.since = t;
             }
-            history[slot] = d;
-            self.stuck[i] = !at_goal[i] && self.streak[i] >= self.window;
-            self.stuck_now += usize::from(self.stuck[i]);
+            let evicted = std::mem::replace(&mut history[group][lane], d);
+            if d <= track.low {
+                track.low = d;
+            } else if evicted == track.low {
+                track.low = window_low(history);
+            }
+            track.stuck = !home && t - track.since >= self.window;
+            track.progressing = !home && !track.stuck;
+            if track.stuck {
+                self.stuck_list.push(i as u32);
+            }
         }
         self.deadlocked_now = 0;
         self.livelocked_now = 0;
-        if self.stuck_now == 0 {
-            self.state.fill(AgentState::Free);
+        if self.stuck_list.is_empty() || !self.find_jams(cells, &distance) {
+            for &i in &self.flagged {
+                self.state[i as usize] = AgentState::Free;
+            }
+            self.flagged.clear();
             return;
         }
-        self.find_jams(cells, at_goal, &distance);
-        for i in 0..n {
-            let new = if !self.jammed[i] {
-                AgentState::Free
-            } else if self.t - self.last_move[i] >= self.window {
+        self.next_flagged.clear();
+        for c in &self.candidates {
+            let i = c.agent as usize;
+            if self.escapes[i] {
+                continue;
+            }
+            let new = if t - self.track[i].last_move >= self.window {
+                self.deadlocked_now += 1;
+                self.agent_deadlock_steps[i] += 1;
+                if self.state[i] != AgentState::Deadlocked {
+                    self.deadlock_events += 1;
+                }
                 AgentState::Deadlocked
             } else {
+                self.livelocked_now += 1;
+                self.agent_livelock_steps[i] += 1;
                 AgentState::Livelocked
             };
-            match new {
-                AgentState::Deadlocked => {
-                    self.deadlocked_now += 1;
-                    self.agent_deadlock_steps[i] += 1;
-                    if self.state[i] != AgentState::Deadlocked {
-                        self.deadlock_events += 1;
-                    }
-                }
-                AgentState::Livelocked => {
-                    self.livelocked_now += 1;
-                    self.agent_livelock_steps[i] += 1;
-                }
-                AgentState::Free => {}
-            }
-            self.state[i] = new;
+            self.next_flagged.push((c.agent, new));
+        }
+        for c in &self.candidates {
+            self.escapes[c.agent as usize] = false;
+        }
+        for &i in &self.flagged {
+            self.state[i as usize] = AgentState::Free;
+        }
+        self.flagged.clear();
+        for &(i, new) in &self.next_flagged {
+            self.state[i as usize] = new;
+            self.flagged.push(i);
         }
         self.deadlock_steps += u32::from(self.deadlocked_now > 0);
         self.livelock_steps += u32::from(self.livelocked_now > 0);
     }
 
-    /// Marks the jammed agents: stuck, someone in their way, and every
-    /// agent reachable through "in the way" links stuck or on its goal.
+    /// Finds the candidates (stuck, someone in their way) and which of
+    /// them escape: wait on an agent making progress, or on a candidate
+    /// that escapes. The rest are jammed (every agent reachable through "in
+    /// the way" links stuck or on its goal). Returns whether any is jammed;
+    /// if so `escapes` marks the escaping candidates (to be cleared by the
+    /// caller), otherwise it is left all false.
     fn find_jams(
         &mut self,
         cells: &[(usize, usize)],
-        at_goal: &[bool],
         distance: &impl Fn(usize, (usize, usize)) -> u16,
-    ) {
-        let n = self.agents();
-        let stuck = |m: &Self, i: usize| m.stuck[i];
-        for i in 0..n {
-            self.in_way[i].clear();
-            if !stuck(self, i) {
-                continue;
-            }
-            let (a, di) = (cells[i], distance(i, cells[i]));
-            for (j, &b) in cells.iter().enumerate() {
-                if j != i
-                    && a.0.abs_diff(b.0) + a.1.abs_diff(b.1) <= self.radius
-                    && distance(i, b) < di
-                {
-                    self.in_way[i].push(j);
+    ) -> bool {
+        let radius = self.radius.min(MAX_RADIUS) as i32;
+        let span = 2 * radius as u32;
+        self.candidates.clear();
+        self.ways.clear();
+        let mut all_escape = true;
+        for &i in &self.stuck_list {
+            let i = i as usize;
+            let (lo_diag, lo_anti) = (self.diag[i] - radius, self.anti[i] - radius);
+            let di = self.track[i].dist;
+            let start = self.ways.len();
+            let mut escapes = false;
+            let (diag, anti) = (self.diag.chunks_exact(8), self.anti.chunks_exact(8));
+            'scan: for (k, (diag, anti)) in diag.zip(anti).enumerate() {
+                // Branch-free over eight agents (vectorised), one bit each.
+                let mut near = 0u32;
+                for (l, (&d, &a)) in diag.iter().zip(anti).enumerate() {
+                    let within = (d.wrapping_sub(lo_diag) as u32 <= span)
+                        & (a.wrapping_sub(lo_anti) as u32 <= span);
+                    near |= u32::from(within) << l;
                 }
+                while near != 0 {
+                    let j = k * 8 + near.trailing_zeros() as usize;
+                    near &= near - 1;
+                    // `i` itself is near but not closer to its goal.
+                    if j != i && distance(i, cells[j]) < di {
+                        self.ways.push(j as u32);
+                        if self.track[j].progressing {
+                            // Its other in-way agents no longer matter.
+                            escapes = true;
+                            break 'scan;
+                        }
+                    }
+                }
+            }
+            if self.ways.len() > start {
+                self.candidates.push(Candidate {
+                    agent: i as u32,
+                    start: start as u32,
+                    end: self.ways.len() as u32,
+                    escapes,
+                });
+                all_escape &= escapes;
             }
         }
-        // An agent escapes if it waits on an agent that is making progress
-        // (off its goal and not stuck) or on one that escapes.
-        self.escapes.fill(false);
+        if all_escape {
+            return false;
+        }
+        for c in &self.candidates {
+            self.escapes[c.agent as usize] = c.escapes;
+        }
         loop {
             let mut changed = false;
-            for i in 0..n {
-                if self.escapes[i] || !stuck(self, i) {
-                    continue;
-                }
-                let escapes = self.in_way[i]
-                    .iter()
-                    .any(|&j| self.escapes[j] || (!at_goal[j] && !stuck(self, j)));
-                if escapes {
-                    self.escapes[i] = true;
+            for c in self.candidates.iter_mut().filter(|c| !c.escapes) {
+                let ways = &self.ways[c.start as usize..c.end as usize];
+                if ways.iter().any(|&j| self.escapes[j as usize]) {
+                    c.escapes = true;
+                    self.escapes[c.agent as usize] = true;
                     changed = true;
                 }
             }
@@ -337,14 +469,12 @@ impl StallMonitor {
                 break;
             }
         }
-        for i in 0..n {
-            self.jammed[i] = stuck(self, i) && !self.in_way[i].is_empty() && !self.escapes[i];
-        }
+        true
     }
 
     /// Agents stuck after the last step, in a jam or not.
     pub fn stuck(&self) -> usize {
-        self.stuck_now
+        self.stuck_list.len()
     }
 
     /// Agents deadlocked after the last step.
@@ -365,7 +495,7 @@ impl StallMonitor {
     /// Whether `agent` is stuck: off its goal (after the last step) and
     /// without progress for `k` steps.
     pub fn is_stuck(&self, agent: usize) -> bool {
-        self.stuck[agent]
+        self.track[agent].stuck
     }
 
     /// Steps of this episode with at least one deadlocked agent.
