@@ -91,12 +91,48 @@ pub enum AgentState {
     Livelocked,
 }
 
-/// Radii above this are all the same (coordinates are below 2^24).
-const MAX_RADIUS: usize = 1 << 26;
+/// Radii up to this take the fast search for neighbours ([`near_lanes`]);
+/// larger ones the plain one.
+const PACKED_RADIUS: usize = 63;
 
-/// The rotated coordinate of the padding: farther than [`MAX_RADIUS`] from
-/// any cell.
-const FAR: i32 = i32::MIN / 2;
+/// A word of eight 8-bit lanes, each 1.
+const LANES: u64 = 0x0101_0101_0101_0101;
+
+/// The top bit of each lane.
+const TOPS: u64 = 0x8080_8080_8080_8080;
+
+/// A cell rotated by 45°, `row + col` and `row - col`, modulo 128. The
+/// Manhattan distance of two cells is the larger of the differences of
+/// the rotated coordinates (their Chebyshev distance), so "within the
+/// radius" is two range tests; modulo 128 they can only err by including
+/// a far cell, never by missing a near one (for radii up to 63).
+fn rotated((row, col): (usize, usize)) -> (u64, u64) {
+    (
+        (row.wrapping_add(col) & 0x7f) as u64,
+        (row.wrapping_sub(col) & 0x7f) as u64,
+    )
+}
+
+/// Sets lane `lane` of a pair of words to `cell` [`rotated`].
+fn set_lanes(words: &mut [u64; 2], lane: usize, cell: (usize, usize)) {
+    let (diag, anti) = rotated(cell);
+    let shift = lane * 8;
+    words[0] = words[0] & !(0xff << shift) | diag << shift;
+    words[1] = words[1] & !(0xff << shift) | anti << shift;
+}
+
+/// The lanes of `words` (their top bits) whose rotated cell `(x, y)` has
+/// `(x - x0) mod 128 <= 2r` and `(y - y0) mod 128 <= 2r`, eight at once,
+/// given `low = (x0 - r, y0 - r) mod 128`: each lane computes `d = (x | 128)
+/// - (x0 - r)`, which lies in `(0, 256)`, so that no lane borrows from the
+/// next, and tests `(d mod 128) + 127 - 2r < 128`. This includes every cell
+/// within Manhattan distance `r` of `(x0, y0)`.
+fn near_lanes(words: [u64; 2], low: (u64, u64), r: u64) -> u64 {
+    let dx = ((words[0] | TOPS) - LANES * low.0) & !TOPS;
+    let dy = ((words[1] | TOPS) - LANES * low.1) & !TOPS;
+    let limit = LANES * (127 - 2 * r);
+    !((dx + limit) | (dy + limit)) & TOPS
+}
 
 /// Fills an agent's window (`groups` of eight, `w` slots used) with `d`.
 fn fill_window(groups: &mut [[u16; 8]], w: usize, d: u16) {
@@ -169,17 +205,17 @@ pub struct StallMonitor {
     /// Groups of eight per agent in `history`.
     groups: usize,
     track: Vec<Track>,
-    /// Each agent's cell rotated by 45°, `row + col` and `row - col`: the
-    /// Manhattan distance of two cells is the larger of the differences of
-    /// these (Chebyshev distance), so "within the radius" is two range tests.
-    /// Padded to whole groups of eight with [`FAR`].
-    diag: Vec<i32>,
-    anti: Vec<i32>,
+    /// `t % window`.
+    slot: usize,
+    /// Each agent's cell [`rotated`], in 8-bit lanes eight to a word (the
+    /// unused lanes 0).
+    rotated: Vec<[u64; 2]>,
     state: Vec<AgentState>,
     agent_deadlock_steps: Vec<u32>,
     agent_livelock_steps: Vec<u32>,
-    // Scratch of one step, reused: the stuck agents; the candidates and their in-way lists; which candidates escape (all false
-    // between steps); the agents not `Free` and their next states.
+    // Scratch of one step, reused: the stuck agents; the candidates and
+    // their in-way lists; which candidates escape (all false between
+    // steps); the agents not `Free` and their next states.
     stuck_list: Vec<u32>,
     candidates: Vec<Candidate>,
     ways: Vec<u32>,
@@ -205,8 +241,8 @@ impl StallMonitor {
             history: vec![[u16::MAX; 8]; agents * (window as usize).div_ceil(8)],
             groups: (window as usize).div_ceil(8),
             track: vec![Track::default(); agents],
-            diag: vec![FAR; agents.div_ceil(8) * 8],
-            anti: vec![FAR; agents.div_ceil(8) * 8],
+            rotated: vec![[0; 2]; agents.div_ceil(8)],
+            slot: 0,
             state: vec![AgentState::Free; agents],
             agent_deadlock_steps: vec![0; agents],
             agent_livelock_steps: vec![0; agents],
@@ -249,12 +285,6 @@ impl StallMonitor {
         self.track.len()
     }
 
-    /// Records agent `i`'s cell in the rotated coordinates.
-    fn place(&mut self, i: usize, (row, col): (usize, usize)) {
-        self.diag[i] = row as i32 + col as i32;
-        self.anti[i] = row as i32 - col as i32;
-    }
-
     /// Starts a new episode from each agent's `(row, col)`;
     /// `distance(i, cell)` is agent `i`'s goal distance from `cell`.
     pub fn reset(
@@ -264,9 +294,11 @@ impl StallMonitor {
     ) {
         let (w, g) = (self.window as usize, self.groups);
         self.t = 0;
+        self.slot = 0;
         for (i, &cell) in cells[..self.agents()].iter().enumerate() {
             let d = distance(i, cell);
             fill_window(&mut self.history[i * g..(i + 1) * g], w, d);
+            set_lanes(&mut self.rotated[i / 8], i % 8, cell);
             self.track[i] = Track {
                 cell,
                 dist: d,
@@ -277,7 +309,6 @@ impl StallMonitor {
                 stuck: false,
                 progressing: false,
             };
-            self.place(i, cell);
         }
         self.stuck_list.clear();
         self.state.fill(AgentState::Free);
@@ -308,21 +339,21 @@ impl StallMonitor {
         let (w, g) = (self.window as usize, self.groups);
         self.t += 1;
         let t = self.t;
-        let slot = t as usize % w;
-        let (group, lane) = (slot / 8, slot % 8);
+        self.slot = if self.slot + 1 == w { 0 } else { self.slot + 1 };
+        let (group, lane) = (self.slot / 8, self.slot % 8);
         self.stuck_list.clear();
-        for (i, history) in self.history.chunks_exact_mut(g).enumerate() {
-            let (cell, home) = (cells[i], at_goal[i]);
-            let track = &mut self.track[i];
+        let windows = self.history.chunks_exact_mut(g);
+        let inputs = cells.iter().zip(at_goal).zip(new_goal);
+        let agents = self.track.iter_mut().zip(windows).zip(inputs);
+        for (i, ((track, history), ((&cell, &home), &fresh))) in agents.enumerate() {
             if cell != track.cell {
                 track.cell = cell;
                 track.last_move = t;
-                self.diag[i] = cell.0 as i32 + cell.1 as i32;
-                self.anti[i] = cell.0 as i32 - cell.1 as i32;
+                set_lanes(&mut self.rotated[i / 8], i % 8, cell);
             }
             let d = distance(i, cell);
             track.dist = d;
-            if new_goal[i] {
+            if fresh {
                 fill_window(history, w, d);
                 track.low = d;
                 track.since = t;
@@ -352,7 +383,7 @@ impl StallMonitor {
         }
         self.deadlocked_now = 0;
         self.livelocked_now = 0;
-        if self.stuck_list.is_empty() || !self.find_jams(cells, &distance) {
+        if self.stuck_list.is_empty() || !self.find_jams(&distance) {
             for &i in &self.flagged {
                 self.state[i as usize] = AgentState::Free;
             }
@@ -400,50 +431,67 @@ impl StallMonitor {
     /// the way" links stuck or on its goal). Returns whether any is jammed;
     /// if so `escapes` marks the escaping candidates (to be cleared by the
     /// caller), otherwise it is left all false.
-    fn find_jams(
-        &mut self,
-        cells: &[(usize, usize)],
-        distance: &impl Fn(usize, (usize, usize)) -> u16,
-    ) -> bool {
-        let radius = self.radius.min(MAX_RADIUS) as i32;
-        let span = 2 * radius as u32;
-        self.candidates.clear();
-        self.ways.clear();
+    fn find_jams(&mut self, distance: &impl Fn(usize, (usize, usize)) -> u16) -> bool {
+        let packed = self.radius <= PACKED_RADIUS;
+        let radius = self.radius;
+        let (track, words) = (&self.track[..], &self.rotated[..]);
+        let (ways, candidates) = (&mut self.ways, &mut self.candidates);
+        candidates.clear();
+        ways.clear();
         let mut all_escape = true;
         for &i in &self.stuck_list {
             let i = i as usize;
-            let (lo_diag, lo_anti) = (self.diag[i] - radius, self.anti[i] - radius);
-            let di = self.track[i].dist;
-            let start = self.ways.len();
-            let mut escapes = false;
-            let (diag, anti) = (self.diag.chunks_exact(8), self.anti.chunks_exact(8));
-            'scan: for (k, (diag, anti)) in diag.zip(anti).enumerate() {
-                // Branch-free over eight agents (vectorised), one bit each.
-                let mut near = 0u32;
-                for (l, (&d, &a)) in diag.iter().zip(anti).enumerate() {
-                    let within = (d.wrapping_sub(lo_diag) as u32 <= span)
-                        & (a.wrapping_sub(lo_anti) as u32 <= span);
-                    near |= u32::from(within) << l;
+            let (cell, di) = (track[i].cell, track[i].dist);
+            let start = ways.len();
+            // Whether `j` is in `i`'s way (then recorded) and progressing.
+            let mut in_way = |j: usize| {
+                let closer = distance(i, track[j].cell) < di;
+                if closer {
+                    ways.push(j as u32);
                 }
-                while near != 0 {
-                    let j = k * 8 + near.trailing_zeros() as usize;
-                    near &= near - 1;
-                    // `i` itself is near but not closer to its goal.
-                    if j != i && distance(i, cells[j]) < di {
-                        self.ways.push(j as u32);
-                        if self.track[j].progressing {
-                            // Its other in-way agents no longer matter.
+                closer && track[j].progressing
+            };
+            // Once `i` waits on an agent making progress, its other in-way
+            // agents no longer matter.
+            let mut escapes = false;
+            if packed {
+                let (x0, y0) = rotated(cell);
+                let r = radius as u64;
+                let low = (x0.wrapping_sub(r) & 0x7f, y0.wrapping_sub(r) & 0x7f);
+                'scan: for (k, &words) in words.iter().enumerate() {
+                    let mut near = near_lanes(words, low, r);
+                    while near != 0 {
+                        let j = k * 8 + near.trailing_zeros() as usize / 8;
+                        near &= near - 1;
+                        // The lanes hold `i` itself, maybe far cells and
+                        // unused lanes: check exactly.
+                        let Some(b) = track.get(j).map(|other| other.cell) else {
+                            break;
+                        };
+                        if j != i
+                            && cell.0.abs_diff(b.0) + cell.1.abs_diff(b.1) <= radius
+                            && in_way(j)
+                        {
                             escapes = true;
                             break 'scan;
                         }
                     }
                 }
+            } else {
+                for (j, other) in track.iter().enumerate() {
+                    let b = other.cell;
+                    if j != i && cell.0.abs_diff(b.0) + cell.1.abs_diff(b.1) <= radius && in_way(j)
+                    {
+                        escapes = true;
+                        break;
+                    }
+                }
             }
-            if self.ways.len() > start {
-                self.candidates.push(Candidate {
+            if ways.len() > start {
+                candidates.push(Candidate {
                     agent: i as u32,
                     start: start as u32,
-                    end: self.ways.len() as u32,
+                    end: ways.len() as u32,
                     escapes,
                 });
                 all_escape &= escapes;
