@@ -217,9 +217,17 @@ pub struct StallMonitor {
     // their in-way lists; which candidates escape (all false between
     // steps); the agents not `Free` and their next states.
     stuck_list: Vec<u32>,
+    /// The stuck agents are `stuck_list[..stuck_now]`.
+    stuck_now: usize,
     candidates: Vec<Candidate>,
     ways: Vec<u32>,
     escapes: Vec<bool>,
+    /// The jammed agents.
+    jammed: Vec<u32>,
+    /// At most 64 agents: per stuck agent, the agents in its way (bits);
+    /// which agents are progressing (bits).
+    way_masks: Vec<u64>,
+    progressing: u64,
     flagged: Vec<u32>,
     next_flagged: Vec<(u32, AgentState)>,
     deadlocked_now: usize,
@@ -246,10 +254,14 @@ impl StallMonitor {
             state: vec![AgentState::Free; agents],
             agent_deadlock_steps: vec![0; agents],
             agent_livelock_steps: vec![0; agents],
-            stuck_list: Vec::with_capacity(agents),
+            stuck_list: vec![0; agents],
+            stuck_now: 0,
             candidates: Vec::with_capacity(agents),
             ways: Vec::with_capacity(agents),
             escapes: vec![false; agents],
+            jammed: Vec::with_capacity(agents),
+            way_masks: vec![0; agents],
+            progressing: 0,
             flagged: Vec::with_capacity(agents),
             next_flagged: Vec::with_capacity(agents),
             deadlocked_now: 0,
@@ -310,7 +322,7 @@ impl StallMonitor {
                 progressing: false,
             };
         }
-        self.stuck_list.clear();
+        self.stuck_now = 0;
         self.state.fill(AgentState::Free);
         self.flagged.clear();
         self.agent_deadlock_steps.fill(0);
@@ -341,16 +353,17 @@ impl StallMonitor {
         let t = self.t;
         self.slot = if self.slot + 1 == w { 0 } else { self.slot + 1 };
         let (group, lane) = (self.slot / 8, self.slot % 8);
-        self.stuck_list.clear();
+        let mut stuck = 0;
+        let mut progressing = 0u64;
         let windows = self.history.chunks_exact_mut(g);
         let inputs = cells.iter().zip(at_goal).zip(new_goal);
         let agents = self.track.iter_mut().zip(windows).zip(inputs);
         for (i, ((track, history), ((&cell, &home), &fresh))) in agents.enumerate() {
-            if cell != track.cell {
-                track.cell = cell;
-                track.last_move = t;
-                set_lanes(&mut self.rotated[i / 8], i % 8, cell);
-            }
+            // Branch-free where the outcome is a coin toss (random moves).
+            let moved = cell != track.cell;
+            track.cell = cell;
+            track.last_move = if moved { t } else { track.last_move };
+            set_lanes(&mut self.rotated[i / 8], i % 8, cell);
             let d = distance(i, cell);
             track.dist = d;
             if fresh {
@@ -359,6 +372,7 @@ impl StallMonitor {
                 track.since = t;
                 track.stuck = false;
                 track.progressing = !home;
+                progressing |= u64::from(!home) << (i % 64);
                 track.reached = home;
                 continue;
             }
@@ -366,24 +380,28 @@ impl StallMonitor {
             // the first arrival counts: coming back home is no progress.
             let repeat_arrival = home && track.reached;
             track.reached |= home;
-            if !repeat_arrival && d < track.low {
-                track.since = t;
-            }
-            let evicted = std::mem::replace(&mut history[group][lane], d);
-            if d <= track.low {
-                track.low = d;
-            } else if evicted == track.low {
-                track.low = window_low(history);
-            }
-            track.stuck = !home && t - track.since >= self.window;
-            track.progressing = !home && !track.stuck;
-            if track.stuck {
-                self.stuck_list.push(i as u32);
-            }
+            let progress = !repeat_arrival & (d < track.low);
+            track.since = if progress { t } else { track.since };
+            history[group][lane] = d;
+            track.low = window_low(history);
+            track.stuck = !home & (t - track.since >= self.window);
+            track.progressing = !home & !track.stuck;
+            progressing |= u64::from(track.progressing) << (i % 64);
+            self.stuck_list[stuck] = i as u32;
+            stuck += usize::from(track.stuck);
         }
+        self.stuck_now = stuck;
+        self.progressing = progressing;
         self.deadlocked_now = 0;
         self.livelocked_now = 0;
-        if self.stuck_list.is_empty() || !self.find_jams(&distance) {
+        let jams = if stuck == 0 {
+            false
+        } else if n <= 64 && self.radius <= PACKED_RADIUS {
+            self.find_jams_small(&distance)
+        } else {
+            self.find_jams(&distance)
+        };
+        if !jams {
             for &i in &self.flagged {
                 self.state[i as usize] = AgentState::Free;
             }
@@ -391,11 +409,8 @@ impl StallMonitor {
             return;
         }
         self.next_flagged.clear();
-        for c in &self.candidates {
-            let i = c.agent as usize;
-            if self.escapes[i] {
-                continue;
-            }
+        for &i in &self.jammed {
+            let i = i as usize;
             let new = if t - self.track[i].last_move >= self.window {
                 self.deadlocked_now += 1;
                 self.agent_deadlock_steps[i] += 1;
@@ -408,10 +423,7 @@ impl StallMonitor {
                 self.agent_livelock_steps[i] += 1;
                 AgentState::Livelocked
             };
-            self.next_flagged.push((c.agent, new));
-        }
-        for c in &self.candidates {
-            self.escapes[c.agent as usize] = false;
+            self.next_flagged.push((i as u32, new));
         }
         for &i in &self.flagged {
             self.state[i as usize] = AgentState::Free;
@@ -439,7 +451,7 @@ impl StallMonitor {
         candidates.clear();
         ways.clear();
         let mut all_escape = true;
-        for &i in &self.stuck_list {
+        for &i in &self.stuck_list[..self.stuck_now] {
             let i = i as usize;
             let (cell, di) = (track[i].cell, track[i].dist);
             let start = ways.len();
@@ -517,12 +529,82 @@ impl StallMonitor {
                 break;
             }
         }
+        self.jammed.clear();
+        for c in &self.candidates {
+            self.escapes[c.agent as usize] = false;
+            if !c.escapes {
+                self.jammed.push(c.agent);
+            }
+        }
         true
+    }
+
+    /// [`Self::find_jams`] for at most 64 agents and a packed radius, on
+    /// bit sets: per stuck agent the agents in its way as a mask, then
+    /// "escapes" grown to its fixpoint a mask at a time. Fewer branches
+    /// that depend on where random agents stand.
+    fn find_jams_small(&mut self, distance: &impl Fn(usize, (usize, usize)) -> u16) -> bool {
+        let radius = self.radius;
+        let r = radius as u64;
+        let (track, words) = (&self.track[..], &self.rotated[..]);
+        let progressing = self.progressing;
+        let (mut candidates, mut escapes) = (0u64, 0u64);
+        for &i in &self.stuck_list[..self.stuck_now] {
+            let i = i as usize;
+            let (cell, di) = (track[i].cell, track[i].dist);
+            let (x0, y0) = rotated(cell);
+            let low = (x0.wrapping_sub(r) & 0x7f, y0.wrapping_sub(r) & 0x7f);
+            let mut near = 0u64;
+            for (k, &words) in words.iter().enumerate() {
+                // The eight lanes' top bits gathered into one byte.
+                let lanes = near_lanes(words, low, r).wrapping_mul(0x0002_0408_1020_4081) >> 56;
+                near |= lanes << (8 * k);
+            }
+            // Unused lanes (beyond the agents) are never set: they hold 0,
+            // but may look near; drop them and `i` itself.
+            near &= !(1 << i) & (u64::MAX >> (64 - track.len()));
+            let mut ways = 0u64;
+            while near != 0 {
+                let j = near.trailing_zeros() as usize;
+                near &= near - 1;
+                // Exactly (the lanes may include far cells).
+                let b = track[j].cell;
+                let within = cell.0.abs_diff(b.0) + cell.1.abs_diff(b.1) <= radius;
+                let closer = distance(i, b) < di;
+                ways |= u64::from(within & closer) << j;
+            }
+            self.way_masks[i] = ways;
+            candidates |= u64::from(ways != 0) << i;
+            escapes |= u64::from(ways & progressing != 0) << i;
+        }
+        if candidates & !escapes == 0 {
+            return false;
+        }
+        loop {
+            let mut grown = escapes;
+            let mut open = candidates & !escapes;
+            while open != 0 {
+                let i = open.trailing_zeros() as usize;
+                open &= open - 1;
+                grown |= u64::from(self.way_masks[i] & escapes != 0) << i;
+            }
+            if grown == escapes {
+                break;
+            }
+            escapes = grown;
+        }
+        self.jammed.clear();
+        let mut jammed = candidates & !escapes;
+        while jammed != 0 {
+            self.jammed.push(jammed.trailing_zeros());
+            jammed &= jammed - 1;
+        }
+        !self.jammed.is_empty()
     }
 
     /// Agents stuck after the last step, in a jam or not.
     pub fn stuck(&self) -> usize {
-        self.stuck_list.len()
+        self.stuck_now
     }
 
     /// Agents deadlocked after the last step.
