@@ -141,12 +141,15 @@ fn fill_window(groups: &mut [[u16; 8]], w: usize, d: u16) {
     }
 }
 
-/// The smallest distance in an agent's window.
-fn window_low(groups: &[[u16; 8]]) -> u16 {
-    let mut low = [u16::MAX; 8];
-    for group in groups {
-        for (low, &d) in low.iter_mut().zip(group) {
-            *low = (*low).min(d);
+/// The smallest distance in an agent's window, whose group `current` (at
+/// index `at`) was just updated.
+fn window_low(groups: &[[u16; 8]], at: usize, current: [u16; 8]) -> u16 {
+    let mut low = current;
+    for (k, group) in groups.iter().enumerate() {
+        if k != at {
+            for (low, &d) in low.iter_mut().zip(group) {
+                *low = (*low).min(d);
+            }
         }
     }
     low.into_iter().fold(u16::MAX, u16::min)
@@ -353,6 +356,7 @@ impl StallMonitor {
         let t = self.t;
         self.slot = if self.slot + 1 == w { 0 } else { self.slot + 1 };
         let (group, lane) = (self.slot / 8, self.slot % 8);
+        let lane_mask: [u16; 8] = std::array::from_fn(|k| if k == lane { u16::MAX } else { 0 });
         let mut stuck = 0;
         let mut progressing = 0u64;
         let windows = self.history.chunks_exact_mut(g);
@@ -382,8 +386,15 @@ impl StallMonitor {
             track.reached |= home;
             let progress = !repeat_arrival & (d < track.low);
             track.since = if progress { t } else { track.since };
-            history[group][lane] = d;
-            track.low = window_low(history);
+            // Updated in registers and stored whole: reading the group back
+            // right after a 2-byte store into it would stall (no store
+            // forwarding from a narrower store).
+            let mut current = history[group];
+            for (slot, &mask) in current.iter_mut().zip(&lane_mask) {
+                *slot = *slot & !mask | d & mask;
+            }
+            history[group] = current;
+            track.low = window_low(history, group, current);
             track.stuck = !home & (t - track.since >= self.window);
             track.progressing = !home & !track.stuck;
             progressing |= u64::from(track.progressing) << (i % 64);
