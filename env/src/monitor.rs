@@ -152,7 +152,13 @@ fn window_low(groups: &[[u16; 8]], at: usize, current: [u16; 8]) -> u16 {
             }
         }
     }
-    low.into_iter().fold(u16::MAX, u16::min)
+    // A tree, not a chain of dependent minima.
+    for half in [4, 2, 1] {
+        for k in 0..half {
+            low[k] = low[k].min(low[k + half]);
+        }
+    }
+    low[0]
 }
 
 /// One agent's progress bookkeeping.
@@ -382,7 +388,7 @@ impl StallMonitor {
             }
             // `history` holds the last `w` distances before this step. Only
             // the first arrival counts: coming back home is no progress.
-            let repeat_arrival = home && track.reached;
+            let repeat_arrival = home & track.reached;
             track.reached |= home;
             let progress = !repeat_arrival & (d < track.low);
             track.since = if progress { t } else { track.since };
