@@ -196,11 +196,12 @@ struct Candidate {
 /// Per-agent progress tracking, jam detection and per-episode counters
 /// (definitions in the [module docs](self)).
 ///
-/// A step costs O(agents) without allocation while nobody is stuck; the jam
-/// search then looks, for each stuck agent, at the agents within the radius
-/// only (a branch-free sweep over packed coordinates), and follows the
-/// wait-for links among the few stuck agents that have someone in their way.
-/// Coordinates must be below 2^24 (as on any [`crate::Grid`]).
+/// A step costs O(agents), without allocation and nearly without branches
+/// on where agents stand, while nobody is stuck. Then the jam search looks,
+/// for each stuck agent, at the agents near it only (found eight at a time
+/// in packed rotated coordinates, see [`near_lanes`]), and follows the
+/// wait-for links among the stuck agents that have someone in their way (as
+/// bit sets for up to 64 agents).
 #[derive(Debug, Clone)]
 pub struct StallMonitor {
     window: u32,
