@@ -199,7 +199,7 @@ struct Candidate {
 /// A step costs O(agents), without allocation and nearly without branches
 /// on where agents stand, while nobody is stuck. Then the jam search looks,
 /// for each stuck agent, at the agents near it only (found eight at a time
-/// in packed rotated coordinates, see [`near_lanes`]), and follows the
+/// in packed rotated coordinates), and follows the
 /// wait-for links among the stuck agents that have someone in their way (as
 /// bit sets for up to 64 agents).
 #[derive(Debug, Clone)]
