@@ -120,6 +120,8 @@ pub struct GridEnv {
     goals_reached: u32,
     visits: Vec<u64>,
     monitor: StallMonitor,
+    /// The monitor's inputs: each agent's `(row, col)` and whether it stands
+    /// on its goal, updated as agents move (not refilled every step).
     scratch_cell: Vec<(usize, usize)>,
     scratch_at_goal: Vec<bool>,
     /// Lifelong mode: agents that reached a goal this step (and got a new one).
@@ -350,6 +352,7 @@ impl GridEnv {
                 let cell = &mut self.cells[i];
                 cell.row = cell.row.wrapping_add_signed(dr);
                 cell.col = cell.col.wrapping_add_signed(dc);
+                self.scratch_cell[i] = (cell.row, cell.col);
             } else {
                 outcome.blocked_moves += 1;
             }
@@ -367,12 +370,15 @@ impl GridEnv {
             if self.occupant[p] != i as u16 + 1 {
                 *reward += REWARD_COLLISION;
             }
-            if p == self.goal[i] {
+            let home = p == self.goal[i];
+            self.scratch_at_goal[i] = home;
+            if home {
                 if self.cfg.lifelong {
                     *reward += REWARD_GOAL;
                     self.goals_reached += 1;
                     self.draw_new_goal(i);
                     self.arrived[i] = true;
+                    self.scratch_at_goal[i] = false;
                     continue;
                 }
                 if !self.reached[i] {
@@ -402,7 +408,6 @@ impl GridEnv {
         }
         self.episode_reward += rewards.iter().sum::<f32>();
         self.blocked_moves += outcome.blocked_moves;
-        self.fill_scratch();
         let distance = &self.goal_distance;
         self.monitor.observe(
             &self.scratch_cell,
@@ -449,6 +454,8 @@ impl GridEnv {
         };
     }
 
+    /// Fills the monitor's inputs from the state (kept up to date by
+    /// `step` after that).
     fn fill_scratch(&mut self) {
         for i in 0..self.cfg.agents {
             let cell = self.cells[i];

@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod author;
+pub mod reference_monitor;
 
 use std::sync::Arc;
 
