@@ -3,32 +3,11 @@
 //! bands (learning curves over env steps, success against agent count).
 
 use std::path::Path;
-use std::sync::Once;
 
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 
-use crate::plot::PlotError;
+use crate::plot::{err, register_fonts, PlotError};
 use crate::stats::Interval;
-
-fn register_fonts() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            FontStyle::Normal,
-            dejavu::sans::regular(),
-        );
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold());
-    });
-}
-
-fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
-    PlotError {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    }
-}
 
 /// One bar: the value of `series` in `group`, with its interval if any.
 #[derive(Debug, Clone, PartialEq)]

@@ -27,7 +27,8 @@ pub struct PlotError {
     pub message: String,
 }
 
-fn register_fonts() {
+/// Registers the embedded DejaVu fonts as `sans-serif`, once per process.
+pub(crate) fn register_fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // Registering a valid embedded TTF cannot fail; ignore the unit result.
@@ -40,7 +41,8 @@ fn register_fonts() {
     });
 }
 
-fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
+/// A [`PlotError`] for `path`.
+pub(crate) fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
     PlotError {
         path: path.display().to_string(),
         message: e.to_string(),

@@ -166,9 +166,18 @@ impl InProcess {
         let (done, running): (Vec<_>, Vec<_>) =
             self.actors.drain(..).partition(|(_, h)| h.is_finished());
         self.actors = running;
-        done.into_iter()
-            .find_map(|(actor, h)| join_actor(actor, h).err())
+        first_failure(done)
     }
+}
+
+/// Joins every given actor and returns the first failure.
+fn first_failure(
+    actors: Vec<(u32, JoinHandle<Result<(), CollectError>>)>,
+) -> Option<ExchangeError> {
+    actors
+        .into_iter()
+        .filter_map(|(actor, h)| join_actor(actor, h).err())
+        .fold(None, |first, e| first.or(Some(e)))
 }
 
 fn join_actor(
@@ -212,13 +221,8 @@ impl Exchange for InProcess {
             Err(RecvTimeoutError::Disconnected) => {
                 // Every actor dropped its sender: all are ending; their
                 // own errors say why.
-                let mut first = None;
-                for (actor, h) in self.actors.drain(..) {
-                    if let Err(e) = join_actor(actor, h) {
-                        first.get_or_insert(e);
-                    }
-                }
-                Err(first.unwrap_or(ExchangeError::QueueClosed))
+                let actors = std::mem::take(&mut self.actors);
+                Err(first_failure(actors).unwrap_or(ExchangeError::QueueClosed))
             }
         }
     }
@@ -235,13 +239,7 @@ impl Exchange for InProcess {
         self.shared.finish();
         // Dropping the receiver unblocks actors waiting on a full queue.
         self.rx = None;
-        let mut first = None;
-        for (actor, h) in self.actors.drain(..) {
-            if let Err(e) = join_actor(actor, h) {
-                first.get_or_insert(e);
-            }
-        }
-        first.map_or(Ok(()), Err)
+        first_failure(std::mem::take(&mut self.actors)).map_or(Ok(()), Err)
     }
 }
 
