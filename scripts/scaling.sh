@@ -7,7 +7,7 @@
 #   CONFIG=learner/configs/ppo-ctde-rm-2.1.toml STEPS=200000 scripts/scaling.sh
 set -euo pipefail
 BIN=${BIN:-target/release}
-CONFIG=${CONFIG:-learner/configs/impala-ctde-rm-2.1-tuned.toml}
+CONFIG=${CONFIG:-learner/configs/impala-ctde-rm-2.1.toml}
 STEPS=${STEPS:-400000}
 OUT=${OUT:-runs/scaling}
 AGENTS=${AGENTS:-4}

@@ -53,6 +53,10 @@ pub struct EnvConfig {
     /// definitions in [`crate::monitor`]). Default
     /// [`crate::monitor::DEFAULT_WINDOW`] = 8.
     pub stall_window: u32,
+    /// Extra local-observation features (the recipe's; none by default).
+    pub features: crate::ObsFeatures,
+    /// Potential-based reward shaping on the goal distance (off by default).
+    pub shaping: Option<crate::Shaping>,
 }
 
 impl Default for EnvConfig {
@@ -65,6 +69,8 @@ impl Default for EnvConfig {
             sensor_range: 2,
             lifelong: false,
             stall_window: crate::monitor::DEFAULT_WINDOW,
+            features: crate::ObsFeatures::default(),
+            shaping: None,
         }
     }
 }
@@ -91,6 +97,9 @@ impl EnvConfig {
             return Err(EnvError::InvalidConfig(
                 "stall_window must be at least 1".into(),
             ));
+        }
+        if let Some(shaping) = &self.shaping {
+            shaping.validate().map_err(EnvError::InvalidConfig)?;
         }
         Ok(())
     }

@@ -102,17 +102,21 @@ pub enum ObsKind {
 }
 
 impl ObsKind {
-    /// Floats per observation row on `map` with `agents` agents.
+    /// Floats per observation row on `map` with the env settings `cfg`
+    /// (agents, sensor range, extra features).
     ///
     /// ```
-    /// use buridan_env::{Map, ObsKind};
+    /// use buridan_env::{EnvConfig, Map, ObsFeatures, ObsKind};
     /// let map = Map::load("rm-1.1").unwrap();
-    /// assert_eq!(ObsKind::Local.obs_dim(&map, 2, 2), 129);
+    /// let cfg = EnvConfig { agents: 2, ..EnvConfig::default() };
+    /// assert_eq!(ObsKind::Local.obs_dim(&map, &cfg), 129);
+    /// let cfg = EnvConfig { features: ObsFeatures { path: true }, ..cfg };
+    /// assert_eq!(ObsKind::Local.obs_dim(&map, &cfg), 134);
     /// ```
-    pub fn obs_dim(self, map: &crate::Map, agents: usize, sensor_range: usize) -> usize {
+    pub fn obs_dim(self, map: &crate::Map, cfg: &crate::EnvConfig) -> usize {
         match self {
-            ObsKind::Local => local_obs_dim(sensor_range),
-            ObsKind::Central => central_obs_dim(map.grid.height(), map.grid.width(), agents),
+            ObsKind::Local => local_obs_dim(cfg.sensor_range) + cfg.features.extra_dim(),
+            ObsKind::Central => central_obs_dim(map.grid.height(), map.grid.width(), cfg.agents),
         }
     }
 
@@ -146,7 +150,7 @@ fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), EnvE
 impl GridEnv {
     /// Floats of one local observation of this env.
     pub fn local_obs_dim(&self) -> usize {
-        local_obs_dim(self.config().sensor_range)
+        local_obs_dim(self.config().sensor_range) + self.config().features.extra_dim()
     }
 
     /// Floats of one central observation of this env.
@@ -180,6 +184,7 @@ impl GridEnv {
         check_len("observation floats", self.local_obs_dim(), out.len())?;
         let side = 2 * self.config().sensor_range + 1;
         let (window, tail) = out.split_at_mut(side * side * NUM_LOCAL_CODES);
+        let (tail, features) = tail.split_at_mut(4);
         // One 5-float one-hot row per cell, written whole (no memset, no
         // scatter); the usual window sizes get fully unrolled copies.
         match side {
@@ -212,7 +217,33 @@ impl GridEnv {
         tail[1] = p.col as f32 / sx;
         tail[2] = (g.row as f32 - p.row as f32) / sy;
         tail[3] = (g.col as f32 - p.col as f32) / sx;
+        if self.config().features.path {
+            self.write_path_feature(agent, features);
+        }
         Ok(())
+    }
+
+    /// The path feature ([`crate::recipe`]): which moves lead one step
+    /// closer to the goal, and the cost-to-go.
+    fn write_path_feature(&self, agent: usize, out: &mut [f32]) {
+        let grid = &self.map().grid;
+        let p = self.position(agent);
+        let here = self.goal_distance(agent);
+        for (slot, (dr, dc)) in out.iter_mut().zip(crate::world::MOVE_DELTAS[1..].iter()) {
+            let closer = match (p.row.checked_add_signed(*dr), p.col.checked_add_signed(*dc)) {
+                (Some(row), Some(col)) if row < grid.height() && col < grid.width() => {
+                    let d = self.goal_distance_at(agent, crate::Cell { row, col });
+                    d != crate::map::UNREACHABLE && d < here
+                }
+                _ => false,
+            };
+            *slot = f32::from(u8::from(closer));
+        }
+        out[4] = if here == crate::map::UNREACHABLE {
+            1.0
+        } else {
+            here as f32 / (grid.height() + grid.width()) as f32
+        };
     }
 
     /// Writes agent `i`'s action mask, 5 bytes (1 = legal).

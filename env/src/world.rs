@@ -21,7 +21,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::config::{episode_instance, episode_rng, EnvConfig};
 use crate::error::EnvError;
-use crate::map::{Cell, Map};
+use crate::map::{Cell, Map, UNREACHABLE};
 use crate::monitor::StallMonitor;
 use crate::obs::code;
 use crate::stats::EpisodeStats;
@@ -44,7 +44,8 @@ fn lifelong_rng(seed: u64, episode: u64) -> ChaCha8Rng {
 }
 
 /// `(row, col)` change of each action.
-const MOVE_DELTAS: [(isize, isize); NUM_ACTIONS] = [(0, 0), (-1, 0), (0, 1), (1, 0), (0, -1)];
+pub(crate) const MOVE_DELTAS: [(isize, isize); NUM_ACTIONS] =
+    [(0, 0), (-1, 0), (0, 1), (1, 0), (0, -1)];
 
 /// Sentinel for "no agent" in the per-cell arrays.
 const NOBODY: u16 = 0;
@@ -124,6 +125,8 @@ pub struct GridEnv {
     /// on its goal, updated as agents move (not refilled every step).
     scratch_cell: Vec<(usize, usize)>,
     scratch_at_goal: Vec<bool>,
+    /// Goal distances before this step's moves (for shaping).
+    scratch_distance: Vec<u16>,
     /// Lifelong mode: agents that reached a goal this step (and got a new one).
     arrived: Vec<bool>,
 }
@@ -176,6 +179,7 @@ impl GridEnv {
             monitor: StallMonitor::new(n, cfg.stall_window),
             scratch_cell: vec![(0, 0); n],
             scratch_at_goal: vec![false; n],
+            scratch_distance: vec![0; n],
             arrived: vec![false; n],
             map,
             cfg,
@@ -331,6 +335,11 @@ impl GridEnv {
             return Err(EnvError::EpisodeOver);
         }
         let mut outcome = StepOutcome::default();
+        if self.cfg.shaping.is_some() {
+            for i in 0..n {
+                self.scratch_distance[i] = self.goal_distance(i);
+            }
+        }
         for (i, &action) in actions.iter().enumerate() {
             if action == 0 {
                 continue;
@@ -407,6 +416,9 @@ impl GridEnv {
             }
         }
         self.episode_reward += rewards.iter().sum::<f32>();
+        if let Some(shaping) = self.cfg.shaping {
+            self.add_shaping(shaping, rewards);
+        }
         self.blocked_moves += outcome.blocked_moves;
         let distance = &self.goal_distance;
         self.monitor.observe(
@@ -418,6 +430,19 @@ impl GridEnv {
         self.arrived.fill(false);
         self.over = outcome.done();
         Ok(outcome)
+    }
+
+    /// Adds the shaping bonus (after the episode return took the unshaped
+    /// rewards). An agent whose goal changed this step (lifelong) or cannot
+    /// reach it gets none: its distances do not form one potential.
+    fn add_shaping(&self, shaping: crate::Shaping, rewards: &mut [f32]) {
+        for (i, reward) in rewards.iter_mut().enumerate() {
+            let (before, after) = (self.scratch_distance[i], self.goal_distance(i));
+            if before == UNREACHABLE || after == UNREACHABLE || self.arrived[i] {
+                continue;
+            }
+            *reward += shaping.bonus(before, after);
+        }
     }
 
     fn draw_new_goal(&mut self, agent: usize) {
@@ -573,7 +598,11 @@ impl GridEnv {
     /// Goal distance (shortest path on the static layout) of agent `i`;
     /// [`crate::map::UNREACHABLE`] if its goal cannot be reached.
     pub fn goal_distance(&self, agent: usize) -> u16 {
-        let cell = self.position(agent);
+        self.goal_distance_at(agent, self.position(agent))
+    }
+
+    /// Goal distance of agent `i` from `cell` (inside the grid).
+    pub(crate) fn goal_distance_at(&self, agent: usize, cell: Cell) -> u16 {
         self.goal_distance[agent][self.map.grid.index(cell)]
     }
 }

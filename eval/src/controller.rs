@@ -55,6 +55,11 @@ pub trait Controller: Send {
     fn episode_notes(&self) -> PlanNotes {
         PlanNotes::default()
     }
+    /// The observation features this controller reads from the env: a
+    /// trained policy's, recorded in its checkpoint; none for planners.
+    fn obs_features(&self) -> buridan_env::ObsFeatures {
+        buridan_env::ObsFeatures::default()
+    }
 }
 
 /// Optional facts a planner reports about its plan.

@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use buridan_env::{GridEnv, NUM_ACTIONS};
+use buridan_env::{GridEnv, ObsFeatures, NUM_ACTIONS};
 use buridan_policy::{checkpoint, ActMode, Inference, Mode, Policy, PolicyError};
 
 use crate::{Controller, GiveUp};
@@ -43,6 +43,7 @@ pub struct PolicyController {
     actions: Vec<u8>,
     logp: Vec<f32>,
     name: String,
+    features: ObsFeatures,
 }
 
 impl PolicyController {
@@ -84,6 +85,7 @@ impl PolicyController {
             actions: vec![0; rows * heads],
             logp: vec![0.0; rows],
             name: format!("{:?}-policy", spec.mode).to_lowercase(),
+            features: spec.features,
             inference,
         })
     }
@@ -92,6 +94,10 @@ impl PolicyController {
 impl Controller for PolicyController {
     fn name(&self) -> String {
         self.name.clone()
+    }
+
+    fn obs_features(&self) -> ObsFeatures {
+        self.features
     }
 
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {

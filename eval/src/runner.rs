@@ -181,6 +181,8 @@ pub fn evaluate(
         t_max: spec.t_max,
         starts: spec.starts,
         seed: spec.seed,
+        // The env writes what the controller reads (a policy's features).
+        features: make().obs_features(),
         ..EnvConfig::default()
     };
     // Fail early, on the caller's thread, for bad configurations.

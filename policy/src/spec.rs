@@ -1,6 +1,7 @@
 //! The model specification: everything needed to rebuild a network from a
 //! checkpoint's weights.
 
+use buridan_env::ObsFeatures;
 use serde::{Deserialize, Serialize};
 
 use crate::error::PolicyError;
@@ -146,6 +147,10 @@ pub struct ModelSpec {
     pub mode: Mode,
     /// Agents per env.
     pub agents: usize,
+    /// Extra observation features the policy was trained with (its
+    /// evaluation env must write them too).
+    #[serde(default, skip_serializing_if = "ObsFeatures::is_none")]
+    pub features: ObsFeatures,
 }
 
 fn default_hidden() -> Vec<usize> {
@@ -166,6 +171,7 @@ impl ModelSpec {
             lstm: None,
             mode,
             agents,
+            features: ObsFeatures::default(),
         }
     }
 

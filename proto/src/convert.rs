@@ -25,7 +25,7 @@
 //! assert_eq!((back_tag, back), (tag, f));
 //! ```
 
-use buridan_env::{EnvConfig, EpisodeStats, MapSource, Starts};
+use buridan_env::{EnvConfig, EpisodeStats, MapSource, ObsFeatures, Shaping, Starts};
 use buridan_policy::{Fragment, NamedTensor, PolicyError, RecurrentState, Weights};
 
 use crate::v1;
@@ -394,6 +394,9 @@ pub fn env_to_message(e: &EnvConfig) -> v1::EnvSettings {
         sensor_range: e.sensor_range as u32,
         lifelong: e.lifelong,
         stall_window: e.stall_window,
+        path_feature: e.features.path,
+        shaping: e.shaping.map_or(0.0, |s| s.coeff),
+        shaping_gamma: e.shaping.map_or(0.0, |s| s.gamma),
     }
 }
 
@@ -408,6 +411,13 @@ pub fn env_from_message(m: &v1::EnvSettings, seed: u64) -> Result<EnvConfig, Con
         sensor_range: m.sensor_range as usize,
         lifelong: m.lifelong,
         stall_window: m.stall_window,
+        features: ObsFeatures {
+            path: m.path_feature,
+        },
+        shaping: (m.shaping > 0.0).then_some(Shaping {
+            coeff: m.shaping,
+            gamma: m.shaping_gamma,
+        }),
     })
 }
 

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use buridan_env::Starts;
+use buridan_env::{ObsFeatures, Starts};
 use buridan_policy::{LstmSpec, Mode, ModelSpec, ValueHead};
 use serde::{Deserialize, Serialize};
 
@@ -223,6 +223,12 @@ pub struct TrainConfig {
     pub t_max: u32,
     /// Sensor range R of local observations.
     pub sensor_range: usize,
+    /// Extra local-observation features, TOML `[features] path = true`
+    /// (the recipe's; none by default: the dissertation's observation).
+    pub features: ObsFeatures,
+    /// Potential-based shaping on the goal distance: reward per step gained
+    /// (0 = off, the dissertation's rewards). Uses `gamma`.
+    pub shaping: f32,
     /// Seed of weights, sampling and the env episodes (actor `i` uses env seed `seed + i`).
     pub seed: u64,
     /// Env-step budget.
@@ -268,6 +274,8 @@ impl Default for TrainConfig {
             starts: Starts::Random,
             t_max: 100,
             sensor_range: 2,
+            features: ObsFeatures::default(),
+            shaping: 0.0,
             seed: 0,
             steps: 2_000_000,
             num_actors: 1,
@@ -311,6 +319,14 @@ impl TrainConfig {
     /// Checks ranges.
     pub fn validate(&self) -> Result<(), ConfigError> {
         ensure(self.agents >= 1, "agents must be at least 1")?;
+        ensure(
+            self.shaping.is_finite() && self.shaping >= 0.0,
+            "shaping must be finite and at least 0",
+        )?;
+        ensure(
+            self.features.is_none() || self.mode != Mode::Cte,
+            "observation features apply to local observations (CTDE, DTE), not CTE's central one",
+        )?;
         ensure(self.num_actors >= 1, "num_actors must be at least 1")?;
         ensure(
             self.envs_per_actor >= 1,
@@ -397,6 +413,7 @@ impl TrainConfig {
                 prev_action: true,
                 prev_reward: true,
             }),
+            features: self.features,
             ..ModelSpec::new(self.mode, self.agents, obs_dim)
         }
     }

@@ -34,7 +34,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use buridan_actor::Collector;
-use buridan_env::{seed, EnvConfig, Map, VecEnv};
+use buridan_env::{seed, EnvConfig, Map, Shaping, VecEnv};
 use buridan_policy::checkpoint::{self, CONFIG_FILE, OPTIMIZER_FILE, TRAINER_FILE};
 use buridan_policy::{Fragment, Inference, ModelSpec, Policy, Weights};
 use rand::SeedableRng;
@@ -170,6 +170,11 @@ pub fn env_config(cfg: &TrainConfig, seed: u64) -> EnvConfig {
         starts: cfg.starts,
         seed,
         sensor_range: cfg.sensor_range,
+        features: cfg.features,
+        shaping: (cfg.shaping > 0.0).then_some(Shaping {
+            coeff: cfg.shaping,
+            gamma: cfg.gamma,
+        }),
         ..EnvConfig::default()
     }
 }
@@ -228,7 +233,7 @@ impl Run {
         let obs_dim = cfg
             .mode
             .obs_kind()
-            .obs_dim(&map, cfg.agents, cfg.sensor_range);
+            .obs_dim(&map, &env_config(cfg, cfg.seed));
         let spec = cfg.model_spec(obs_dim);
         let (policy, state) = match &cfg.resume {
             None => (
