@@ -3,7 +3,7 @@
 //! or sampled, either ranking), greedy shielded evaluation is
 //! deterministic, and it frees a trained policy from its greedy jams.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use buridan_env::{central_obs_dim, local_obs_dim, EnvConfig, Map};
@@ -26,7 +26,7 @@ fn untrained(mode: Mode, agents: usize, obs_dim: usize, tag: &str) -> PathBuf {
 
 fn run(
     map: &Arc<Map>,
-    dir: &PathBuf,
+    dir: &Path,
     spec: &EvalSpec,
     act_mode: ActMode,
     ranking: Ranking,
