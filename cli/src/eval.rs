@@ -13,6 +13,7 @@ use buridan_eval::{evaluate, Controller, EvalSpec, EvalSummary, RandomController
 use buridan_policy::ActMode;
 
 use buridan_eval::policy::PolicyController;
+use buridan_eval::shield::{Ranking, ShieldController};
 use buridan_mapf::{planner_by_name, Limits, Planner};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -31,7 +32,10 @@ pub struct EvalArgs {
     /// Seed of the episode generator (42 as in the dissertation).
     #[arg(long, default_value_t = 42)]
     pub seed: u64,
-    /// `ma-astar`, `cbs`, `random` or `checkpoint:DIR`.
+    /// `ma-astar`, `cbs`, `pibt`, `lacam`, `lacam-star`, `random`,
+    /// `checkpoint:DIR`, or a checkpoint through the PIBT collision shield:
+    /// `shield:checkpoint:DIR` (preferences over every move but walls) or
+    /// `shield-env:checkpoint:DIR` (moves into occupied cells ranked last).
     #[arg(long)]
     pub controller: String,
     /// `random` starts and goals, or `fixed` (the map's `.scen`).
@@ -55,7 +59,8 @@ pub struct EvalArgs {
     /// Print the JSON summary (an array for a sweep) to stdout.
     #[arg(long)]
     pub json: bool,
-    /// Trained policies: sample actions instead of taking the most probable.
+    /// Trained policies: sample actions instead of taking the most probable
+    /// (shielded: the sampled action is the first preference).
     #[arg(long)]
     pub sample: bool,
 }
@@ -94,8 +99,18 @@ pub fn parse_agent_counts(text: &str) -> Result<Vec<usize>> {
 /// A factory of fresh controllers, one per evaluation thread.
 pub type ControllerFactory = Box<dyn Fn() -> Box<dyn Controller> + Sync>;
 
-/// Resolves `--controller` (`ma-astar`, `cbs`, `random`, `checkpoint:DIR`) to
-/// a factory for episodes with `agents` agents.
+/// Resolves `--controller` (`ma-astar`, `cbs`, `random`, `checkpoint:DIR`,
+/// `shield:checkpoint:DIR`, …) to a factory for episodes with `agents` agents.
+///
+/// ```
+/// use buridan_cli::eval::controller_factory;
+/// use buridan_policy::ActMode;
+/// let ckpt = "../docs/results/ppo-ctde-rm-2.1/checkpoint";
+/// let make = controller_factory(&format!("shield:checkpoint:{ckpt}"), 8, 42, Default::default(), ActMode::Greedy).unwrap();
+/// assert_eq!(make().name(), "ctde-policy+shield");
+/// let err = controller_factory("shield:cbs", 4, 42, Default::default(), ActMode::Greedy).err().unwrap();
+/// assert!(err.to_string().contains("trained policies only"), "{err}");
+/// ```
 pub fn controller_factory(
     name: &str,
     agents: usize,
@@ -103,6 +118,20 @@ pub fn controller_factory(
     limits: Limits,
     act_mode: ActMode,
 ) -> Result<ControllerFactory> {
+    for (prefix, ranking) in [("shield:", Ranking::Walls), ("shield-env:", Ranking::Env)] {
+        if let Some(inner) = name.strip_prefix(prefix) {
+            let Some(dir) = inner.strip_prefix("checkpoint:") else {
+                bail!("'{name}': the shield drives trained policies only ({prefix}checkpoint:DIR)");
+            };
+            let dir = PathBuf::from(dir);
+            let load = move || ShieldController::load(&dir, agents, act_mode, seed, ranking);
+            // Load once here so that a bad checkpoint fails with its reason.
+            load()?;
+            return Ok(Box::new(move || {
+                Box::new(load().expect("loaded once already"))
+            }));
+        }
+    }
     if let Some(dir) = name.strip_prefix("checkpoint:") {
         let dir = PathBuf::from(dir);
         // Load once here so that a bad checkpoint fails with its reason.
@@ -118,7 +147,7 @@ pub fn controller_factory(
     }
     let planner: Arc<dyn Planner> = planner_by_name(name)
         .with_context(|| {
-            format!("unknown controller '{name}': expected ma-astar, cbs, pibt, lacam, lacam-star, random or checkpoint:DIR")
+            format!("unknown controller '{name}': expected ma-astar, cbs, pibt, lacam, lacam-star, random, checkpoint:DIR or shield:checkpoint:DIR")
         })?
         .into();
     Ok(Box::new(move || {

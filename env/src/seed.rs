@@ -62,3 +62,10 @@ pub fn lifelong_goals(env_seed: u64) -> u64 {
 pub fn random_controller(seed: u64) -> u64 {
     seed ^ 0x7261_6e64_6f6d // "random"
 }
+
+/// Seed of the collision shield's per-episode priority tie-breaks for
+/// evaluation seed `seed` (one stream per episode, as [`crate::episode_rng`]
+/// draws them).
+pub fn shield_ties(seed: u64) -> u64 {
+    seed ^ 0x7368_6965_6c64 // "shield"
+}

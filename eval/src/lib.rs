@@ -5,6 +5,8 @@
 //! - [`controller`]: the [`Controller`] trait and [`RandomController`].
 //! - [`planner`]: planners of `buridan-mapf` as controllers.
 //! - [`policy`]: a trained policy (a checkpoint) as a controller.
+//! - [`shield`]: a trained policy executed through the PIBT collision
+//!   shield (deterministic, conflict-free joint moves).
 //! - [`runner`]: [`evaluate`] runs episodes and aggregates them.
 //! - [`stats`]: quantiles and box-plot statistics.
 //! - [`output`]: CSV, JSON and PNG files of a report; the agent-count sweep.
@@ -16,6 +18,7 @@ pub mod planner;
 pub mod plot;
 pub mod policy;
 pub mod runner;
+pub mod shield;
 pub mod stats;
 
 pub use controller::{Controller, GiveUp, PlanNotes, RandomController};

@@ -91,6 +91,82 @@ impl PolicyController {
     }
 }
 
+/// Which action mask the policy's distribution is taken under.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum MaskKind {
+    /// The env's mask (walls and cells other agents hold are illegal), as
+    /// in training.
+    Env,
+    /// Walls only: moves into cells other agents hold stay possible.
+    Walls,
+}
+
+/// One inference for all agents; agent `i`'s entries of `logits` and
+/// `masks` are `5i..5i + 5` (CTDE/DTE: row `i`; CTE: head `i` of row 0).
+pub(crate) struct Decision<'a> {
+    /// The chosen (greedy or sampled) action of each agent.
+    pub actions: &'a [u8],
+    /// Raw logits.
+    pub logits: &'a [f32],
+    /// The mask the actions were chosen under.
+    pub masks: &'a [u8],
+}
+
+impl PolicyController {
+    /// Runs the policy on the env's state: each agent's action chosen under
+    /// `mask` (greedy or sampled, as loaded), with the raw logits. A
+    /// recurrent policy's state advances; [`PolicyController::record_taken`]
+    /// tells it what was executed instead, if anything.
+    pub(crate) fn decide(
+        &mut self,
+        env: &GridEnv,
+        mask: MaskKind,
+    ) -> Result<Decision<'_>, PolicyError> {
+        if self.mode == Mode::Cte {
+            env.write_central_obs(&mut self.obs).expect("sized at load");
+            env.write_joint_mask(&mut self.masks)
+                .expect("sized at load");
+        } else {
+            let d = env.local_obs_dim();
+            for i in 0..env.agents() {
+                env.write_local_obs(i, &mut self.obs[i * d..(i + 1) * d])
+                    .expect("sized at load");
+                env.write_action_mask(i, &mut self.masks[i * NUM_ACTIONS..(i + 1) * NUM_ACTIONS])
+                    .expect("sized at load");
+            }
+        }
+        if mask == MaskKind::Walls {
+            let grid = &env.map().grid;
+            for (i, &pos) in env.positions().iter().enumerate() {
+                for a in 1..NUM_ACTIONS {
+                    let open = grid
+                        .neighbour(pos, a as u8)
+                        .is_some_and(|c| !grid.is_wall(c));
+                    self.masks[i * NUM_ACTIONS + a] = u8::from(open);
+                }
+            }
+        }
+        let logits = self.inference.act(
+            &self.obs,
+            &self.masks,
+            self.act_mode,
+            &mut self.actions,
+            &mut self.logp,
+        )?;
+        Ok(Decision {
+            actions: &self.actions,
+            logits,
+            masks: &self.masks,
+        })
+    }
+
+    /// Records the actions actually sent to the env, which a recurrent
+    /// policy sees as its previous actions at the next step.
+    pub(crate) fn record_taken(&mut self, actions: &[u8]) {
+        self.actions.copy_from_slice(actions);
+    }
+}
+
 impl Controller for PolicyController {
     fn name(&self) -> String {
         self.name.clone()
@@ -121,27 +197,8 @@ impl Controller for PolicyController {
     }
 
     fn act(&mut self, env: &GridEnv, actions: &mut [u8]) {
-        if self.mode == Mode::Cte {
-            env.write_central_obs(&mut self.obs).expect("sized at load");
-            env.write_joint_mask(&mut self.masks)
-                .expect("sized at load");
-        } else {
-            let d = env.local_obs_dim();
-            for i in 0..env.agents() {
-                env.write_local_obs(i, &mut self.obs[i * d..(i + 1) * d])
-                    .expect("sized at load");
-                env.write_action_mask(i, &mut self.masks[i * NUM_ACTIONS..(i + 1) * NUM_ACTIONS])
-                    .expect("sized at load");
-            }
-        }
-        match self.inference.act(
-            &self.obs,
-            &self.masks,
-            self.act_mode,
-            &mut self.actions,
-            &mut self.logp,
-        ) {
-            Ok(_) => actions.copy_from_slice(&self.actions),
+        match self.decide(env, MaskKind::Env) {
+            Ok(d) => actions.copy_from_slice(d.actions),
             // Stay is always legal, so an empty mask cannot occur; be safe anyway.
             Err(_) => actions.fill(0),
         }

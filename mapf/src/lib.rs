@@ -12,6 +12,8 @@
 //! - [`lacam`]: [`Lacam`] (complete) and [`LacamStar`] (anytime, eventually
 //!   optimal), search over configurations.
 //! - [`lifelong`]: [`LifelongPibt`], PIBT for goals that change on arrival.
+//! - [`shield`]: [`Shield`], PIBT over a learned policy's action preferences
+//!   (a collision shield whose joint moves the env executes exactly).
 //! - [`planner`]: the [`Planner`] trait (`Send + Sync`), [`Solution`], [`Stats`].
 //! - [`limits`]: [`Limits`] (time, memory, nodes, makespan cap), [`SolveError`].
 //! - [`rules`]: [`Rules`], the conflict model.
@@ -94,6 +96,7 @@ pub mod plan;
 pub mod planner;
 pub mod replay;
 pub mod rules;
+pub mod shield;
 pub mod validate;
 
 pub use cbs::{Cbs, LowLevelHeuristic};
@@ -106,4 +109,5 @@ pub use plan::Plan;
 pub use planner::{planner_by_name, Planner, Solution, Stats};
 pub use replay::{replay, replay_exact, BlockedFollowing, Divergence, ReplayError, ReplayResult};
 pub use rules::Rules;
+pub use shield::{ActionOrder, Shield, ShieldError};
 pub use validate::{validate, validate_with, PlanError};

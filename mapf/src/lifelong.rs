@@ -33,7 +33,7 @@ use buridan_env::{Cell, EnvConfig, EnvError, EpisodeStats, Grid, GridEnv, Map};
 
 use crate::graph::{distance_table, Topology};
 use crate::limits::{check_instance, InstanceError};
-use crate::pibt::{Generator, Setup};
+use crate::pibt::online_step;
 use crate::replay::action_between;
 use crate::rules::Rules;
 
@@ -100,22 +100,16 @@ impl LifelongPibt {
                 self.priorities[i] = f64::from(self.dist[i][cur[i] as usize]).min(cells) / cells;
             }
         }
-        let order = Setup::order(&self.priorities);
-        let mut gen = Generator::new(&self.topo, self.rules, self.seed ^ self.steps);
-        let mut next = Vec::with_capacity(n);
-        let ok = gen.generate(&self.dist, &cur, &order, &[], &mut next);
-        debug_assert!(ok, "without constraints every agent can at least stay");
-        if !ok {
-            next = cur.clone();
-        }
+        let next = online_step(
+            &self.topo,
+            self.rules,
+            self.seed ^ self.steps,
+            &self.dist,
+            &cur,
+            &self.goals,
+            &mut self.priorities,
+        );
         self.steps += 1;
-        for (i, p) in self.priorities.iter_mut().enumerate() {
-            if next[i] == self.goals[i] {
-                *p = p.fract();
-            } else {
-                *p += 1.0;
-            }
-        }
         Ok(next.iter().map(|&c| self.topo.cell(c)).collect())
     }
 

@@ -85,6 +85,24 @@ impl TieBreaker {
     }
 }
 
+/// How an agent ranks its candidate moves: lower keys are tried first.
+/// Classical PIBT ranks by the distance to the goal (the distance tables,
+/// `Vec<Vec<u32>>`); the collision shield ([`crate::shield`]) by a learned
+/// policy's preference order over the five actions.
+pub(crate) trait Preference {
+    /// The key of `agent` taking `action` (0 stay, 1 up, 2 right, 3 down,
+    /// 4 left), which leads to `cell`.
+    fn key(&self, agent: u32, action: usize, cell: u32) -> u32;
+}
+
+/// Distance tables `dist[agent][cell]` to each agent's goal.
+impl Preference for Vec<Vec<u32>> {
+    #[inline]
+    fn key(&self, agent: u32, _action: usize, cell: u32) -> u32 {
+        self[agent as usize][cell as usize]
+    }
+}
+
 /// Marks a cell nobody may enter at `t + 1` (being cleared, see
 /// [`Generator::clear_way`]).
 const BLOCKED: u32 = NONE - 1;
@@ -120,12 +138,12 @@ impl<'a> Generator<'a> {
 
     /// The next configuration after `cur`: agents visited in `order`
     /// (highest priority first), `constraints` `(agent, cell)` placed first;
-    /// `dist[i][cell]` is the distance from `cell` to agent `i`'s goal.
+    /// each agent tries its moves in the order of `pref`'s keys.
     /// Writes it to `out` and returns `true`, or returns `false` when the
     /// constraints cannot be met by a legal step.
-    pub fn generate(
+    pub fn generate<P: Preference>(
         &mut self,
-        dist: &[Vec<u32>],
+        pref: &P,
         cur: &[u32],
         order: &[u32],
         constraints: &[(u32, u32)],
@@ -136,7 +154,7 @@ impl<'a> Generator<'a> {
         }
         self.next.clear();
         self.next.resize(cur.len(), NONE);
-        let ok = self.place(dist, cur, order, constraints);
+        let ok = self.place(pref, cur, order, constraints);
         let ok = ok && self.legal(cur);
         if ok {
             out.clear();
@@ -172,9 +190,9 @@ impl<'a> Generator<'a> {
         self.next[holder as usize] != cur[agent as usize]
     }
 
-    fn place(
+    fn place<P: Preference>(
         &mut self,
-        dist: &[Vec<u32>],
+        pref: &P,
         cur: &[u32],
         order: &[u32],
         constraints: &[(u32, u32)],
@@ -192,7 +210,7 @@ impl<'a> Generator<'a> {
             self.reserve(i, v);
         }
         for &i in order {
-            if self.next[i as usize] == NONE && !self.pibt(dist, i, cur) {
+            if self.next[i as usize] == NONE && !self.pibt(pref, i, cur) {
                 return false;
             }
         }
@@ -201,14 +219,14 @@ impl<'a> Generator<'a> {
 
     /// PIBT for `i`: reserve a cell for `t + 1`, pushing undecided holders.
     /// On failure `i` stays (and reports `false` to the agent that pushed it).
-    fn pibt(&mut self, dist: &[Vec<u32>], i: u32, cur: &[u32]) -> bool {
+    fn pibt<P: Preference>(&mut self, pref: &P, i: u32, cur: &[u32]) -> bool {
         let here = cur[i as usize];
         let mut cands = [(0u32, 0u32, 0u32, NONE); 5];
         let mut k = 0;
-        for &v in self.topo.moves(here) {
+        for (action, &v) in self.topo.moves(here).iter().enumerate() {
             if v != NONE {
                 let busy = u32::from(self.occ_now[v as usize] != NONE && v != here);
-                cands[k] = (dist[i as usize][v as usize], busy, self.rng.next(), v);
+                cands[k] = (pref.key(i, action, v), busy, self.rng.next(), v);
                 k += 1;
             }
         }
@@ -225,7 +243,7 @@ impl<'a> Generator<'a> {
                     // Wait on `here` (reserved first, so that nobody pushed
                     // by the clearing comes back to push `i`).
                     self.reserve(i, here);
-                    if self.clear_way(dist, i, v, cur) {
+                    if self.clear_way(pref, i, v, cur) {
                         return true;
                     }
                     self.occ_next[here as usize] = NONE;
@@ -235,7 +253,7 @@ impl<'a> Generator<'a> {
             }
             self.reserve(i, v);
             let j = self.occ_now[v as usize];
-            if j != NONE && j != i && self.next[j as usize] == NONE && !self.pibt(dist, j, cur) {
+            if j != NONE && j != i && self.next[j as usize] == NONE && !self.pibt(pref, j, cur) {
                 continue; // j stays on v: try the next candidate
             }
             return true;
@@ -250,7 +268,7 @@ impl<'a> Generator<'a> {
     /// that the env moves after `i`. If `j` is undecided it must leave `v`
     /// (nobody may enter `v` at `t + 1`); if it manages, or has already
     /// decided to leave, `i` waits one step and finds `v` free at the next.
-    fn clear_way(&mut self, dist: &[Vec<u32>], i: u32, v: u32, cur: &[u32]) -> bool {
+    fn clear_way<P: Preference>(&mut self, pref: &P, i: u32, v: u32, cur: &[u32]) -> bool {
         let j = self.occ_now[v as usize];
         if !self.rules.forbid_following || j == NONE || j < i {
             return false;
@@ -260,7 +278,7 @@ impl<'a> Generator<'a> {
         }
         self.occ_next[v as usize] = BLOCKED;
         self.touched.push(v);
-        self.pibt(dist, j, cur)
+        self.pibt(pref, j, cur)
     }
 
     /// The final check of a generated step against the rules.
@@ -324,23 +342,15 @@ impl Setup {
             .collect()
     }
 
-    /// PIBT's priority update after reaching `config`: +1 for agents not on
-    /// their goals, back to the fractional part on the goal.
+    /// PIBT's priority update after reaching `config` (see
+    /// [`advance_priorities`]).
     pub fn update_priorities(&self, priorities: &mut [f64], config: &[u32]) {
-        for (i, p) in priorities.iter_mut().enumerate() {
-            if config[i] == self.goals[i] {
-                *p = p.fract();
-            } else {
-                *p += 1.0;
-            }
-        }
+        advance_priorities(priorities, config, &self.goals);
     }
 
-    /// Agents by decreasing priority (ties: lower index first).
+    /// Agents by decreasing priority (see [`priority_order`]).
     pub fn order(priorities: &[f64]) -> Vec<u32> {
-        let mut order: Vec<u32> = (0..priorities.len() as u32).collect();
-        order.sort_by(|&a, &b| priorities[b as usize].total_cmp(&priorities[a as usize]));
-        order
+        priority_order(priorities)
     }
 
     /// The plan visiting `configs` in order, trimmed.
@@ -353,6 +363,53 @@ impl Setup {
         )
         .trimmed()
     }
+}
+
+/// PIBT's priority update after reaching `config`: +1 for agents not on
+/// their `goals`, back to the fractional part (the fixed tie-breaker) on the
+/// goal. Agents kept waiting thus overtake those that have arrived.
+pub(crate) fn advance_priorities(priorities: &mut [f64], config: &[u32], goals: &[u32]) {
+    for ((p, &at), &goal) in priorities.iter_mut().zip(config).zip(goals) {
+        if at == goal {
+            *p = p.fract();
+        } else {
+            *p += 1.0;
+        }
+    }
+}
+
+/// Agents by decreasing priority (ties: lower index first).
+pub(crate) fn priority_order(priorities: &[f64]) -> Vec<u32> {
+    let mut order: Vec<u32> = (0..priorities.len() as u32).collect();
+    order.sort_by(|&a, &b| priorities[b as usize].total_cmp(&priorities[a as usize]));
+    order
+}
+
+/// One step of online PIBT, shared by lifelong PIBT and the collision
+/// shield: the next configuration after `cur` with agents in `priorities`
+/// order (tie-breaking between equal keys seeded by `seed`), then the
+/// priorities advanced towards `goals`. Without constraints every agent can
+/// at least stay, so the generator cannot fail; should it ever, everybody
+/// stays (a legal step), rather than handing the env an illegal one.
+pub(crate) fn online_step<P: Preference>(
+    topo: &Topology,
+    rules: Rules,
+    seed: u64,
+    pref: &P,
+    cur: &[u32],
+    goals: &[u32],
+    priorities: &mut [f64],
+) -> Vec<u32> {
+    let order = priority_order(priorities);
+    let mut gen = Generator::new(topo, rules, seed);
+    let mut next = Vec::with_capacity(cur.len());
+    let ok = gen.generate(pref, cur, &order, &[], &mut next);
+    debug_assert!(ok, "without constraints every agent can at least stay");
+    if !ok {
+        next = cur.to_vec();
+    }
+    advance_priorities(priorities, &next, goals);
+    next
 }
 
 /// PIBT as a one-shot planner: apply the generator step after step until

@@ -1,0 +1,177 @@
+//! A trained policy executed through the PIBT collision shield
+//! (`--controller shield:checkpoint:DIR`; CS-PIBT, Veerapaneni et al.,
+//! ICAPS 2024).
+//!
+//! Each step the policy's action probabilities become each agent's
+//! preference order over its five actions ([`preference_order`]), and
+//! [`buridan_mapf::shield::Shield`] turns the preferences into one joint
+//! move that the env executes exactly: no blocked move, symmetric waits
+//! broken by PIBT's priorities (a fixed random order per episode among
+//! agents equally long off their goals).
+//!
+//! - **Greedy** (default): preferences are the actions sorted by
+//!   probability, most probable first. Deterministic.
+//! - **Sampled** (`--sample`): the first choice is sampled from the
+//!   policy's distribution, the rest follow by probability.
+//!
+//! Which distribution ([`Ranking`]): by default only walls are masked, so
+//! a move into a cell another agent holds keeps its place among the
+//! agent's preferences (it ranks by the policy's logit) and PIBT can push
+//! that agent away — under the env's mask such moves have probability 0,
+//! and two agents facing each other would both prefer to wait.
+//! [`Ranking::Env`] keeps the env's mask: moves into occupied cells come
+//! after every legal action.
+
+use std::path::Path;
+
+use buridan_env::{seed, GridEnv, NUM_ACTIONS};
+use buridan_mapf::shield::{ActionOrder, Shield};
+use buridan_policy::ActMode;
+use rand::RngCore;
+
+use crate::policy::{MaskKind, PolicyController, PolicyLoadError};
+use crate::{Controller, GiveUp};
+
+/// Which of the policy's distributions ranks the actions.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Ranking {
+    /// Softmax over the moves that do not hit a wall: moves into cells
+    /// other agents hold rank by their logits like free ones.
+    #[default]
+    Walls,
+    /// The policy's own masked distribution, as in training: moves into
+    /// occupied cells (probability 0) come after every legal action,
+    /// ordered by their logits among themselves.
+    Env,
+}
+
+impl std::str::FromStr for Ranking {
+    type Err = String;
+
+    /// `walls` or `env`.
+    ///
+    /// ```
+    /// use buridan_eval::shield::Ranking;
+    /// assert_eq!("env".parse::<Ranking>().unwrap(), Ranking::Env);
+    /// assert!("x".parse::<Ranking>().is_err());
+    /// ```
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "walls" => Ok(Ranking::Walls),
+            "env" => Ok(Ranking::Env),
+            other => Err(format!("unknown ranking '{other}': expected walls or env")),
+        }
+    }
+}
+
+/// One agent's preference order: `first` (the policy's greedy or sampled
+/// choice), then the allowed actions (`allowed[a] != 0`) by decreasing
+/// logit, then the others by decreasing logit; ties by action index.
+///
+/// ```
+/// use buridan_eval::shield::preference_order;
+/// let logits = [0.5, 2.0, -1.0, 3.0, 1.0];
+/// // Action 3 is masked (another agent's cell): after all allowed ones.
+/// assert_eq!(preference_order(1, &logits, &[1, 1, 1, 0, 1]), [1, 4, 0, 2, 3]);
+/// // A sampled first choice leads, the rest follow by logit.
+/// assert_eq!(preference_order(2, &logits, &[1; 5]), [2, 3, 1, 4, 0]);
+/// ```
+pub fn preference_order(first: u8, logits: &[f32], allowed: &[u8]) -> ActionOrder {
+    let mut order: ActionOrder = [0, 1, 2, 3, 4];
+    order.sort_by(|&a, &b| {
+        let (a, b) = (usize::from(a), usize::from(b));
+        (b == usize::from(first))
+            .cmp(&(a == usize::from(first)))
+            .then((allowed[b] != 0).cmp(&(allowed[a] != 0)))
+            .then(logits[b].total_cmp(&logits[a]))
+            .then(a.cmp(&b))
+    });
+    order
+}
+
+/// A trained policy whose actions pass through the collision shield (see
+/// the [module docs](self)).
+pub struct ShieldController {
+    policy: PolicyController,
+    ranking: Ranking,
+    seed: u64,
+    shield: Option<Shield>,
+    prefs: Vec<ActionOrder>,
+}
+
+impl ShieldController {
+    /// Loads the policy at `checkpoint` for episodes with `agents` agents;
+    /// `seed` drives sampling and the per-episode priority tie-breaks.
+    ///
+    /// ```no_run
+    /// use buridan_eval::shield::{Ranking, ShieldController};
+    /// use buridan_policy::ActMode;
+    /// let dir = std::path::Path::new("docs/results/ppo-ctde-rm-2.1");
+    /// let c = ShieldController::load(dir, 4, ActMode::Greedy, 42, Ranking::Walls).unwrap();
+    /// ```
+    pub fn load(
+        checkpoint: &Path,
+        agents: usize,
+        act_mode: ActMode,
+        seed: u64,
+        ranking: Ranking,
+    ) -> Result<Self, PolicyLoadError> {
+        Ok(Self {
+            policy: PolicyController::load(checkpoint, agents, act_mode, seed)?,
+            ranking,
+            seed,
+            shield: None,
+            prefs: Vec::with_capacity(agents),
+        })
+    }
+}
+
+impl Controller for ShieldController {
+    fn name(&self) -> String {
+        format!("{}+shield", self.policy.name())
+    }
+
+    fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
+        self.policy.begin_episode(env)?;
+        // A fixed order among equals per episode, independent of which
+        // evaluation thread plays it.
+        let ties = buridan_env::episode_rng(seed::shield_ties(self.seed), env.episode()).next_u64();
+        let mut shield = Shield::new(&env.map().grid);
+        shield.begin_episode(env.agents(), ties);
+        self.shield = Some(shield);
+        Ok(())
+    }
+
+    fn act(&mut self, env: &GridEnv, actions: &mut [u8]) {
+        let mask = match self.ranking {
+            Ranking::Walls => MaskKind::Walls,
+            Ranking::Env => MaskKind::Env,
+        };
+        let Ok(d) = self.policy.decide(env, mask) else {
+            // Stay is always legal, so inference cannot fail on masks.
+            actions.fill(0);
+            return;
+        };
+        self.prefs.clear();
+        for (i, &first) in d.actions.iter().enumerate() {
+            let k = i * NUM_ACTIONS..(i + 1) * NUM_ACTIONS;
+            self.prefs
+                .push(preference_order(first, &d.logits[k.clone()], &d.masks[k]));
+        }
+        let shield = self
+            .shield
+            .get_or_insert_with(|| Shield::new(&env.map().grid));
+        if shield
+            .step(&env.positions(), &env.goals(), &self.prefs, actions)
+            .is_err()
+        {
+            // The env's own state is always valid; stay rather than panic.
+            actions.fill(0);
+        }
+        self.policy.record_taken(actions);
+    }
+
+    fn after_step(&mut self, rewards: &[f32]) {
+        self.policy.after_step(rewards);
+    }
+}

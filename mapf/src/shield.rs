@@ -1,0 +1,250 @@
+//! A collision shield for learned policies: PIBT over the policy's
+//! preferences (CS-PIBT, Veerapaneni et al., ICAPS 2024).
+//!
+//! A learned policy proposes one action per agent. Executed greedily,
+//! symmetric agents wait for each other forever: both face each other, both
+//! see the other's cell masked and both choose "stay". The shield instead
+//! treats each agent's five actions, ordered by the policy's probabilities,
+//! as that agent's *preference order*, and lets PIBT (priority inheritance
+//! with backtracking, [`crate::pibt`]) turn the preferences of all agents
+//! into one joint move without conflicts:
+//!
+//! - agents are visited by decreasing priority; each takes its most
+//!   preferred move still free at `t + 1`, pushing an undecided occupant out
+//!   of the way first (the occupant then takes *its* most preferred move
+//!   that is left, and so on, backtracking when a push fails);
+//! - the priority rises by 1 each step an agent is off its goal and falls
+//!   back to its fixed fractional tie-breaker on the goal (PIBT's rule). The
+//!   tie-breakers are drawn once per episode from a seed, so two symmetric
+//!   agents never wait on each other: the higher one pushes, the lower one
+//!   gives way, and actions stay deterministic.
+//!
+//! The env moves agents one after the other in index order (SPEC §2): a move
+//! into a cell another agent vacates in the same step succeeds only if that
+//! agent has a lower index. The shield uses the generator's
+//! [`Rules::ENV_EXECUTABLE`] (see [`crate::pibt`]): agent `i` never enters a
+//! cell held by a higher-index agent in the same step (it waits one step
+//! while that agent is pushed out instead), so **every move the shield
+//! returns succeeds in the env** — no blocked move, no collision, no swap.
+//!
+//! The shield knows no networks: callers pass preference orders (the
+//! evaluation crate builds them from a checkpoint's action probabilities).
+//!
+//! ```
+//! use buridan_env::{Cell, Grid};
+//! use buridan_mapf::shield::Shield;
+//! // A corridor with a pocket above its middle. Agent 0 wants to go right,
+//! // agent 1 left; they stand face to face.
+//! let grid = Grid::from_rows(&["@@.@@", "....."]).unwrap();
+//! let (pos, goals) = ([Cell::new(1, 1), Cell::new(1, 2)], [Cell::new(1, 4), Cell::new(1, 0)]);
+//! // Each agent: towards its goal, then stay, up, down, away from the goal.
+//! let prefs = [[2, 0, 1, 3, 4], [4, 0, 1, 3, 2]];
+//! let mut shield = Shield::new(&grid);
+//! shield.begin_episode(2, 0);
+//! let mut actions = [0; 2];
+//! shield.step(&pos, &goals, &prefs, &mut actions).unwrap();
+//! // Agent 0 has the higher priority in this episode: it waits while
+//! // agent 1, pushed, ducks into the pocket (agent 0 cannot enter agent
+//! // 1's cell in the same step: the env moves agent 0 first).
+//! assert_eq!(actions, [0, 1]);
+//! ```
+
+use buridan_env::{Cell, Grid, NUM_ACTIONS};
+
+use crate::graph::{Topology, NONE};
+use crate::limits::{check_instance, InstanceError};
+use crate::pibt::{online_step, Preference};
+use crate::rules::Rules;
+
+/// One agent's five actions (0 stay, 1 up, 2 right, 3 down, 4 left), most
+/// preferred first: a permutation of `0..5`.
+pub type ActionOrder = [u8; NUM_ACTIONS];
+
+/// Why the shield refused a step.
+///
+/// ```
+/// use buridan_env::{Cell, Grid};
+/// use buridan_mapf::shield::{Shield, ShieldError};
+/// let grid = Grid::from_rows(&["..."]).unwrap();
+/// let mut shield = Shield::new(&grid);
+/// let err = shield
+///     .step(&[Cell::new(0, 0)], &[Cell::new(0, 2)], &[[0, 0, 1, 2, 3]], &mut [0])
+///     .unwrap_err();
+/// assert_eq!(err, ShieldError::NotAnOrder { agent: 0, order: [0, 0, 1, 2, 3] });
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ShieldError {
+    /// Positions and goals are no valid state: a wall, a cell outside the
+    /// grid, two agents on one cell, or different lengths.
+    #[error("invalid state: {0}")]
+    State(#[from] InstanceError),
+    /// The preferences or the action buffer do not have one entry per agent.
+    #[error("{what}: {got} entries for {agents} agents")]
+    WrongLength {
+        /// `"preferences"` or `"actions"`.
+        what: &'static str,
+        /// Agents (positions given).
+        agents: usize,
+        /// Entries given.
+        got: usize,
+    },
+    /// An agent's preferences are not a permutation of the five actions.
+    #[error("agent {agent}: {order:?} is not an order of the 5 actions")]
+    NotAnOrder {
+        /// The agent.
+        agent: usize,
+        /// What it was given.
+        order: ActionOrder,
+    },
+}
+
+/// SplitMix64's output function: small or consecutive seeds still give
+/// unrelated tie-breakers.
+fn splitmix64(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Each agent's rank of each action (0: most preferred): PIBT's keys.
+struct Ranks(Vec<[u8; NUM_ACTIONS]>);
+
+impl Preference for Ranks {
+    #[inline]
+    fn key(&self, agent: u32, action: usize, _cell: u32) -> u32 {
+        u32::from(self.0[agent as usize][action])
+    }
+}
+
+/// The collision shield (see the [module docs](self)): call
+/// [`Shield::begin_episode`] at each episode start, then [`Shield::step`]
+/// once per env step.
+pub struct Shield {
+    grid: Grid,
+    topo: Topology,
+    tie_seed: u64,
+    steps: u64,
+    priorities: Vec<f64>,
+    cur: Vec<u32>,
+    goals: Vec<u32>,
+    ranks: Ranks,
+}
+
+impl Shield {
+    /// A shield for `grid`. Until [`Shield::begin_episode`] is called it
+    /// breaks priority ties with seed 0.
+    ///
+    /// ```
+    /// let grid = buridan_env::Map::load("rm-2.1").unwrap().grid;
+    /// let shield = buridan_mapf::shield::Shield::new(&grid);
+    /// assert!(shield.priorities().is_empty());
+    /// ```
+    pub fn new(grid: &Grid) -> Self {
+        Self {
+            grid: grid.clone(),
+            topo: Topology::new(grid),
+            tie_seed: 0,
+            steps: 0,
+            priorities: Vec::new(),
+            cur: Vec::new(),
+            goals: Vec::new(),
+            ranks: Ranks(Vec::new()),
+        }
+    }
+
+    /// Starts an episode with `agents` agents: priorities restart from
+    /// tie-breakers in `[0, 1)` drawn from `tie_seed` (distinct seeds per
+    /// episode give each episode its own fixed order among equals).
+    ///
+    /// ```
+    /// let grid = buridan_env::Grid::from_rows(&["...."]).unwrap();
+    /// let mut shield = buridan_mapf::shield::Shield::new(&grid);
+    /// shield.begin_episode(3, 42);
+    /// assert!(shield.priorities().iter().all(|&p| (0.0..1.0).contains(&p)));
+    /// ```
+    pub fn begin_episode(&mut self, agents: usize, tie_seed: u64) {
+        self.tie_seed = tie_seed;
+        self.steps = 0;
+        let base = splitmix64(tie_seed);
+        self.priorities = (0..agents as u64)
+            .map(|i| (splitmix64(base.wrapping_add(i)) >> 11) as f64 / (1u64 << 53) as f64)
+            .collect();
+    }
+
+    /// Current priorities (the integer part counts steps off goal since
+    /// the last arrival).
+    pub fn priorities(&self) -> &[f64] {
+        &self.priorities
+    }
+
+    /// Turns each agent's preference order into one conflict-free joint
+    /// move from `positions` towards `goals` (which only drive the
+    /// priorities) and writes the env actions into `actions`. A call with a
+    /// different number of agents than the episode begun starts a new one
+    /// with the same tie seed.
+    pub fn step(
+        &mut self,
+        positions: &[Cell],
+        goals: &[Cell],
+        preferences: &[ActionOrder],
+        actions: &mut [u8],
+    ) -> Result<(), ShieldError> {
+        check_instance(&self.grid, positions, goals)?;
+        let n = positions.len();
+        for (what, got) in [
+            ("preferences", preferences.len()),
+            ("actions", actions.len()),
+        ] {
+            if got != n {
+                return Err(ShieldError::WrongLength {
+                    what,
+                    agents: n,
+                    got,
+                });
+            }
+        }
+        self.ranks.0.clear();
+        for (agent, order) in preferences.iter().enumerate() {
+            let mut rank = [u8::MAX; NUM_ACTIONS];
+            for (r, &a) in order.iter().enumerate() {
+                match rank.get_mut(usize::from(a)) {
+                    Some(slot) if *slot == u8::MAX => *slot = r as u8,
+                    _ => {
+                        return Err(ShieldError::NotAnOrder {
+                            agent,
+                            order: *order,
+                        })
+                    }
+                }
+            }
+            self.ranks.0.push(rank);
+        }
+        if self.priorities.len() != n {
+            self.begin_episode(n, self.tie_seed);
+        }
+        self.cur.clear();
+        self.cur
+            .extend(positions.iter().map(|&c| self.topo.index(c)));
+        self.goals.clear();
+        self.goals.extend(goals.iter().map(|&c| self.topo.index(c)));
+        let next = online_step(
+            &self.topo,
+            Rules::ENV_EXECUTABLE,
+            self.tie_seed ^ self.steps,
+            &self.ranks,
+            &self.cur,
+            &self.goals,
+            &mut self.priorities,
+        );
+        self.steps += 1;
+        for ((a, &from), &to) in actions.iter_mut().zip(&self.cur).zip(&next) {
+            let moves = self.topo.moves(from);
+            *a = moves
+                .iter()
+                .position(|&v| v == to && v != NONE)
+                .expect("PIBT moves to a neighbour or stays") as u8;
+        }
+        Ok(())
+    }
+}
