@@ -393,6 +393,7 @@ mod tests {
             seed: 5,
             run_dir: dir.to_path_buf(),
             resume: false,
+            start_from: None,
             objective,
         }
     }

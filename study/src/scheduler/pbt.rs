@@ -12,6 +12,37 @@ use serde::{Deserialize, Serialize};
 use crate::overrides::Overrides;
 use crate::space::{Domain, SearchSpace};
 
+/// `TrainConfig` keys that shape the policy network (its `ModelSpec`: layer
+/// sizes, recurrence, heads, inputs, value head): a checkpoint only loads
+/// into a network of its own shape, so a PBT space cannot vary them.
+pub const NETWORK_KEYS: &[&str] = &[
+    "hidden",
+    "lstm",
+    "lstm_cells",
+    "mode",
+    "algo",
+    "agents",
+    "map",
+    "sensor_range",
+    "ppo.vf_share_layers",
+];
+
+/// The first key of `space` that PBT cannot vary ([`NETWORK_KEYS`]), if any.
+///
+/// ```
+/// use buridan_study::{scheduler::pbt::network_key, SearchSpace};
+/// let space = SearchSpace::from_toml_str("hidden = { choice = [[32], [64]] }\n\"impala.lr\" = { uniform = [0.1, 1] }").unwrap();
+/// assert_eq!(network_key(&space), Some("hidden"));
+/// assert_eq!(network_key(&SearchSpace::from_toml_str("\"impala.lr\" = { uniform = [0.1, 1] }").unwrap()), None);
+/// ```
+pub fn network_key(space: &SearchSpace) -> Option<&str> {
+    space
+        .params()
+        .iter()
+        .map(|p| p.key.as_str())
+        .find(|k| NETWORK_KEYS.contains(k))
+}
+
 /// One member of the population at a synchronisation point.
 ///
 /// ```
