@@ -183,8 +183,13 @@ fn the_lineage_says_who_copied_whom_and_the_outputs_hold_it() {
     let state = study.state();
     let pbt = state.pbt.as_ref().unwrap();
     assert_eq!(pbt.rounds_done, 20);
-    // 20 rounds, an exploit after each but the last, 2 of 8 members each time.
-    assert_eq!(pbt.lineage.len(), 19 * 2);
+    // 20 rounds, after each but the last the bottom 2 of 8 members copy
+    // the top 2 (unless tied with them).
+    assert!(
+        (19..=19 * 2).contains(&pbt.lineage.len()),
+        "{}",
+        pbt.lineage.len()
+    );
     let calls = fake.calls();
     for e in &pbt.lineage {
         assert!(e.source_score >= e.trial_score, "{e:?}");
@@ -212,7 +217,7 @@ fn the_lineage_says_who_copied_whom_and_the_outputs_hold_it() {
             c.start_from.as_deref() == Some(dir.path().join(round_dir(c.id, c.round - 1)).as_path())
         })
         .count();
-    assert_eq!(own, 19 * 6);
+    assert_eq!(own + pbt.lineage.len(), 19 * 8);
 
     study.write_outputs().unwrap();
     let csv = std::fs::read_to_string(dir.path().join("pbt.csv")).unwrap();

@@ -101,7 +101,10 @@ pub struct Exploit {
 }
 
 /// Exploit-and-explore over a population: one [`Exploit`] per member of the
-/// bottom quantile (at least one member when the population has two or more).
+/// bottom quantile (at least one member when the population has two or
+/// more) that scores below every member of the top quantile. A member tied
+/// with the top (all at 0 % success early in training, say) copies no one:
+/// that would only trade its hyperparameters for noise.
 ///
 /// ```
 /// use buridan_study::scheduler::pbt::{exploit_and_explore, Member, PbtConfig};
@@ -114,6 +117,8 @@ pub struct Exploit {
 /// let moves = exploit_and_explore(&pop, &space, &PbtConfig::default(), &mut rng);
 /// assert_eq!(moves.len(), 1);
 /// assert_eq!((moves[0].trial, moves[0].source), (0, 3)); // worst copies best
+/// let tied: Vec<Member> = pop.iter().map(|m| Member { score: 0.0, ..m.clone() }).collect();
+/// assert!(exploit_and_explore(&tied, &space, &PbtConfig::default(), &mut rng).is_empty());
 /// ```
 pub fn exploit_and_explore<R: Rng>(
     population: &[Member],
@@ -128,9 +133,11 @@ pub fn exploit_and_explore<R: Rng>(
     order.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.trial.cmp(&b.trial)));
     let k = ((config.quantile * order.len() as f64).round() as usize).clamp(1, order.len() / 2);
     let top = &order[..k];
+    let weakest_top = top[k - 1].score;
     let bottom = &order[order.len() - k..];
     bottom
         .iter()
+        .filter(|m| m.score < weakest_top)
         .map(|m| {
             let source = top[rng.random_range(0..top.len())];
             Exploit {
