@@ -40,7 +40,7 @@ const TAIL_LINES: usize = 20;
 pub enum ProcessError {
     /// The trial's configuration, checkpoint or evaluation.
     #[error(transparent)]
-    Trial(#[from] TrialRunError),
+    Trial(Box<TrialRunError>),
     /// The child could not be started or watched.
     #[error("running {}", exe.display())]
     Spawn {
@@ -67,6 +67,12 @@ pub enum ProcessError {
         /// Why.
         message: String,
     },
+}
+
+impl From<TrialRunError> for ProcessError {
+    fn from(e: TrialRunError) -> ProcessError {
+        ProcessError::Trial(Box::new(e))
+    }
 }
 
 /// Runs each trial as a `learner train` child process.

@@ -286,21 +286,24 @@ pub fn run(args: &TrainArgs) -> Result<Summary> {
     Ok(summary)
 }
 
-/// Trains as [`train`] does (actor threads in this process), stopping with
-/// a checkpoint (`TrainError::Interrupted`) once `interrupt` is set.
+/// Trains as the learner's `train` does (actor threads in this process),
+/// stopping with a checkpoint (`TrainError::Interrupted`) once `interrupt`
+/// is set.
 pub fn train_interruptible(
     cfg: &TrainConfig,
     out: &Path,
     progress: &mut dyn Progress,
     interrupt: Arc<AtomicBool>,
-) -> Result<Summary, TrainError> {
+) -> Result<Summary, Box<TrainError>> {
     let mut run = Run::prepare(cfg, out)?;
-    let collectors = (0..cfg.num_actors as u32)
-        .map(|i| run.collector(i))
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut exchange = InProcess::spawn(collectors, cfg.queue_capacity(), cfg.staleness())?;
+    let mut collectors = Vec::with_capacity(cfg.num_actors);
+    for i in 0..cfg.num_actors as u32 {
+        collectors.push(run.collector(i)?);
+    }
+    let mut exchange = InProcess::spawn(collectors, cfg.queue_capacity(), cfg.staleness())
+        .map_err(|e| Box::new(e.into()))?;
     run.interrupt_on(interrupt);
-    run.learn(&mut exchange, progress)
+    Ok(run.learn(&mut exchange, progress)?)
 }
 
 /// Sets `flag` once stdin reaches its end (its writer closed it or died).

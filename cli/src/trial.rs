@@ -301,10 +301,6 @@ impl LearnerRunner {
         reporter: &mut dyn Reporter,
     ) -> Result<Measurement, TrialRunError> {
         let cfg = trial_config(&self.base, spec)?;
-        let train_failed = |source: TrainError| TrialRunError::Train {
-            dir: spec.run_dir.clone(),
-            source: Box::new(source),
-        };
         tracing::info!(
             trial = spec.id,
             overrides = %buridan_study::overrides::describe(&spec.overrides),
@@ -325,11 +321,16 @@ impl LearnerRunner {
         clear_bar(self.bars.as_ref(), bar.as_ref());
         let summary = match outcome {
             Ok(summary) => summary,
-            Err(TrainError::Interrupted(_)) if progress.stopped => {
+            Err(e) if progress.stopped && matches!(*e, TrainError::Interrupted(_)) => {
                 tracing::info!(trial = spec.id, step = progress.last.step, "trial stopped");
                 return Ok(progress.last);
             }
-            Err(e) => return Err(train_failed(e)),
+            Err(source) => {
+                return Err(TrialRunError::Train {
+                    dir: spec.run_dir.clone(),
+                    source,
+                })
+            }
         };
         measure(&cfg, spec, &self.eval, &summary)
     }

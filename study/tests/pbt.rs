@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use buridan_study::config::ConfigError;
 use buridan_study::lineage::round_dir;
-use buridan_study::state::{StudyState, TrialStatus, STATE_FILE};
+use buridan_study::state::{StudyState, STATE_FILE};
 use buridan_study::*;
 use serde::{Deserialize, Serialize};
 
