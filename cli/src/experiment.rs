@@ -568,6 +568,7 @@ impl TrainCell {
             overrides: self.set.clone(),
             out: out.join(&self.run_dir),
             quiet: true,
+            stop_when_stdin_closes: false,
         }
     }
 

@@ -6,6 +6,8 @@
 pub mod aggregate;
 pub mod eval;
 pub mod experiment;
+pub mod metrics_tail;
+pub mod process;
 pub mod serve;
 pub mod study;
 pub mod train;

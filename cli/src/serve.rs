@@ -9,7 +9,8 @@ use std::time::Duration;
 use anyhow::{bail, Result};
 
 use crate::train::{
-    check_out, install_metrics, report, resolve_config, TerminalProgress, TrainArgs,
+    check_out, install_metrics, report, resolve_config, stop_when_stdin_closes, TerminalProgress,
+    TrainArgs,
 };
 use buridan_learner::serve::{serve, Listener, ServeOptions, DEFAULT_MAX_MESSAGE_BYTES};
 use buridan_learner::train::Summary;
@@ -62,6 +63,9 @@ pub fn run(args: &ServeArgs) -> Result<Summary> {
     }
     let interrupt = Arc::new(AtomicBool::new(false));
     watch_signals(interrupt.clone());
+    if args.run.stop_when_stdin_closes {
+        stop_when_stdin_closes(interrupt.clone());
+    }
     let opts = ServeOptions {
         token: args.token.clone(),
         tls: args.tls_cert.clone().zip(args.tls_key.clone()),

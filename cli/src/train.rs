@@ -1,6 +1,8 @@
 //! `learner train`: the embedded default — learner and actors in one process.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
 use buridan_env::Starts;
@@ -8,7 +10,9 @@ use buridan_eval::plot::{line_chart, Series};
 use buridan_policy::Mode;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use buridan_learner::train::{train, Algo, MetricsRow, Progress, Summary, TrainConfig};
+use buridan_learner::train::{
+    Algo, InProcess, MetricsRow, Progress, Run, Summary, TrainConfig, TrainError,
+};
 
 /// Arguments of `learner train`.
 #[derive(Debug, clap::Args)]
@@ -54,6 +58,11 @@ pub struct TrainArgs {
     /// No progress bar (logs only).
     #[arg(long)]
     pub quiet: bool,
+    /// Stop with a checkpoint when stdin reaches its end: how a supervising
+    /// process (`learner tune --runner process`) stops the run, and how the
+    /// run notices that its supervisor died.
+    #[arg(long)]
+    pub stop_when_stdin_closes: bool,
 }
 
 /// Sets the dotted `key` of a TOML table to `value` (parsed as TOML, else a string).
@@ -268,9 +277,42 @@ pub fn run(args: &TrainArgs) -> Result<Summary> {
         install_metrics(addr)?;
     }
     let mut progress = TerminalProgress::new(cfg.steps, args.quiet);
-    let summary = train(&cfg, &args.out, &mut progress)?;
+    let interrupt = Arc::new(AtomicBool::new(false));
+    if args.stop_when_stdin_closes {
+        stop_when_stdin_closes(interrupt.clone());
+    }
+    let summary = train_interruptible(&cfg, &args.out, &mut progress, interrupt)?;
     report(args, &cfg, &summary)?;
     Ok(summary)
+}
+
+/// Trains as the learner's `train` does (actor threads in this process),
+/// stopping with a checkpoint (`TrainError::Interrupted`) once `interrupt`
+/// is set.
+pub fn train_interruptible(
+    cfg: &TrainConfig,
+    out: &Path,
+    progress: &mut dyn Progress,
+    interrupt: Arc<AtomicBool>,
+) -> Result<Summary, Box<TrainError>> {
+    let mut run = Run::prepare(cfg, out)?;
+    let mut collectors = Vec::with_capacity(cfg.num_actors);
+    for i in 0..cfg.num_actors as u32 {
+        collectors.push(run.collector(i)?);
+    }
+    let mut exchange = InProcess::spawn(collectors, cfg.queue_capacity(), cfg.staleness())
+        .map_err(|e| Box::new(e.into()))?;
+    run.interrupt_on(interrupt);
+    Ok(run.learn(&mut exchange, progress)?)
+}
+
+/// Sets `flag` once stdin reaches its end (its writer closed it or died).
+pub fn stop_when_stdin_closes(flag: Arc<AtomicBool>) {
+    std::thread::spawn(move || {
+        let _ = std::io::copy(&mut std::io::stdin().lock(), &mut std::io::sink());
+        tracing::info!("stdin closed: stopping with a checkpoint");
+        flag.store(true, Ordering::SeqCst);
+    });
 }
 
 /// Refuses to overwrite a finished run.

@@ -2,7 +2,9 @@
 //! process (a normal run directory), forwards its progress to the study's
 //! scheduler, stops it on the scheduler's word (with a checkpoint), and
 //! measures the declared objective — training success, or the seed-42
-//! evaluation of the final policy with sampled or greedy actions.
+//! evaluation of the final policy with sampled or greedy actions. The
+//! child-process runner (`crate::process`) shares the configuration, the
+//! checkpoint to start from and the measuring.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -12,9 +14,7 @@ use buridan_env::{EnvError, Map, MapError};
 use buridan_eval::output::{write_report, OutputError};
 use buridan_eval::policy::{PolicyController, PolicyLoadError};
 use buridan_eval::{evaluate, Controller, EvalReport, EvalSpec};
-use buridan_learner::train::{
-    ConfigError, InProcess, MetricsRow, Progress, Run, Summary, TrainConfig, TrainError,
-};
+use buridan_learner::train::{ConfigError, MetricsRow, Progress, Summary, TrainConfig, TrainError};
 use buridan_policy::{checkpoint, ActMode};
 use buridan_study::{
     Measurement, Objective, Overrides, Reporter, TrialError, TrialRunner, TrialSpec,
@@ -60,6 +60,14 @@ pub enum TrialRunError {
     /// The evaluation's files cannot be written.
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// The checkpoint a trial should start from is not there.
+    #[error("no checkpoint to start from in {}", dir.display())]
+    StartFrom {
+        /// The run or checkpoint directory.
+        dir: PathBuf,
+        /// Why.
+        source: buridan_policy::PolicyError,
+    },
 }
 
 /// The message of `e` and all its causes, `a: b: c`.
@@ -106,18 +114,34 @@ pub fn apply_overrides(
 }
 
 /// The configuration of trial `spec`: the base, the overrides, the trial's
-/// seed and step budget, and — when resuming — the newest checkpoint of
-/// its run directory, if it has one.
+/// seed and step budget, and the checkpoint it continues from
+/// ([`start_checkpoint`]).
 pub fn trial_config(base: &TrainConfig, spec: &TrialSpec) -> Result<TrainConfig, TrialRunError> {
     let mut cfg = apply_overrides(base, &spec.overrides)?;
     cfg.seed = spec.seed;
     cfg.steps = spec.steps;
-    cfg.resume = if spec.resume {
-        checkpoint::resolve(&spec.run_dir).ok()
-    } else {
-        None
-    };
+    cfg.resume = start_checkpoint(spec)?;
     Ok(cfg)
+}
+
+/// The checkpoint trial `spec` continues from: when resuming, the newest of
+/// its run directory if it has one; else that of `start_from` (which must
+/// have one); else none, a fresh start.
+pub fn start_checkpoint(spec: &TrialSpec) -> Result<Option<PathBuf>, TrialRunError> {
+    if spec.resume {
+        if let Ok(own) = checkpoint::resolve(&spec.run_dir) {
+            return Ok(Some(own));
+        }
+    }
+    spec.start_from
+        .as_deref()
+        .map(|dir| {
+            checkpoint::resolve(dir).map_err(|source| TrialRunError::StartFrom {
+                dir: dir.to_path_buf(),
+                source,
+            })
+        })
+        .transpose()
 }
 
 /// What the evaluation protocol runs on: seed-42 episodes, as in SPEC §6.
@@ -209,18 +233,44 @@ impl Progress for TrialProgress<'_> {
     fn on_update(&mut self, row: &MetricsRow) {
         self.last = measurement(row);
         if let Some(bar) = &self.bar {
-            bar.set_position(row.env_steps);
-            bar.set_message(format!(
-                "success {:>5.1}%  len {:>5.1}  {:>6.0} steps/s",
-                100.0 * row.success_rate,
-                row.episode_len_mean,
-                row.steps_per_s
-            ));
+            show_row(bar, row);
         }
         if !self.stopped && !self.reporter.report(&self.last).keeps_going() {
             self.stopped = true;
             self.interrupt.store(true, Ordering::SeqCst);
         }
+    }
+}
+
+/// A bar for trial `spec` in `multi` (none without `multi`).
+pub fn trial_bar(multi: Option<&MultiProgress>, spec: &TrialSpec) -> Option<ProgressBar> {
+    let multi = multi?;
+    let bar = multi.add(ProgressBar::new(spec.steps));
+    bar.set_style(
+        ProgressStyle::with_template("{prefix} [{bar:20}] {human_pos}/{human_len} {msg}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(format!("trial {:>3}", spec.id));
+    Some(bar)
+}
+
+/// Shows `row` on a trial's bar.
+pub fn show_row(bar: &ProgressBar, row: &MetricsRow) {
+    bar.set_position(row.env_steps);
+    bar.set_message(format!(
+        "success {:>5.1}%  len {:>5.1}  {:>6.0} steps/s",
+        100.0 * row.success_rate,
+        row.episode_len_mean,
+        row.steps_per_s
+    ));
+}
+
+/// Removes a finished trial's bar.
+pub fn clear_bar(multi: Option<&MultiProgress>, bar: Option<&ProgressBar>) {
+    if let (Some(bar), Some(multi)) = (bar, multi) {
+        bar.finish_and_clear();
+        multi.remove(bar);
     }
 }
 
@@ -244,18 +294,6 @@ impl LearnerRunner {
         }
     }
 
-    fn bar(&self, spec: &TrialSpec) -> Option<ProgressBar> {
-        let multi = self.bars.as_ref()?;
-        let bar = multi.add(ProgressBar::new(spec.steps));
-        bar.set_style(
-            ProgressStyle::with_template("{prefix} [{bar:20}] {human_pos}/{human_len} {msg}")
-                .expect("valid template")
-                .progress_chars("=> "),
-        );
-        bar.set_prefix(format!("trial {:>3}", spec.id));
-        Some(bar)
-    }
-
     /// Trains and measures trial `spec`; `Ok` also when the study stopped it.
     pub fn run_trial(
         &self,
@@ -263,79 +301,80 @@ impl LearnerRunner {
         reporter: &mut dyn Reporter,
     ) -> Result<Measurement, TrialRunError> {
         let cfg = trial_config(&self.base, spec)?;
-        let train_failed = |source: TrainError| TrialRunError::Train {
-            dir: spec.run_dir.clone(),
-            source: Box::new(source),
-        };
         tracing::info!(
             trial = spec.id,
             overrides = %buridan_study::overrides::describe(&spec.overrides),
             resume = ?cfg.resume,
             "trial starts"
         );
-        let mut run = Run::prepare(&cfg, &spec.run_dir).map_err(train_failed)?;
-        let mut collectors = Vec::with_capacity(cfg.num_actors);
-        for i in 0..cfg.num_actors as u32 {
-            collectors.push(run.collector(i).map_err(train_failed)?);
-        }
-        let mut exchange = InProcess::spawn(collectors, cfg.queue_capacity(), cfg.staleness())
-            .map_err(|e| train_failed(e.into()))?;
         let interrupt = Arc::new(AtomicBool::new(false));
-        run.interrupt_on(interrupt.clone());
-        let bar = self.bar(spec);
+        let bar = trial_bar(self.bars.as_ref(), spec);
         let mut progress = TrialProgress {
             reporter,
-            interrupt,
+            interrupt: interrupt.clone(),
             last: Measurement::default(),
             stopped: false,
             bar: bar.clone(),
         };
-        let outcome = run.learn(&mut exchange, &mut progress);
-        if let (Some(bar), Some(multi)) = (&bar, &self.bars) {
-            bar.finish_and_clear();
-            multi.remove(bar);
-        }
+        let outcome =
+            crate::train::train_interruptible(&cfg, &spec.run_dir, &mut progress, interrupt);
+        clear_bar(self.bars.as_ref(), bar.as_ref());
         let summary = match outcome {
             Ok(summary) => summary,
-            Err(TrainError::Interrupted(_)) if progress.stopped => {
+            Err(e) if progress.stopped && matches!(*e, TrainError::Interrupted(_)) => {
                 tracing::info!(trial = spec.id, step = progress.last.step, "trial stopped");
                 return Ok(progress.last);
             }
-            Err(e) => return Err(train_failed(e)),
-        };
-        let mut m = summary_measurement(&summary);
-        let act_mode = match spec.objective {
-            Objective::TrainSuccess => return Ok(m),
-            Objective::EvalSampled => ActMode::Sample,
-            Objective::EvalGreedy => ActMode::Greedy,
-        };
-        let map = Arc::new(Map::load(&cfg.map)?);
-        let eval_spec = EvalSpec {
-            agents: cfg.agents,
-            episodes: self.eval.episodes,
-            seed: self.eval.seed,
-            starts: cfg.starts,
-            t_max: cfg.t_max,
-            jobs: 1,
-        };
-        let report = evaluate_policy(&spec.run_dir, &map, &eval_spec, act_mode)?;
-        let name = match act_mode {
-            ActMode::Sample => "eval-sampled",
-            ActMode::Greedy => "eval-greedy",
-        };
-        write_report(&spec.run_dir.join(name), &report, &map.grid)?;
-        let s = &report.summary;
-        let len = mean_len(&report);
-        match act_mode {
-            ActMode::Sample => {
-                (m.eval_sampled_success, m.eval_sampled_len) = (Some(s.success_rate), len)
+            Err(source) => {
+                return Err(TrialRunError::Train {
+                    dir: spec.run_dir.clone(),
+                    source,
+                })
             }
-            ActMode::Greedy => {
-                (m.eval_greedy_success, m.eval_greedy_len) = (Some(s.success_rate), len)
-            }
-        }
-        Ok(m)
+        };
+        measure(&cfg, spec, &self.eval, &summary)
     }
+}
+
+/// What trial `spec` (trained with `cfg`) amounted to under its objective:
+/// the summary's training success, or the seed-42 evaluation of its final
+/// policy, written into `eval-sampled/` or `eval-greedy/` of its run directory.
+pub fn measure(
+    cfg: &TrainConfig,
+    spec: &TrialSpec,
+    eval: &EvalProtocol,
+    summary: &Summary,
+) -> Result<Measurement, TrialRunError> {
+    let mut m = summary_measurement(summary);
+    let act_mode = match spec.objective {
+        Objective::TrainSuccess => return Ok(m),
+        Objective::EvalSampled => ActMode::Sample,
+        Objective::EvalGreedy => ActMode::Greedy,
+    };
+    let map = Arc::new(Map::load(&cfg.map)?);
+    let eval_spec = EvalSpec {
+        agents: cfg.agents,
+        episodes: eval.episodes,
+        seed: eval.seed,
+        starts: cfg.starts,
+        t_max: cfg.t_max,
+        jobs: 1,
+    };
+    let report = evaluate_policy(&spec.run_dir, &map, &eval_spec, act_mode)?;
+    let name = match act_mode {
+        ActMode::Sample => "eval-sampled",
+        ActMode::Greedy => "eval-greedy",
+    };
+    write_report(&spec.run_dir.join(name), &report, &map.grid)?;
+    let s = &report.summary;
+    let len = mean_len(&report);
+    match act_mode {
+        ActMode::Sample => {
+            (m.eval_sampled_success, m.eval_sampled_len) = (Some(s.success_rate), len)
+        }
+        ActMode::Greedy => (m.eval_greedy_success, m.eval_greedy_len) = (Some(s.success_rate), len),
+    }
+    Ok(m)
 }
 
 /// Mean length of the evaluated episodes (failures count `T_max`-long): the
@@ -393,6 +432,7 @@ mod tests {
             seed: 5,
             run_dir: dir.to_path_buf(),
             resume: false,
+            start_from: None,
             objective,
         }
     }
@@ -427,6 +467,30 @@ mod tests {
             .insert("ppo.epochs".into(), toml::Value::String("many".into()));
         let e = trial_config(&tiny_base(), &s).unwrap_err();
         assert!(chain(&e).contains("ppo.epochs=\"many\""), "{}", chain(&e));
+    }
+
+    #[test]
+    fn a_trial_starts_from_its_own_checkpoint_else_from_start_from() {
+        let dir = tempfile::tempdir().unwrap();
+        let fake_checkpoint = |run: &Path| {
+            let c = checkpoint::final_dir(run);
+            std::fs::create_dir_all(&c).unwrap();
+            std::fs::write(c.join(buridan_policy::SPEC_FILE), "{}").unwrap();
+            c
+        };
+        let (own, other) = (dir.path().join("own"), dir.path().join("other"));
+        let mut s = spec(&own, 1000, Objective::TrainSuccess);
+        assert_eq!(start_checkpoint(&s).unwrap(), None);
+        s.start_from = Some(other.clone());
+        let e = start_checkpoint(&s).unwrap_err();
+        assert!(matches!(e, TrialRunError::StartFrom { .. }), "{e}");
+        let theirs = fake_checkpoint(&other);
+        assert_eq!(start_checkpoint(&s).unwrap(), Some(theirs.clone()));
+        // Resuming without a checkpoint of its own: still the start.
+        s.resume = true;
+        assert_eq!(start_checkpoint(&s).unwrap(), Some(theirs));
+        let mine = fake_checkpoint(&own);
+        assert_eq!(start_checkpoint(&s).unwrap(), Some(mine));
     }
 
     #[test]

@@ -1,25 +1,30 @@
 //! `learner tune`: a hyperparameter search over `TrainConfig` keys, run by
 //! the study crate's driver with the learner as its trial runner — locally
-//! (trials in parallel threads, resumable), or on a cluster (`plan`, one
-//! `trial` per Kubernetes index, `collect`; `k8s` prints the Indexed Job).
+//! (trials in parallel threads or `learner train` child processes,
+//! resumable; PBT studies in rounds), or on a cluster (`plan`, one `trial`
+//! per Kubernetes index, `collect`; `k8s` prints the Indexed Job).
 //!
 //! A study directory holds `study.json` (the state), `study.toml` and
 //! `base.toml` (copies of the study file and the full base configuration,
-//! so pods and later sessions need nothing else), `trials/NNNN/` (one run
-//! directory per trial), and the outputs `trials.csv`, `trials.json`,
-//! `best.toml` (the best overrides), `best-config.toml` (the base with them
-//! merged: a complete `learner train --config` file), `objective.png` and
-//! `params.png`.
+//! so pods, child processes and later sessions need nothing else),
+//! `trials/NNNN/` (one run directory per trial; for PBT one per member and
+//! round, `trials/NNNN/round-RRR/`), and the outputs `trials.csv`,
+//! `trials.json`, `best.toml` (the best overrides), `best-config.toml` (the
+//! base with them merged: a complete `learner train --config` file),
+//! `objective.png`, `params.png`, and for PBT `pbt.csv` (the lineage) and
+//! `pbt-schedule.csv` (the best member's hyperparameters by round).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use buridan_learner::train::TrainConfig;
+use buridan_study::scheduler::SchedulerKind;
 use buridan_study::state::{StudyState, TrialStatus};
-use buridan_study::{Study, StudyConfig};
+use buridan_study::{Study, StudyConfig, TrialRunner};
 use indicatif::{MultiProgress, ProgressDrawTarget};
 
+use crate::process::ProcessRunner;
 use crate::trial::{apply_overrides, EvalProtocol, LearnerRunner};
 
 /// The copy of the study file inside a study directory.
@@ -53,6 +58,23 @@ pub struct TuneArgs {
     /// No progress bars (log lines only).
     #[arg(long)]
     pub quiet: bool,
+    /// Where trials train: `thread` (in this process) or `process` (one
+    /// `learner train` child each: a crashing trial fails alone).
+    #[arg(long, value_enum, default_value_t = RunnerKind::Thread)]
+    pub runner: RunnerKind,
+    /// The `learner` executable `--runner process` starts (default: this one).
+    #[arg(long, value_name = "PATH")]
+    pub learner_exe: Option<PathBuf>,
+}
+
+/// Where `learner tune` trains its trials.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum RunnerKind {
+    /// In this process, one thread per running trial.
+    #[default]
+    Thread,
+    /// One `learner train` child process per running trial.
+    Process,
 }
 
 /// The cluster path of `learner tune`.
@@ -265,27 +287,50 @@ pub fn run(args: &TuneArgs) -> Result<StudyState> {
         }
     };
     let before = study.progress();
+    let plan = match &config.scheduler {
+        SchedulerKind::Pbt { interval_steps, .. } => format!(
+            "PBT: {} members in rounds of {interval_steps} env steps, {} rounds done",
+            config.trials,
+            study.state().pbt.as_ref().map_or(0, |p| p.rounds_done)
+        ),
+        _ => format!("{} trials", config.trials),
+    };
     say(format!(
-        "study `{}`: {} trials of {} env steps, {} sampler, {} at once, objective {}; {} finished already -> {}",
+        "study `{}`: {plan} of {} env steps, {} sampler, {} at once ({}), objective {}; {} finished already -> {}",
         config.name,
-        config.trials,
         config.steps_per_trial,
         format!("{:?}", config.sampler).to_lowercase(),
         config.parallel,
+        format!("{:?}", args.runner).to_lowercase(),
         config.objective.name(),
         before.completed + before.stopped + before.failed,
         out.display()
     ));
-    let runner = LearnerRunner {
-        base: base.clone(),
-        eval: EvalProtocol {
-            episodes: args.eval_episodes,
-            ..EvalProtocol::default()
-        },
-        bars: (!args.quiet).then(|| multi.clone()),
+    let eval = EvalProtocol {
+        episodes: args.eval_episodes,
+        ..EvalProtocol::default()
+    };
+    let bars = (!args.quiet).then(|| multi.clone());
+    let runner: Box<dyn TrialRunner> = match args.runner {
+        RunnerKind::Thread => Box::new(LearnerRunner {
+            base: base.clone(),
+            eval,
+            bars,
+        }),
+        RunnerKind::Process => {
+            let exe = match &args.learner_exe {
+                Some(exe) => exe.clone(),
+                None => std::env::current_exe().context("locating the learner executable")?,
+            };
+            Box::new(ProcessRunner {
+                eval,
+                bars,
+                ..ProcessRunner::new(exe, out.join(BASE_FILE), base.clone())
+            })
+        }
     };
     let started = Instant::now();
-    let progress = study.run(&runner)?;
+    let progress = study.run(runner.as_ref())?;
     let files = write_outputs(&study, &base)?;
     for line in trial_lines(study.state()) {
         say(line);

@@ -34,6 +34,7 @@ fn train_args(out: PathBuf) -> TrainArgs {
         ],
         out,
         quiet: true,
+        stop_when_stdin_closes: false,
     }
 }
 

@@ -60,6 +60,8 @@ fn tune_args(file: PathBuf, out: PathBuf, resume: bool) -> TuneArgs {
         resume,
         eval_episodes: 5,
         quiet: true,
+        runner: tune::RunnerKind::Thread,
+        learner_exe: None,
     }
 }
 
@@ -266,7 +268,7 @@ fn the_shipped_study_and_experiment_files_load() {
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
         let name = path.file_name().unwrap().to_string_lossy().to_string();
-        if name.starts_with("tune-") {
+        if name.starts_with("tune-") || name.starts_with("pbt-") {
             let (config, base) =
                 tune::load_study_file(&path).unwrap_or_else(|e| panic!("{name}: {e:#}"));
             assert!(config.trials > 0 && base.steps > 0, "{name}");

@@ -57,7 +57,7 @@ fn corrupt(path: &Path, e: impl std::fmt::Display) -> StateError {
 /// let dir = tempfile::tempdir().unwrap();
 /// let spec = buridan_study::TrialSpec {
 ///     id: 1, overrides: Default::default(), steps: 10, seed: 1,
-///     run_dir: dir.path().join("trials/0001"), resume: false,
+///     run_dir: dir.path().join("trials/0001"), resume: false, start_from: None,
 ///     objective: buridan_study::Objective::TrainSuccess,
 /// };
 /// buridan_study::batch::write_spec(dir.path(), &spec).unwrap();

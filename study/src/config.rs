@@ -13,13 +13,31 @@
 //! seed = 0
 //!
 //! [study.scheduler]
-//! kind = "asha"                # none | asha | median
-//! grace_steps = 250_000
+//! kind = "asha"                # none | asha | median | pbt
+//! grace_steps = 250_000        # asha, median: no decision before
+//! # reduction = 3              # asha: rungs at grace·3^k, the top third goes on
+//! # min_trials = 3             # median: other trials needed before judging
 //!
 //! [space]
 //! "ppo.lr" = { choice = [1e-4, 3e-4, 5e-4, 1e-3] }
 //! "ppo.epochs" = { int = [5, 14] }
 //! ```
+//!
+//! Population-based training replaces the trial loop: the population
+//! trains in rounds, and `trials` may be left out (it is the population).
+//!
+//! ```toml
+//! [study.scheduler]
+//! kind = "pbt"
+//! interval_steps = 250_000     # env steps per round
+//! population = 4               # default: `parallel`
+//! quantile = 0.25              # bottom quarter copies the top quarter
+//! resample_probability = 0.25  # else floats ×0.8/×1.2, choices move to a neighbour
+//! ```
+//!
+//! A PBT space must not vary the network's shape
+//! ([`crate::scheduler::pbt::NETWORK_KEYS`], e.g. `hidden`): members copy
+//! each other's checkpoints.
 
 use std::path::Path;
 use std::time::Duration;
@@ -58,7 +76,7 @@ pub struct StudyConfig {
     pub scheduler: SchedulerKind,
     /// What is maximised.
     pub objective: Objective,
-    /// Trials in total.
+    /// Trials in total (PBT: the population).
     pub trials: u64,
     /// Trials at once.
     pub parallel: usize,
@@ -85,7 +103,7 @@ struct StudySection {
     scheduler: SchedulerKind,
     #[serde(default)]
     objective: Objective,
-    trials: u64,
+    trials: Option<u64>,
     #[serde(default = "one")]
     parallel: usize,
     steps_per_trial: u64,
@@ -127,6 +145,15 @@ pub enum ConfigError {
     /// The `[space]` table is wrong.
     #[error("[space]: {0}")]
     Space(#[from] SpaceError),
+    /// A PBT space varies a key that shapes the network, which a member
+    /// cannot change while continuing from another member's checkpoint.
+    #[error(
+        "[space] `{key}` shapes the network, and PBT members continue from each other's checkpoints: fix it in the base configuration, or use another scheduler"
+    )]
+    NetworkKey {
+        /// The key.
+        key: String,
+    },
 }
 
 impl StudyConfig {
@@ -174,12 +201,60 @@ impl StudyConfig {
             field,
             problem: problem.to_string(),
         };
-        if s.trials == 0 {
-            return Err(invalid("trials", "must be at least 1"));
-        }
         if s.parallel == 0 {
             return Err(invalid("parallel", "must be at least 1"));
         }
+        let (trials, scheduler) = match s.scheduler {
+            SchedulerKind::Pbt {
+                interval_steps,
+                population,
+                quantile,
+                resample_probability,
+            } => {
+                let population = population.unwrap_or(s.parallel);
+                if population < 2 {
+                    return Err(invalid(
+                        "scheduler.population",
+                        "PBT needs at least 2 members",
+                    ));
+                }
+                if interval_steps == 0 {
+                    return Err(invalid("scheduler.interval_steps", "must be at least 1"));
+                }
+                if !(quantile > 0.0 && quantile <= 0.5) {
+                    return Err(invalid("scheduler.quantile", "must be in (0, 0.5]"));
+                }
+                if !(0.0..=1.0).contains(&resample_probability) {
+                    return Err(invalid(
+                        "scheduler.resample_probability",
+                        "must be in [0, 1]",
+                    ));
+                }
+                if s.trials.is_some_and(|t| t != population as u64) {
+                    return Err(invalid(
+                        "trials",
+                        &format!("a PBT study's trials are its population ({population}); leave `trials` out"),
+                    ));
+                }
+                if let Some(key) = crate::scheduler::pbt::network_key(&space) {
+                    return Err(ConfigError::NetworkKey {
+                        key: key.to_string(),
+                    });
+                }
+                let scheduler = SchedulerKind::Pbt {
+                    interval_steps,
+                    population: Some(population),
+                    quantile,
+                    resample_probability,
+                };
+                (population as u64, scheduler)
+            }
+            other => match s.trials {
+                None => return Err(ConfigError::Study("missing field `trials`".into())),
+                Some(0) => return Err(invalid("trials", "must be at least 1")),
+                Some(t) => (t, other),
+            },
+        };
         if s.steps_per_trial == 0 {
             return Err(invalid("steps_per_trial", "must be at least 1"));
         }
@@ -195,9 +270,9 @@ impl StudyConfig {
             base_config: s.base_config,
             sampler: s.sampler,
             grid_points: s.grid_points,
-            scheduler: s.scheduler,
+            scheduler,
             objective: s.objective,
-            trials: s.trials,
+            trials,
             parallel: s.parallel,
             steps_per_trial: s.steps_per_trial,
             wall_time,

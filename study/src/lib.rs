@@ -16,6 +16,8 @@
 //! - [`config`]: study files.
 //! - [`state`]: the persisted study (`study.json`).
 //! - [`study`]: the driver — parallel trials, budgets, resume.
+//! - [`population`]: the PBT driver — the population in rounds, exploit and explore.
+//! - [`lineage`]: PBT's record — who copied whom, the best member's schedule.
 //! - [`batch`]: trial specs and results on a shared volume for cluster runs.
 //! - [`k8s`]: Kubernetes Indexed Job manifests.
 //! - [`stats`]: mean, IQM, percentile-bootstrap intervals.
@@ -64,10 +66,12 @@ pub mod batch;
 pub mod config;
 pub mod figures;
 pub mod k8s;
+pub mod lineage;
 pub mod objective;
 pub mod output;
 pub mod overrides;
 pub mod plot;
+pub mod population;
 pub mod report;
 pub mod runner;
 pub mod sampler;

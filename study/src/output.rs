@@ -1,5 +1,7 @@
 //! A study's files: `trials.csv`, `trials.json`, `best.toml`,
-//! `objective.png` and `params.png` in the study directory.
+//! `objective.png` and `params.png` in the study directory; for PBT also
+//! `pbt.csv` (the lineage) and `pbt-schedule.csv` (the best member's
+//! hyperparameters round by round).
 
 use std::path::{Path, PathBuf};
 
@@ -144,6 +146,12 @@ pub fn write_all(dir: &Path, state: &StudyState) -> Result<Vec<PathBuf>, OutputE
     write("trials.json", json)?;
     if let Some(best) = best_toml(state) {
         write("best.toml", best)?;
+    }
+    if let Some(lineage) = crate::lineage::lineage_csv(state) {
+        write("pbt.csv", lineage)?;
+    }
+    if let Some(schedule) = crate::lineage::schedule_csv(state) {
+        write("pbt-schedule.csv", schedule)?;
     }
     for (name, draw) in [
         (

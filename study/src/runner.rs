@@ -19,6 +19,7 @@ use crate::scheduler::Decision;
 ///     seed: 3,
 ///     run_dir: "study/trials/0003".into(),
 ///     resume: false,
+///     start_from: None,
 ///     objective: buridan_study::Objective::TrainSuccess,
 /// };
 /// assert_eq!(spec.set_args().len(), 0);
@@ -38,6 +39,12 @@ pub struct TrialSpec {
     /// The trial was interrupted before: continue from its latest checkpoint
     /// in `run_dir` if there is one.
     pub resume: bool,
+    /// A checkpoint, or a run directory's newest one, to continue from when
+    /// `run_dir` has none to resume (`learner train --resume DIR`): weights,
+    /// optimiser state and counters. PBT rounds start this way, from the
+    /// member's own last round or from the one it exploits.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_from: Option<PathBuf>,
     /// What to measure at the end (the evaluation, if an eval objective).
     pub objective: Objective,
 }

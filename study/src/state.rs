@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::config::StudyConfig;
+use crate::lineage::PbtState;
 use crate::objective::{Measurement, Score};
 use crate::overrides::Overrides;
 use crate::sampler::Observed;
@@ -176,6 +177,9 @@ pub struct StudyState {
     pub trials: Vec<TrialRecord>,
     /// Wall seconds used by all sessions.
     pub wall_seconds: f64,
+    /// Population-based training's rounds and lineage (PBT studies only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pbt: Option<PbtState>,
 }
 
 /// The file name of the state in a study directory.
@@ -194,6 +198,7 @@ impl StudyState {
             config: config.clone(),
             trials: Vec::new(),
             wall_seconds: 0.0,
+            pbt: None,
         }
     }
 

@@ -35,6 +35,10 @@ pub enum StudyError {
     /// An output file could not be written.
     #[error("{0}")]
     Output(String),
+    /// PBT synchronises its whole population every round, so it cannot be
+    /// planned as independent cluster trials.
+    #[error("a PBT study cannot be planned as a batch: its members wait for each other every round; run it with `learner tune`")]
+    PbtBatch,
 }
 
 /// Counts of a study's trials by status.
@@ -78,7 +82,8 @@ pub struct Study {
 impl Study {
     /// Opens `dir`: loads its state if it holds one (the sampler, seed,
     /// space, objective and steps per trial must match; trial count,
-    /// parallelism, wall time and scheduler may change), else starts fresh.
+    /// parallelism, wall time and scheduler may change, except a PBT
+    /// scheduler), else starts fresh.
     ///
     /// ```
     /// let cfg = buridan_study::StudyConfig::from_toml_str(
@@ -93,7 +98,10 @@ impl Study {
             None => StudyState::new(&config),
             Some(state) => {
                 let old = &state.config;
-                let checks: [(&'static str, bool); 6] = [
+                // PBT's rounds and population are fixed once started.
+                let pbt = old.scheduler.pbt().is_some() || config.scheduler.pbt().is_some();
+                let checks: [(&'static str, bool); 7] = [
+                    ("scheduler", !pbt || old.scheduler == config.scheduler),
                     ("space", old.space == config.space),
                     ("sampler", old.sampler == config.sampler),
                     ("grid_points", old.grid_points == config.grid_points),
@@ -194,7 +202,8 @@ impl Study {
     /// the grid is exhausted, or the wall time is used; `parallel` at once.
     /// Trials found running, interrupted or planned run (again) first, with
     /// `resume = true`; finished trials never run again. A runner panic
-    /// counts as a failed trial.
+    /// counts as a failed trial. A PBT study runs its population in rounds
+    /// instead (`crate::population`), resuming after its last finished round.
     ///
     /// ```
     /// use buridan_study::*;
@@ -215,6 +224,14 @@ impl Study {
     /// assert_eq!(study.run(&Quadratic).unwrap().completed, 6);
     /// ```
     pub fn run(&mut self, runner: &dyn TrialRunner) -> Result<Progress, StudyError> {
+        if self.config.scheduler.pbt().is_some() {
+            let started_now =
+                crate::population::run(&self.dir, &self.config, &mut self.state, runner)?;
+            return Ok(Progress {
+                started_now,
+                ..self.progress()
+            });
+        }
         let sampler = self
             .config
             .sampler
@@ -239,13 +256,12 @@ impl Study {
                 pending,
                 failure: None,
                 started_now: 0,
-                wall_base: self.state.wall_seconds,
                 last_save: Instant::now(),
             }),
             dir: &self.dir,
             config: &self.config,
             sampler: sampler.as_ref(),
-            session_start: Instant::now(),
+            clock: Clock::new(self.state.wall_seconds, self.config.wall_time),
         };
         std::thread::scope(|s| {
             for _ in 0..self.config.parallel.max(1) {
@@ -278,6 +294,9 @@ impl Study {
     /// assert!(dir.path().join("trials/0002/trial.json").exists());
     /// ```
     pub fn plan(&mut self, count: u64) -> Result<Vec<u64>, StudyError> {
+        if self.config.scheduler.pbt().is_some() {
+            return Err(StudyError::PbtBatch);
+        }
         let sampler = self
             .config
             .sampler
@@ -352,6 +371,7 @@ pub(crate) fn spec_for(dir: &Path, config: &StudyConfig, record: &TrialRecord) -
         seed: config.seed.wrapping_add(record.id),
         run_dir: dir.join(&record.run_dir),
         resume: record.starts > 0,
+        start_from: None,
         objective: config.objective,
     }
 }
@@ -362,19 +382,46 @@ struct Inner {
     pending: VecDeque<u64>,
     failure: Option<StudyError>,
     started_now: usize,
-    /// Wall seconds of earlier sessions.
-    wall_base: f64,
     last_save: Instant,
 }
 
-const REPORT_SAVE_SECONDS: f64 = 5.0;
+/// Reports are saved at most this often: they are many, and a lost one
+/// only costs a scheduler sample.
+pub(crate) const REPORT_SAVE_SECONDS: f64 = 5.0;
+
+/// Wall time across sessions: the seconds of earlier sessions plus this
+/// one's, against the study's budget.
+pub(crate) struct Clock {
+    base: f64,
+    start: Instant,
+    budget: Option<std::time::Duration>,
+}
+
+impl Clock {
+    pub(crate) fn new(base: f64, budget: Option<std::time::Duration>) -> Clock {
+        Clock {
+            base,
+            start: Instant::now(),
+            budget,
+        }
+    }
+
+    /// Wall seconds used by all sessions so far.
+    pub(crate) fn used(&self) -> f64 {
+        self.base + self.start.elapsed().as_secs_f64()
+    }
+
+    pub(crate) fn out_of_time(&self) -> bool {
+        self.budget.is_some_and(|b| self.used() >= b.as_secs_f64())
+    }
+}
 
 struct Shared<'a> {
     inner: Mutex<Inner>,
     dir: &'a Path,
     config: &'a StudyConfig,
     sampler: &'a dyn Sampler,
-    session_start: Instant,
+    clock: Clock,
 }
 
 impl Shared<'_> {
@@ -382,32 +429,35 @@ impl Shared<'_> {
         self.inner.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    fn out_of_time(&self, inner: &Inner) -> bool {
-        self.config.wall_time.is_some_and(|budget| {
-            inner.wall_base + self.session_start.elapsed().as_secs_f64() >= budget.as_secs_f64()
-        })
-    }
-
-    /// Saves after a report, at most every few seconds: reports are many,
-    /// and a lost one only costs a scheduler sample.
+    /// Saves after a report, at most every [`REPORT_SAVE_SECONDS`].
     fn save_throttled(&self, inner: &mut Inner) {
         if inner.last_save.elapsed().as_secs_f64() >= REPORT_SAVE_SECONDS {
             self.save(inner);
         }
     }
 
-    /// Saves the state with the wall time used so far (a failure stops the study).
     fn save(&self, inner: &mut Inner) {
         inner.last_save = Instant::now();
-        inner.state.wall_seconds = inner.wall_base + self.session_start.elapsed().as_secs_f64();
-        if let Err(e) = inner.state.save(self.dir) {
-            inner.failure.get_or_insert(StudyError::State(e));
-        }
+        save_state(self.dir, &self.clock, &mut inner.state, &mut inner.failure);
+    }
+}
+
+/// Saves `state` with the wall time used so far; a failure is kept in
+/// `failure`, which stops the study.
+pub(crate) fn save_state(
+    dir: &Path,
+    clock: &Clock,
+    state: &mut StudyState,
+    failure: &mut Option<StudyError>,
+) {
+    state.wall_seconds = clock.used();
+    if let Err(e) = state.save(dir) {
+        failure.get_or_insert(StudyError::State(e));
     }
 }
 
 fn next_trial(shared: &Shared<'_>, inner: &mut Inner) -> Option<TrialSpec> {
-    if inner.failure.is_some() || shared.out_of_time(inner) {
+    if inner.failure.is_some() || shared.clock.out_of_time() {
         return None;
     }
     let id = match inner.pending.pop_front() {
@@ -523,7 +573,7 @@ impl Reporter for StudyReporter<'_, '_> {
         if !decision.keeps_going() {
             self.stopped = true;
         }
-        if self.shared.out_of_time(&inner) {
+        if self.shared.clock.out_of_time() {
             self.cut = true;
             decision = Decision::Stop;
         }

@@ -1,5 +1,6 @@
 //! Schedulers: whether a running trial deserves more steps. One trait, one
-//! file per rule; population-based training is a decision function beside them.
+//! file per rule; population-based training is a decision function beside
+//! them, which the study driver runs in rounds (`crate::population`).
 //!
 //! A scheduler sees the stream of intermediate reports `(trial, step,
 //! value)`; a resumed study replays the recorded reports to rebuild it.
@@ -100,6 +101,26 @@ pub enum SchedulerKind {
         #[serde(default = "three_usize")]
         min_trials: usize,
     },
+    /// Population-based training: the population trains in rounds of
+    /// `interval_steps`; after each round the bottom quantile continues from
+    /// a top member's checkpoint with perturbed hyperparameters ([`pbt`]).
+    Pbt {
+        /// Env steps per round.
+        interval_steps: u64,
+        /// Members; the study file's `parallel` when not given.
+        #[serde(default)]
+        population: Option<usize>,
+        /// Fraction of the population in the top and in the bottom group.
+        #[serde(default = "quarter")]
+        quantile: f64,
+        /// Probability of redrawing a parameter instead of perturbing it.
+        #[serde(default = "quarter")]
+        resample_probability: f64,
+    },
+}
+
+fn quarter() -> f64 {
+    0.25
 }
 
 fn three() -> u64 {
@@ -111,7 +132,8 @@ fn three_usize() -> usize {
 }
 
 impl SchedulerKind {
-    /// The scheduler for trials of `max_steps` steps.
+    /// The scheduler for trials of `max_steps` steps. PBT stops no trial:
+    /// its rounds are the study driver's, so it judges reports like `None`.
     ///
     /// ```
     /// let s = buridan_study::scheduler::SchedulerKind::None.build(1000);
@@ -119,7 +141,7 @@ impl SchedulerKind {
     /// ```
     pub fn build(&self, max_steps: u64) -> Box<dyn Scheduler> {
         match *self {
-            SchedulerKind::None => Box::new(NoStopping),
+            SchedulerKind::None | SchedulerKind::Pbt { .. } => Box::new(NoStopping),
             SchedulerKind::Asha {
                 grace_steps,
                 reduction,
@@ -128,6 +150,29 @@ impl SchedulerKind {
                 grace_steps,
                 min_trials,
             } => Box::new(MedianStopping::new(grace_steps, min_trials)),
+        }
+    }
+
+    /// The exploit-and-explore settings of a PBT scheduler, `None` for the others.
+    ///
+    /// ```
+    /// let t: toml::Table = toml::from_str("kind = \"pbt\"\ninterval_steps = 1000").unwrap();
+    /// let k: buridan_study::scheduler::SchedulerKind = t.try_into().unwrap();
+    /// assert_eq!(k.pbt().unwrap().quantile, 0.25);
+    /// assert!(buridan_study::scheduler::SchedulerKind::None.pbt().is_none());
+    /// ```
+    pub fn pbt(&self) -> Option<pbt::PbtConfig> {
+        match *self {
+            SchedulerKind::Pbt {
+                quantile,
+                resample_probability,
+                ..
+            } => Some(pbt::PbtConfig {
+                quantile,
+                resample_probability,
+                ..pbt::PbtConfig::default()
+            }),
+            _ => None,
         }
     }
 }

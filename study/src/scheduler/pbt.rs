@@ -12,6 +12,37 @@ use serde::{Deserialize, Serialize};
 use crate::overrides::Overrides;
 use crate::space::{Domain, SearchSpace};
 
+/// `TrainConfig` keys that shape the policy network (its `ModelSpec`: layer
+/// sizes, recurrence, heads, inputs, value head): a checkpoint only loads
+/// into a network of its own shape, so a PBT space cannot vary them.
+pub const NETWORK_KEYS: &[&str] = &[
+    "hidden",
+    "lstm",
+    "lstm_cells",
+    "mode",
+    "algo",
+    "agents",
+    "map",
+    "sensor_range",
+    "ppo.vf_share_layers",
+];
+
+/// The first key of `space` that PBT cannot vary ([`NETWORK_KEYS`]), if any.
+///
+/// ```
+/// use buridan_study::{scheduler::pbt::network_key, SearchSpace};
+/// let space = SearchSpace::from_toml_str("hidden = { choice = [[32], [64]] }\n\"impala.lr\" = { uniform = [0.1, 1] }").unwrap();
+/// assert_eq!(network_key(&space), Some("hidden"));
+/// assert_eq!(network_key(&SearchSpace::from_toml_str("\"impala.lr\" = { uniform = [0.1, 1] }").unwrap()), None);
+/// ```
+pub fn network_key(space: &SearchSpace) -> Option<&str> {
+    space
+        .params()
+        .iter()
+        .map(|p| p.key.as_str())
+        .find(|k| NETWORK_KEYS.contains(k))
+}
+
 /// One member of the population at a synchronisation point.
 ///
 /// ```
@@ -70,7 +101,10 @@ pub struct Exploit {
 }
 
 /// Exploit-and-explore over a population: one [`Exploit`] per member of the
-/// bottom quantile (at least one member when the population has two or more).
+/// bottom quantile (at least one member when the population has two or
+/// more) that scores below every member of the top quantile. A member tied
+/// with the top (all at 0 % success early in training, say) copies no one:
+/// that would only trade its hyperparameters for noise.
 ///
 /// ```
 /// use buridan_study::scheduler::pbt::{exploit_and_explore, Member, PbtConfig};
@@ -83,6 +117,8 @@ pub struct Exploit {
 /// let moves = exploit_and_explore(&pop, &space, &PbtConfig::default(), &mut rng);
 /// assert_eq!(moves.len(), 1);
 /// assert_eq!((moves[0].trial, moves[0].source), (0, 3)); // worst copies best
+/// let tied: Vec<Member> = pop.iter().map(|m| Member { score: 0.0, ..m.clone() }).collect();
+/// assert!(exploit_and_explore(&tied, &space, &PbtConfig::default(), &mut rng).is_empty());
 /// ```
 pub fn exploit_and_explore<R: Rng>(
     population: &[Member],
@@ -97,9 +133,11 @@ pub fn exploit_and_explore<R: Rng>(
     order.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.trial.cmp(&b.trial)));
     let k = ((config.quantile * order.len() as f64).round() as usize).clamp(1, order.len() / 2);
     let top = &order[..k];
+    let weakest_top = top[k - 1].score;
     let bottom = &order[order.len() - k..];
     bottom
         .iter()
+        .filter(|m| m.score < weakest_top)
         .map(|m| {
             let source = top[rng.random_range(0..top.len())];
             Exploit {
