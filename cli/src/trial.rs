@@ -60,6 +60,9 @@ pub enum TrialRunError {
     /// The evaluation's files cannot be written.
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// An evaluation objective on a run over several layouts (which one?).
+    #[error("the trial trains on several layouts ({0}); evaluation objectives need one, use train_success")]
+    SeveralLayouts(String),
 }
 
 /// The message of `e` and all its causes, `a: b: c`.
@@ -263,6 +266,9 @@ impl LearnerRunner {
         reporter: &mut dyn Reporter,
     ) -> Result<Measurement, TrialRunError> {
         let cfg = trial_config(&self.base, spec)?;
+        if spec.objective != Objective::TrainSuccess && cfg.layouts().len() > 1 {
+            return Err(TrialRunError::SeveralLayouts(cfg.map_label()));
+        }
         let train_failed = |source: TrainError| TrialRunError::Train {
             dir: spec.run_dir.clone(),
             source: Box::new(source),
