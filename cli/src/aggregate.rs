@@ -176,7 +176,16 @@ pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Ve
         let means: Vec<Key> = keys
             .iter()
             .filter(|k| k.1.is_some())
-            .map(|k| (MEAN_LAYOUT.to_string(), k.1.clone(), k.2.clone(), k.3, k.4, k.5))
+            .map(|k| {
+                (
+                    MEAN_LAYOUT.to_string(),
+                    k.1.clone(),
+                    k.2.clone(),
+                    k.3,
+                    k.4,
+                    k.5,
+                )
+            })
             .collect();
         for k in means {
             if !keys.contains(&k) {
@@ -189,11 +198,10 @@ pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Ve
             .iter()
             .position(|l| *l == k.0)
             .unwrap_or(eval_layouts.len());
-        let t = k
-            .1
-            .as_ref()
-            .and_then(|t| x.layouts.iter().position(|l| l == t))
-            .unwrap_or(0);
+        let t =
+            k.1.as_ref()
+                .and_then(|t| x.layouts.iter().position(|l| l == t))
+                .unwrap_or(0);
         let m = x
             .methods
             .iter()

@@ -438,7 +438,8 @@ impl Experiment {
                         "[experiment.eval] layouts: '{l}' is a mixture; evaluations run on one map each"
                     )));
                 }
-                check_layout(l).map_err(|err| bad(format!("[experiment.eval] layout '{l}': {err}")))?;
+                check_layout(l)
+                    .map_err(|err| bad(format!("[experiment.eval] layout '{l}': {err}")))?;
             }
         }
         let mut actions = e.actions.clone();
@@ -553,9 +554,7 @@ impl Experiment {
                                         actions,
                                     },
                                     agents,
-                                    dir: dir
-                                        .join(actions.name())
-                                        .join(format!("agents-{agents}")),
+                                    dir: dir.join(actions.name()).join(format!("agents-{agents}")),
                                 });
                             }
                         }
@@ -829,26 +828,63 @@ mod tests {
         assert_eq!(x.train[2].config_in(Path::new("out")).unwrap().maps, None);
         // Every policy on every eval layout, cbs once per eval layout.
         assert_eq!(x.evals.len(), 4 * 3 + 3);
-        let first: Vec<_> = x.evals.iter().filter(|e| e.evaluated == (Evaluated::Policy { train: 0, actions: Actions::Sampled })).collect();
-        assert_eq!(first.iter().map(|e| e.layout.as_str()).collect::<Vec<_>>(), ["rm-2.1", "rm-2.1b", "rm-3.1"]);
-        assert!(first.iter().all(|e| e.trained_on.as_deref() == Some("rm-2.2:1,rm-3.1:1")));
+        let first: Vec<_> = x
+            .evals
+            .iter()
+            .filter(|e| {
+                e.evaluated
+                    == (Evaluated::Policy {
+                        train: 0,
+                        actions: Actions::Sampled,
+                    })
+            })
+            .collect();
+        assert_eq!(
+            first.iter().map(|e| e.layout.as_str()).collect::<Vec<_>>(),
+            ["rm-2.1", "rm-2.1b", "rm-3.1"]
+        );
+        assert!(first
+            .iter()
+            .all(|e| e.trained_on.as_deref() == Some("rm-2.2:1,rm-3.1:1")));
         let e = x.eval_command(first[1], Path::new("out"));
         assert!(e.starts_with("learner eval --map rm-2.1b"), "{e}");
-        assert!(e.contains("checkpoint:out/runs/rm-2.2_1+rm-3.1_1/ppo/seed-0"), "{e}");
+        assert!(
+            e.contains("checkpoint:out/runs/rm-2.2_1+rm-3.1_1/ppo/seed-0"),
+            "{e}"
+        );
         let dirs: BTreeSet<_> = x.evals.iter().map(|e| &e.dir).collect();
         assert_eq!(dirs.len(), x.evals.len(), "one directory per cell");
         assert_eq!(
-            x.evals.iter().filter(|e| e.evaluated == Evaluated::Planner).map(|e| e.layout.as_str()).collect::<Vec<_>>(),
+            x.evals
+                .iter()
+                .filter(|e| e.evaluated == Evaluated::Planner)
+                .map(|e| e.layout.as_str())
+                .collect::<Vec<_>>(),
             ["rm-2.1", "rm-2.1b", "rm-3.1"]
         );
 
         let base = "[experiment]\nname = \"x\"\nseeds = 2\n[[method]]\nname = \"m\"\nconfig = \"tiny.toml\"\n";
         let cases = [
-            ("layouts = [\"rm-2.2,rm-3.1\"]\n", "[experiment.eval] layouts"),
-            ("layouts = [\"rm-2.1\"]\n[experiment.eval]\nlayouts = []\n", "at least one layout"),
-            ("layouts = [\"rm-2.1\"]\n[experiment.eval]\nlayouts = [\"rm-2.2,rm-3.1\"]\n", "is a mixture"),
-            ("layouts = [\"rm-2.1\"]\n[experiment.eval]\nlayouts = [\"rm-8.8\"]\n", "layout 'rm-8.8'"),
-            ("layouts = [\"rm-2.1,rm-8.8\"]\n[experiment.eval]\nlayouts = [\"rm-2.1\"]\n", "rm-8.8"),
+            (
+                "layouts = [\"rm-2.2,rm-3.1\"]\n",
+                "[experiment.eval] layouts",
+            ),
+            (
+                "layouts = [\"rm-2.1\"]\n[experiment.eval]\nlayouts = []\n",
+                "at least one layout",
+            ),
+            (
+                "layouts = [\"rm-2.1\"]\n[experiment.eval]\nlayouts = [\"rm-2.2,rm-3.1\"]\n",
+                "is a mixture",
+            ),
+            (
+                "layouts = [\"rm-2.1\"]\n[experiment.eval]\nlayouts = [\"rm-8.8\"]\n",
+                "layout 'rm-8.8'",
+            ),
+            (
+                "layouts = [\"rm-2.1,rm-8.8\"]\n[experiment.eval]\nlayouts = [\"rm-2.1\"]\n",
+                "rm-8.8",
+            ),
         ];
         for (extra, needle) in cases {
             let text = base.replacen("seeds = 2\n", &format!("seeds = 2\n{extra}"), 1);

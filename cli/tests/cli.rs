@@ -210,7 +210,10 @@ fn a_policy_trained_on_two_layouts_evaluates_on_a_third() {
     let summary = train::run(&args).unwrap();
     assert_eq!(summary.maps, ["rm-2.2", "rm-3.1"]);
     // 3000 env steps of at most 20: 150 episodes or more, on both layouts.
-    assert!(summary.episodes_by_map.values().all(|&n| n >= 30), "{summary:?}");
+    assert!(
+        summary.episodes_by_map.values().all(|&n| n >= 30),
+        "{summary:?}"
+    );
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert!(json["success_by_map"]["rm-2.2"].is_number(), "{json}");
@@ -218,13 +221,19 @@ fn a_policy_trained_on_two_layouts_evaluates_on_a_third() {
     assert!(spec.contains("rm-3.1"), "{spec}");
     // The written config names the layouts and trains the same again.
     let config = std::fs::read_to_string(out.join("config.toml")).unwrap();
-    assert!(config.contains("[[maps]]") && !config.contains("map ="), "{config}");
+    assert!(
+        config.contains("[[maps]]") && !config.contains("map ="),
+        "{config}"
+    );
 
     let eval_out = temp_dir("maps-eval");
     let mut eval = eval_args(format!("checkpoint:{}", out.display()), eval_out.clone());
     (eval.map, eval.agents, eval.starts) = ("rm-2.1".into(), "4".into(), Starts::Random);
     let summaries = eval::run(&eval).unwrap();
-    assert_eq!((summaries[0].episodes, summaries[0].map.as_str()), (3, "rm-2.1"));
+    assert_eq!(
+        (summaries[0].episodes, summaries[0].map.as_str()),
+        (3, "rm-2.1")
+    );
 
     // CTE over several layouts is refused, and says why.
     let mut cte = train_args(temp_dir("maps-cte"));

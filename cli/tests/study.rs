@@ -305,7 +305,10 @@ set = ["starts=\"random\""]
     let rows: Vec<csv::StringRecord> = csv.records().map(Result::unwrap).collect();
     let layouts: Vec<&str> = rows.iter().map(|r| &r[0]).collect();
     assert_eq!(layouts, ["rm-1.1", "rm-1.2", "rm-1.3", "mean"]);
-    assert!(rows.iter().all(|r| &r[1] == "rm-1.1:1,rm-1.2:1"), "{rows:?}");
+    assert!(
+        rows.iter().all(|r| &r[1] == "rm-1.1:1,rm-1.2:1"),
+        "{rows:?}"
+    );
     // The mean row is the mean over layouts of each seed's success.
     let cells: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("cells.json")).unwrap()).unwrap();
@@ -324,7 +327,10 @@ set = ["starts=\"random\""]
     let md = std::fs::read_to_string(out.join("table.md")).unwrap();
     let mean_row = md.lines().find(|l| l.starts_with("| mean |")).unwrap();
     assert!(mean_row.contains("| 2/2 |"), "{mean_row}");
-    assert!(mean_row.contains(&format!("{mean:.1}")), "{mean:.1} in {mean_row}");
+    assert!(
+        mean_row.contains(&format!("{mean:.1}")),
+        "{mean:.1} in {mean_row}"
+    );
     assert!(out.join("success.png").is_file());
 }
 

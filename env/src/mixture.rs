@@ -43,6 +43,9 @@ use crate::stats::EpisodeStats;
 use crate::vec_env::EnvSlot;
 use crate::world::GridEnv;
 
+/// A layout (a loaded map) and its weight in a mixture.
+pub type WeightedLayout = (Arc<Map>, f64);
+
 /// One env over several layouts with weights; see the [module docs](self).
 #[derive(Debug, Clone)]
 pub struct LayoutMixture {
@@ -58,11 +61,7 @@ impl LayoutMixture {
     /// An env over `layouts` (each map with its weight, > 0 and finite),
     /// reset to episode `episode`. Every layout must fit `cfg` (enough free
     /// cells, or a scenario, for its agents).
-    pub fn new(
-        layouts: &[(Arc<Map>, f64)],
-        cfg: EnvConfig,
-        episode: u64,
-    ) -> Result<Self, EnvError> {
+    pub fn new(layouts: &[WeightedLayout], cfg: EnvConfig, episode: u64) -> Result<Self, EnvError> {
         if layouts.is_empty() {
             return Err(EnvError::InvalidConfig(
                 "a layout mixture needs at least one layout".into(),

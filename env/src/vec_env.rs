@@ -36,7 +36,7 @@ use crate::api::BatchedEnv;
 use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::map::Map;
-use crate::mixture::LayoutMixture;
+use crate::mixture::{LayoutMixture, WeightedLayout};
 use crate::obs::ObsKind;
 use crate::stats::EpisodeStats;
 use crate::world::{GridEnv, NUM_ACTIONS};
@@ -128,7 +128,7 @@ impl VecEnv<LayoutMixture> {
     /// must give observations of one size for `kind` (any layouts for local
     /// observations; equally sized ones for central).
     pub fn with_layouts(
-        layouts: &[(Arc<Map>, f64)],
+        layouts: &[WeightedLayout],
         cfg: EnvConfig,
         num_envs: usize,
         kind: ObsKind,
@@ -237,14 +237,12 @@ impl<S: EnvSlot> VecEnv<S> {
         let (o, m) = (rows * self.obs_dim, rows * self.mask_dim);
         let stride = self.envs.len() as u64;
         let kind = self.kind;
-        let step_one = |(env, act, rew, obs, final_obs, mask, term, trunc, finished): SlotBuffers<
-            '_,
-            S,
-        >| {
-            step_env(
-                env, kind, stride, act, rew, obs, final_obs, mask, term, trunc, finished,
-            )
-        };
+        let step_one =
+            |(env, act, rew, obs, final_obs, mask, term, trunc, finished): SlotBuffers<'_, S>| {
+                step_env(
+                    env, kind, stride, act, rew, obs, final_obs, mask, term, trunc, finished,
+                )
+            };
         match &self.pool {
             Some(pool) => pool.install(|| {
                 (

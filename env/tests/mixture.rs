@@ -94,7 +94,10 @@ fn every_episode_is_a_valid_episode_of_its_drawn_layout() {
             assert_eq!(env.positions(), scen.starts);
             assert_eq!(env.goals(), scen.goals);
             for c in env.positions().iter().chain(&env.goals()) {
-                assert!(grid.contains(*c) && !grid.is_wall(*c), "{c:?} on layout {l}");
+                assert!(
+                    grid.contains(*c) && !grid.is_wall(*c),
+                    "{c:?} on layout {l}"
+                );
             }
             let plain = GridEnv::with_episode(ls[l].0.clone(), cfg.clone(), k).unwrap();
             assert_eq!(
@@ -109,7 +112,10 @@ fn every_episode_is_a_valid_episode_of_its_drawn_layout() {
     }
     // 16 envs × 100 episodes each, drawn 1 : 1 : 2.
     assert!(checked.iter().sum::<usize>() >= 1600, "{checked:?}");
-    assert!(checked[2] > checked[0] && checked[2] > checked[1], "{checked:?}");
+    assert!(
+        checked[2] > checked[0] && checked[2] > checked[1],
+        "{checked:?}"
+    );
     let episodes = venv.drain_episodes();
     assert!(episodes.len() >= 1500);
     let mix = &venv.envs()[0];

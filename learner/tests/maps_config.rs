@@ -109,7 +109,11 @@ fn every_bad_maps_list_has_its_own_error() {
         ..with_maps("rm-2.1,rm-1.1")
     };
     match crowded.load_maps() {
-        Err(ConfigError::AgentsDoNotFit { map, agents, source }) => {
+        Err(ConfigError::AgentsDoNotFit {
+            map,
+            agents,
+            source,
+        }) => {
             assert_eq!((map.as_str(), agents), ("rm-1.1", 8));
             assert!(matches!(source, EnvError::TooFewFreeCells { .. }));
         }
@@ -165,16 +169,18 @@ fn a_run_over_two_layouts_records_them() {
     assert_eq!(summary.map, "rm-2.2:1+rm-3.1:2");
     assert_eq!(summary.maps, ["rm-2.2", "rm-3.1"]);
     // 1500 env steps of 15-step episodes: 100 episodes, drawn 1 : 2.
-    let (a, b) = (summary.episodes_by_map["rm-2.2"], summary.episodes_by_map["rm-3.1"]);
+    let (a, b) = (
+        summary.episodes_by_map["rm-2.2"],
+        summary.episodes_by_map["rm-3.1"],
+    );
     assert_eq!(a + b, summary.episodes);
     assert!(a >= 15 && b > a, "{a} : {b}");
     for map in ["rm-2.2", "rm-3.1"] {
         assert!((0.0..=1.0).contains(&summary.success_by_map[map]));
     }
-    let json: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(dir.path().join("summary.json")).unwrap(),
-    )
-    .unwrap();
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap())
+            .unwrap();
     assert!(json["success_by_map"]["rm-3.1"].is_number(), "{json}");
     let policy = Policy::load(&summary.final_checkpoint).unwrap();
     assert_eq!(policy.spec().maps, ["rm-2.2", "rm-3.1"]);

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use buridan_env::{EnvError, Map, MapError, Starts};
+use buridan_env::{EnvError, Map, MapError, Starts, WeightedLayout};
 use buridan_policy::{LstmSpec, Mode, ModelSpec, ValueHead};
 use serde::{Deserialize, Serialize};
 
@@ -477,7 +477,7 @@ impl TrainConfig {
     /// cfg.agents = 40;
     /// assert!(matches!(cfg.load_maps(), Err(ConfigError::AgentsDoNotFit { .. })));
     /// ```
-    pub fn load_maps(&self) -> Result<Option<Vec<(Arc<Map>, f64)>>, ConfigError> {
+    pub fn load_maps(&self) -> Result<Option<Vec<WeightedLayout>>, ConfigError> {
         let Some(maps) = &self.maps else {
             return Ok(None);
         };

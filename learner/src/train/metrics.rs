@@ -142,7 +142,10 @@ impl LayoutWindows {
 
     /// Each layout's success rate over its window (NaN while empty).
     pub fn success_rates(&self) -> Vec<f64> {
-        self.windows.iter().map(EpisodeWindow::success_rate).collect()
+        self.windows
+            .iter()
+            .map(EpisodeWindow::success_rate)
+            .collect()
     }
 }
 

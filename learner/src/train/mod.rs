@@ -34,7 +34,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use buridan_actor::Collector;
-use buridan_env::{seed, BatchedEnv, EnvConfig, Map, VecEnv};
+use buridan_env::{seed, BatchedEnv, EnvConfig, Map, VecEnv, WeightedLayout};
 use buridan_policy::checkpoint::{self, CONFIG_FILE, OPTIMIZER_FILE, TRAINER_FILE};
 use buridan_policy::{Fragment, Inference, ModelSpec, Policy, Weights};
 use rand::SeedableRng;
@@ -49,9 +49,7 @@ use crate::algo::{AlgoError, UpdateStats};
 pub use config::{Algo, ConfigError, ImpalaConfig, PpoConfig, TrainConfig, WeightedMap};
 pub use error::{ExchangeError, Interrupted, TrainError};
 pub use exchange::{Exchange, InProcess, Shared, Ticket};
-pub use metrics::{
-    EpisodeWindow, LayoutWindows, MetricsError, MetricsRow, MetricsWriter, Summary,
-};
+pub use metrics::{EpisodeWindow, LayoutWindows, MetricsError, MetricsRow, MetricsWriter, Summary};
 
 /// The run's metrics file inside its output directory.
 pub const METRICS_FILE: &str = "metrics.csv";
@@ -226,7 +224,7 @@ pub struct Run {
     cfg: TrainConfig,
     out: PathBuf,
     /// The training layouts with their weights (one for a single map).
-    layouts: Vec<(Arc<Map>, f64)>,
+    layouts: Vec<WeightedLayout>,
     spec: ModelSpec,
     policy: Policy,
     learner: Learner,
@@ -381,7 +379,7 @@ impl Run {
     }
 
     /// The layouts the run trains on, with their weights.
-    pub fn layouts(&self) -> &[(Arc<Map>, f64)] {
+    pub fn layouts(&self) -> &[WeightedLayout] {
         &self.layouts
     }
 
