@@ -474,7 +474,7 @@ impl TrainConfig {
     /// use buridan_learner::train::{ConfigError, TrainConfig, WeightedMap};
     /// let mut cfg = TrainConfig { maps: Some(WeightedMap::parse_list("rm-2.2,rm-3.1").unwrap()), ..TrainConfig::default() };
     /// assert_eq!(cfg.load_maps().unwrap().unwrap().len(), 2);
-    /// cfg.agents = 40;
+    /// cfg.agents = 200; // 400 distinct cells: more than rm-2.2 has
     /// assert!(matches!(cfg.load_maps(), Err(ConfigError::AgentsDoNotFit { .. })));
     /// ```
     pub fn load_maps(&self) -> Result<Option<Vec<WeightedLayout>>, ConfigError> {
