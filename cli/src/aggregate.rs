@@ -21,8 +21,11 @@ use crate::experiment::{Evaluated, Experiment, PLAN_FILE};
 /// One cell's record in `cells.json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct CellRecord {
-    /// Layout.
+    /// Layout evaluated on.
     pub layout: String,
+    /// The policy's training layout, if the experiment evaluates on other
+    /// layouts (`[experiment.eval] layouts`).
+    pub trained_on: Option<String>,
     /// Method or planner.
     pub method: String,
     /// `policy` or `planner`.
@@ -77,6 +80,7 @@ pub fn records(x: &Experiment, out: &Path) -> Vec<CellRecord> {
             let summary = train.and_then(|t| read_json(&out.join(&t.run_dir).join(SUMMARY_FILE)));
             CellRecord {
                 layout: cell.layout.clone(),
+                trained_on: cell.trained_on.clone(),
                 method: cell.method.clone(),
                 kind,
                 seed,
@@ -96,12 +100,18 @@ pub fn records(x: &Experiment, out: &Path) -> Vec<CellRecord> {
         .collect()
 }
 
+/// Label of the rows that average over the evaluation layouts.
+pub const MEAN_LAYOUT: &str = "mean";
+
 /// One row of the table: a layout, a method (with its action mode) and an
-/// agent count, over seeds.
+/// agent count, over seeds; or, for experiments with evaluation layouts,
+/// the mean over those layouts ([`MEAN_LAYOUT`]).
 #[derive(Debug, Clone)]
 pub struct Row {
-    /// Layout.
+    /// Layout evaluated on, or [`MEAN_LAYOUT`].
     pub layout: String,
+    /// The policy's training layout, when evaluated on other layouts.
+    pub trained_on: Option<String>,
     /// Method or planner.
     pub method: String,
     /// Action mode (policies).
@@ -130,13 +140,27 @@ impl Row {
     }
 }
 
-/// Groups the records by (layout, method, actions, agents) in the
-/// experiment's order and aggregates each group over seeds.
+/// What the rows group by: (layout, trained on, method, actions, agents, planner).
+type Key = (
+    String,
+    Option<String>,
+    String,
+    Option<&'static str>,
+    usize,
+    bool,
+);
+
+/// Groups the records by (layout, training layout, method, actions,
+/// agents) in the experiment's order and aggregates each group over seeds;
+/// with evaluation layouts, each policy group also gets a row of its mean
+/// over those layouts (per run, then over runs; a run counts once it has
+/// every layout's result).
 pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Vec<Row> {
-    let mut keys: Vec<(String, String, Option<&'static str>, usize, bool)> = Vec::new();
+    let mut keys: Vec<Key> = Vec::new();
     for r in records {
         let k = (
             r.layout.clone(),
+            r.trained_on.clone(),
             r.method.clone(),
             r.actions,
             r.agents,
@@ -146,42 +170,78 @@ pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Ve
             keys.push(k);
         }
     }
-    let order = |k: &(String, String, Option<&'static str>, usize, bool)| {
-        let l = x
-            .layouts
+    let eval_layouts = x.eval_layouts();
+    let averaged = x.eval.layouts.as_ref().is_some_and(|l| l.len() > 1);
+    if averaged {
+        let means: Vec<Key> = keys
+            .iter()
+            .filter(|k| k.1.is_some())
+            .map(|k| {
+                (
+                    MEAN_LAYOUT.to_string(),
+                    k.1.clone(),
+                    k.2.clone(),
+                    k.3,
+                    k.4,
+                    k.5,
+                )
+            })
+            .collect();
+        for k in means {
+            if !keys.contains(&k) {
+                keys.push(k);
+            }
+        }
+    }
+    let order = |k: &Key| {
+        let l = eval_layouts
             .iter()
             .position(|l| *l == k.0)
-            .unwrap_or(usize::MAX);
+            .unwrap_or(eval_layouts.len());
+        let t =
+            k.1.as_ref()
+                .and_then(|t| x.layouts.iter().position(|l| l == t))
+                .unwrap_or(0);
         let m = x
             .methods
             .iter()
             .chain(&x.planners)
-            .position(|m| *m == k.1)
+            .position(|m| *m == k.2)
             .unwrap_or(usize::MAX);
-        (l, k.3, m, k.2.map(|a| a != "sampled"))
+        (l, k.4, t, m, k.3.map(|a| a != "sampled"))
     };
     keys.sort_by_key(order);
     keys.into_iter()
-        .map(|(layout, method, actions, agents, planner)| {
+        .map(|(layout, trained_on, method, actions, agents, planner)| {
             let group: Vec<&CellRecord> = records
                 .iter()
                 .filter(|r| {
-                    r.layout == layout
+                    (layout == MEAN_LAYOUT || r.layout == layout)
+                        && r.trained_on == trained_on
                         && r.method == method
                         && r.actions == actions
                         && r.agents == agents
                 })
                 .collect();
             let values = |f: fn(&CellRecord) -> Option<f64>| -> Option<Aggregate> {
-                let v: Vec<f64> = group.iter().filter_map(|r| f(r)).collect();
+                let v: Vec<f64> = if layout == MEAN_LAYOUT {
+                    per_run_means(&group, eval_layouts.len(), f)
+                } else {
+                    group.iter().filter_map(|r| f(r)).collect()
+                };
                 bootstrap.aggregate(&v)
             };
             Row {
-                planned: group.len(),
+                planned: if layout == MEAN_LAYOUT {
+                    group.len() / eval_layouts.len().max(1)
+                } else {
+                    group.len()
+                },
                 success: values(|r| r.success_rate),
                 timesteps: values(|r| r.timesteps_median),
                 train_success: values(|r| r.train_success),
                 layout,
+                trained_on,
                 method,
                 actions,
                 agents,
@@ -191,11 +251,41 @@ pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Ve
         .collect()
 }
 
+/// Per training run (seed) of `group`, the mean of `f` over its cells, for
+/// the runs that have a value on all `layouts` layouts.
+fn per_run_means(
+    group: &[&CellRecord],
+    layouts: usize,
+    f: fn(&CellRecord) -> Option<f64>,
+) -> Vec<f64> {
+    let mut runs: Vec<Option<u64>> = Vec::new();
+    for r in group {
+        if !runs.contains(&r.seed) {
+            runs.push(r.seed);
+        }
+    }
+    runs.into_iter()
+        .filter_map(|seed| {
+            let v: Vec<f64> = group
+                .iter()
+                .filter(|r| r.seed == seed)
+                .filter_map(|r| f(r))
+                .collect();
+            (v.len() == layouts && layouts > 0).then(|| v.iter().sum::<f64>() / v.len() as f64)
+        })
+        .collect()
+}
+
 /// The Markdown/CSV/JSON table of the rows: success (mean and IQM with 95 %
 /// bootstrap CIs, in %), median timesteps, training success.
 pub fn table(rows: &[Row]) -> Table {
-    let mut t = Table::new([
-        "layout",
+    // Experiments that evaluate on other layouts say what each policy trained on.
+    let trained_on = rows.iter().any(|r| r.trained_on.is_some());
+    let mut columns = vec!["layout"];
+    if trained_on {
+        columns.push("trained on");
+    }
+    columns.extend([
         "method",
         "actions",
         "agents",
@@ -205,6 +295,7 @@ pub fn table(rows: &[Row]) -> Table {
         "median timesteps",
         "training success %",
     ]);
+    let mut t = Table::new(columns);
     for r in rows {
         let est = |a: &Option<Aggregate>, scale: f64, iqm: bool| match a {
             None => Cell::Empty,
@@ -216,8 +307,11 @@ pub fn table(rows: &[Row]) -> Table {
             Some(a) => Cell::mean(a, scale, 1),
         };
         let runs = r.success.map_or(0, |a| a.count);
-        t.push(vec![
-            Cell::text(&r.layout),
+        let mut cells = vec![Cell::text(&r.layout)];
+        if trained_on {
+            cells.push(Cell::text(r.trained_on.as_deref().unwrap_or("")));
+        }
+        cells.extend([
             Cell::text(&r.method),
             Cell::text(r.actions.unwrap_or("plan")),
             Cell::Number {
@@ -229,8 +323,8 @@ pub fn table(rows: &[Row]) -> Table {
             est(&r.success, 100.0, true),
             est(&r.timesteps, 1.0, false),
             est(&r.train_success, 100.0, false),
-        ])
-        .expect("one cell per column");
+        ]);
+        t.push(cells).expect("one cell per column");
     }
     t
 }
@@ -291,6 +385,11 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
         x.eval.seed,
         t.to_markdown()
     );
+    let md = if rows.iter().any(|r| r.layout == MEAN_LAYOUT) {
+        md + "\n`mean`: each training run's success averaged over the evaluation layouts, then aggregated over runs (a run counts once every layout has its result).\n"
+    } else {
+        md
+    };
     std::fs::write(out.join("table.md"), md)?;
     let json = serde_json::to_string_pretty(&records)?;
     std::fs::write(out.join("cells.json"), json)?;
@@ -302,21 +401,29 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
     files.extend(["cells.json", "cells.csv"].map(|f| out.join(f)));
 
     // Success per layout and method at each method's smallest agent count.
+    let label = |r: &Row| match &r.trained_on {
+        Some(t) if x.layouts.len() > 1 => format!("{} ({t})", r.label()),
+        _ => r.label(),
+    };
     let labels: Vec<String> = {
         let mut v: Vec<String> = Vec::new();
         for r in &rows {
-            if !v.contains(&r.label()) {
-                v.push(r.label());
+            if !v.contains(&label(r)) {
+                v.push(label(r));
             }
         }
         v
     };
+    let mut groups = x.eval_layouts().to_vec();
+    if rows.iter().any(|r| r.layout == MEAN_LAYOUT) {
+        groups.push(MEAN_LAYOUT.to_string());
+    }
     let mut bars = Vec::new();
-    for (g, layout) in x.layouts.iter().enumerate() {
-        for (s, label) in labels.iter().enumerate() {
+    for (g, layout) in groups.iter().enumerate() {
+        for (s, name) in labels.iter().enumerate() {
             let first = rows
                 .iter()
-                .filter(|r| r.layout == *layout && r.label() == *label)
+                .filter(|r| r.layout == *layout && label(r) == *name)
                 .min_by_key(|r| r.agents);
             if let Some(a) = first.and_then(|r| r.success) {
                 bars.push(Bar {
@@ -336,7 +443,7 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
         &path,
         &format!("{}: evaluation success (mean, 95 % CI over seeds)", x.name),
         "success (%)",
-        &x.layouts,
+        &groups,
         &labels,
         &bars,
     )?;
@@ -374,13 +481,15 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
             )?;
             files.push(path);
         }
+    }
+    for layout in x.eval_layouts() {
         let sweep: Vec<Band> = labels
             .iter()
-            .map(|label| Band {
-                label: label.clone(),
+            .map(|name| Band {
+                label: name.clone(),
                 points: rows
                     .iter()
-                    .filter(|r| r.layout == *layout && r.label() == *label)
+                    .filter(|r| r.layout == *layout && label(r) == *name)
                     .filter_map(|r| {
                         let a = r.success?;
                         Some((

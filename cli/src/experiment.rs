@@ -6,6 +6,11 @@
 //! directory; finished runs and evaluations are skipped on the next
 //! invocation. [`crate::report`] aggregates the cells over seeds.
 //!
+//! A layout may be several maps with weights, `"rm-3.1:1,rm-2.2:1"` (as
+//! `learner train --maps` takes them): its runs train on the mixture, and
+//! `[experiment.eval] layouts` names the layouts every policy is evaluated
+//! on (by default, its training layout).
+//!
 //! ```toml
 //! [experiment]
 //! name = "comparison"
@@ -21,6 +26,7 @@
 //! actions = ["sampled", "greedy"]
 //! agents = "4..20"                  # default: the agents each policy trained with
 //! time_limit = 60.0                 # planners, seconds per instance
+//! layouts = ["rm-2.1", "rm-3.1"]    # evaluate on these (default: the training layout)
 //!
 //! [[method]]
 //! name = "ppo-ctde"
@@ -33,7 +39,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use buridan_env::Starts;
-use buridan_learner::train::TrainConfig;
+use buridan_learner::train::{TrainConfig, WeightedMap};
 use serde::{Deserialize, Serialize};
 
 use crate::train::{resolve_config, TrainArgs};
@@ -110,6 +116,7 @@ struct EvalToml {
     t_max: u32,
     time_limit: f64,
     memory_limit: usize,
+    layouts: Option<Vec<String>>,
 }
 
 impl Default for EvalToml {
@@ -123,6 +130,7 @@ impl Default for EvalToml {
             t_max: 100,
             time_limit: 60.0,
             memory_limit: 2048,
+            layouts: None,
         }
     }
 }
@@ -177,6 +185,10 @@ pub struct EvalProtocol {
     pub time_limit: f64,
     /// Planner memory cap, MiB.
     pub memory_limit: usize,
+    /// Layouts every policy (and planner) is evaluated on; `None`: each
+    /// policy on its training layout.
+    #[serde(default)]
+    pub layouts: Option<Vec<String>>,
 }
 
 /// One training cell: a layout, a method and a seed.
@@ -220,6 +232,10 @@ pub enum Evaluated {
 pub struct EvalCell {
     /// Layout evaluated on.
     pub layout: String,
+    /// The policy's training layout, when the experiment evaluates on
+    /// `[experiment.eval] layouts` (`None`: the same as `layout`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trained_on: Option<String>,
     /// Method or planner name.
     pub method: String,
     /// What is evaluated.
@@ -265,14 +281,26 @@ fn safe_name(s: &str) -> String {
         .collect()
 }
 
-/// A layout's directory (and file) name: its id, or a map path's file stem.
+/// A layout's directory (and file) name: its id, or a map path's file
+/// stem; for a mixture, each map's name and weight joined by `+`.
 ///
 /// ```
 /// use buridan_cli::experiment::layout_dir;
 /// assert_eq!(layout_dir("rm-2.1"), "rm-2.1");
 /// assert_eq!(layout_dir("maps/my warehouse.map"), "my_warehouse");
+/// assert_eq!(layout_dir("rm-3.1:1,maps/x.map:2"), "rm-3.1_1+x_2");
 /// ```
 pub fn layout_dir(layout: &str) -> String {
+    if is_mixture(layout) {
+        return layout
+            .split(',')
+            .map(|entry| {
+                let (name, weight) = entry.trim().rsplit_once(':').unwrap_or((entry, "1"));
+                format!("{}_{}", layout_dir(name.trim()), safe_name(weight.trim()))
+            })
+            .collect::<Vec<_>>()
+            .join("+");
+    }
     let path = Path::new(layout);
     let stem = if layout.ends_with(".map") || path.components().count() > 1 {
         path.file_stem().and_then(|s| s.to_str()).unwrap_or(layout)
@@ -282,7 +310,41 @@ pub fn layout_dir(layout: &str) -> String {
     safe_name(stem)
 }
 
+/// Whether a layout entry names several maps (`NAME:WEIGHT,…`).
+///
+/// ```
+/// use buridan_cli::experiment::is_mixture;
+/// assert!(is_mixture("rm-3.1:1,rm-2.2:1"));
+/// assert!(!is_mixture("rm-2.1"));
+/// ```
+pub fn is_mixture(layout: &str) -> bool {
+    layout.contains(',')
+}
+
+/// Checks that a layout entry (one map, or a mixture) loads.
+fn check_layout(layout: &str) -> Result<(), String> {
+    let names = if is_mixture(layout) {
+        WeightedMap::parse_list(layout)
+            .map_err(|e| e.to_string())?
+            .into_iter()
+            .map(|m| m.name)
+            .collect()
+    } else {
+        vec![layout.to_string()]
+    };
+    for name in names {
+        buridan_env::Map::load(&name).map_err(|err| chain(&err))?;
+    }
+    Ok(())
+}
+
 impl Experiment {
+    /// The layouts evaluations run on: `[experiment.eval] layouts`, else
+    /// the training layouts.
+    pub fn eval_layouts(&self) -> &[String] {
+        self.eval.layouts.as_deref().unwrap_or(&self.layouts)
+    }
+
     /// Reads and resolves an experiment file.
     pub fn from_file(path: &Path) -> Result<Experiment, ExperimentError> {
         let text = std::fs::read_to_string(path).map_err(|e| ExperimentError {
@@ -364,6 +426,22 @@ impl Experiment {
                 "[experiment.eval] agents: counts must be at least 1".into()
             ));
         }
+        if let Some(layouts) = &e.layouts {
+            if layouts.is_empty() {
+                return Err(bad(
+                    "[experiment.eval] layouts: name at least one layout (or leave it out)".into(),
+                ));
+            }
+            for l in layouts {
+                if is_mixture(l) {
+                    return Err(bad(format!(
+                        "[experiment.eval] layouts: '{l}' is a mixture; evaluations run on one map each"
+                    )));
+                }
+                check_layout(l)
+                    .map_err(|err| bad(format!("[experiment.eval] layout '{l}': {err}")))?;
+            }
+        }
         let mut actions = e.actions.clone();
         actions.dedup();
         let eval = EvalProtocol {
@@ -375,10 +453,15 @@ impl Experiment {
             t_max: e.t_max,
             time_limit: e.time_limit,
             memory_limit: e.memory_limit,
+            layouts: e.layouts,
         };
         for layout in &x.layouts {
-            buridan_env::Map::load(layout)
-                .map_err(|err| bad(format!("layout '{layout}': {}", chain(&err))))?;
+            check_layout(layout).map_err(|err| bad(format!("layout '{layout}': {err}")))?;
+            if is_mixture(layout) && eval.layouts.is_none() {
+                return Err(bad(format!(
+                    "layout '{layout}' trains on several maps: name the maps to evaluate on in [experiment.eval] layouts"
+                )));
+            }
         }
         for p in &x.planners {
             if buridan_mapf::planner_by_name(p).is_none() && p != "random" {
@@ -407,9 +490,11 @@ impl Experiment {
         }
         let mut train = Vec::new();
         let mut evals = Vec::new();
+        // Planners run on the evaluation layouts, with every agent count a
+        // policy there is evaluated with.
+        let mut planner_agents: BTreeMap<String, BTreeSet<usize>> = BTreeMap::new();
         for layout in &x.layouts {
             let ldir = PathBuf::from(layout_dir(layout));
-            let mut planner_agents = BTreeSet::new();
             for m in &parsed.method {
                 let Some(config) = m.configs.get(layout).or(m.config.as_ref()) else {
                     return Err(bad(format!(
@@ -437,45 +522,67 @@ impl Experiment {
                     })?;
                     let trained = cfg.agents;
                     let counts = eval.agents.clone().unwrap_or_else(|| vec![trained]);
-                    planner_agents.extend(counts.iter().copied());
                     let index = train.len();
                     train.push(TrainCell {
                         agents: trained,
                         ..cell
                     });
-                    for &actions in &eval.actions {
-                        for &agents in &counts {
-                            evals.push(EvalCell {
-                                layout: layout.clone(),
-                                method: m.name.clone(),
-                                evaluated: Evaluated::Policy {
-                                    train: index,
-                                    actions,
-                                },
-                                agents,
-                                dir: PathBuf::from("evals")
-                                    .join(&ldir)
-                                    .join(&m.name)
-                                    .join(format!("seed-{seed}"))
-                                    .join(actions.name())
-                                    .join(format!("agents-{agents}")),
-                            });
+                    let seed_dir = PathBuf::from("evals")
+                        .join(&ldir)
+                        .join(&m.name)
+                        .join(format!("seed-{seed}"));
+                    let targets: Vec<(&String, PathBuf, Option<String>)> = match &eval.layouts {
+                        None => vec![(layout, seed_dir, None)],
+                        Some(on) => on
+                            .iter()
+                            .map(|l| (l, seed_dir.join(layout_dir(l)), Some(layout.clone())))
+                            .collect(),
+                    };
+                    for (on, dir, trained_on) in targets {
+                        planner_agents
+                            .entry(on.clone())
+                            .or_default()
+                            .extend(counts.iter().copied());
+                        for &actions in &eval.actions {
+                            for &agents in &counts {
+                                evals.push(EvalCell {
+                                    layout: on.clone(),
+                                    trained_on: trained_on.clone(),
+                                    method: m.name.clone(),
+                                    evaluated: Evaluated::Policy {
+                                        train: index,
+                                        actions,
+                                    },
+                                    agents,
+                                    dir: dir.join(actions.name()).join(format!("agents-{agents}")),
+                                });
+                            }
                         }
                     }
                 }
             }
-            if planner_agents.is_empty() {
-                planner_agents.extend(eval.agents.clone().unwrap_or_else(|| vec![4]));
-            }
+        }
+        let planner_layouts = eval.layouts.clone().unwrap_or_else(|| x.layouts.clone());
+        for layout in &planner_layouts {
+            let counts = match planner_agents.get(layout) {
+                Some(counts) if !counts.is_empty() => counts.clone(),
+                _ => eval
+                    .agents
+                    .clone()
+                    .unwrap_or_else(|| vec![4])
+                    .into_iter()
+                    .collect(),
+            };
             for p in &x.planners {
-                for &agents in &planner_agents {
+                for &agents in &counts {
                     evals.push(EvalCell {
                         layout: layout.clone(),
+                        trained_on: None,
                         method: p.clone(),
                         evaluated: Evaluated::Planner,
                         agents,
                         dir: PathBuf::from("evals")
-                            .join(&ldir)
+                            .join(layout_dir(layout))
                             .join(safe_name(p))
                             .join(format!("agents-{agents}")),
                     });
@@ -554,8 +661,10 @@ impl TrainCell {
     /// The `learner train` arguments of this cell in experiment directory `out`
     /// (resuming from the run directory's newest checkpoint if it has one).
     pub fn train_args(&self, out: &Path) -> TrainArgs {
+        let mixture = is_mixture(&self.layout);
         TrainArgs {
-            map: Some(self.layout.clone()),
+            map: (!mixture).then(|| self.layout.clone()),
+            maps: mixture.then(|| self.layout.clone()),
             agents: None,
             algo: None,
             mode: None,
@@ -585,7 +694,11 @@ impl TrainCell {
             "train".into(),
             "--config".into(),
             self.config.display().to_string(),
-            "--map".into(),
+            if is_mixture(&self.layout) {
+                "--maps".into()
+            } else {
+                "--map".into()
+            },
             self.layout.clone(),
             "--seed".into(),
             self.seed.to_string(),
@@ -680,6 +793,107 @@ mod tests {
         assert!(x
             .eval_command(p, Path::new("out"))
             .contains("--controller cbs"));
+    }
+
+    #[test]
+    fn mixtures_train_on_several_maps_and_evaluate_on_the_eval_layouts() {
+        let dir = tempfile::tempdir().unwrap();
+        write_config(dir.path());
+        let file = dir.path().join("gen.toml");
+        let x = Experiment::from_str(
+            r#"
+            [experiment]
+            name = "gen"
+            layouts = ["rm-2.2:1,rm-3.1:1", "rm-2.1"]
+            seeds = 2
+            planners = ["cbs"]
+            [experiment.eval]
+            actions = ["sampled"]
+            layouts = ["rm-2.1", "rm-2.1b", "rm-3.1"]
+            [[method]]
+            name = "ppo"
+            config = "tiny.toml"
+            "#,
+            &file,
+        )
+        .unwrap();
+        assert_eq!(x.train.len(), 2 * 2);
+        let cmd = x.train[0].command(Path::new("out"));
+        assert!(cmd.contains("--maps rm-2.2:1,rm-3.1:1 --seed 0"), "{cmd}");
+        assert!(
+            cmd.ends_with("--out out/runs/rm-2.2_1+rm-3.1_1/ppo/seed-0"),
+            "{cmd}"
+        );
+        let cfg = x.train[0].config_in(Path::new("out")).unwrap();
+        assert_eq!(cfg.layout_names(), ["rm-2.2", "rm-3.1"]);
+        assert_eq!(x.train[2].config_in(Path::new("out")).unwrap().maps, None);
+        // Every policy on every eval layout, cbs once per eval layout.
+        assert_eq!(x.evals.len(), 4 * 3 + 3);
+        let first: Vec<_> = x
+            .evals
+            .iter()
+            .filter(|e| {
+                e.evaluated
+                    == (Evaluated::Policy {
+                        train: 0,
+                        actions: Actions::Sampled,
+                    })
+            })
+            .collect();
+        assert_eq!(
+            first.iter().map(|e| e.layout.as_str()).collect::<Vec<_>>(),
+            ["rm-2.1", "rm-2.1b", "rm-3.1"]
+        );
+        assert!(first
+            .iter()
+            .all(|e| e.trained_on.as_deref() == Some("rm-2.2:1,rm-3.1:1")));
+        let e = x.eval_command(first[1], Path::new("out"));
+        assert!(e.starts_with("learner eval --map rm-2.1b"), "{e}");
+        assert!(
+            e.contains("checkpoint:out/runs/rm-2.2_1+rm-3.1_1/ppo/seed-0"),
+            "{e}"
+        );
+        let dirs: BTreeSet<_> = x.evals.iter().map(|e| &e.dir).collect();
+        assert_eq!(dirs.len(), x.evals.len(), "one directory per cell");
+        assert_eq!(
+            x.evals
+                .iter()
+                .filter(|e| e.evaluated == Evaluated::Planner)
+                .map(|e| e.layout.as_str())
+                .collect::<Vec<_>>(),
+            ["rm-2.1", "rm-2.1b", "rm-3.1"]
+        );
+
+        let base = "[experiment]\nname = \"x\"\nseeds = 2\n[[method]]\nname = \"m\"\nconfig = \"tiny.toml\"\n";
+        let cases = [
+            (
+                "layouts = [\"rm-2.2,rm-3.1\"]\n",
+                "[experiment.eval] layouts",
+            ),
+            (
+                "layouts = [\"rm-2.1\"]\n[experiment.eval]\nlayouts = []\n",
+                "at least one layout",
+            ),
+            (
+                "layouts = [\"rm-2.1\"]\n[experiment.eval]\nlayouts = [\"rm-2.2,rm-3.1\"]\n",
+                "is a mixture",
+            ),
+            (
+                "layouts = [\"rm-2.1\"]\n[experiment.eval]\nlayouts = [\"rm-8.8\"]\n",
+                "layout 'rm-8.8'",
+            ),
+            (
+                "layouts = [\"rm-2.1,rm-8.8\"]\n[experiment.eval]\nlayouts = [\"rm-2.1\"]\n",
+                "rm-8.8",
+            ),
+        ];
+        for (extra, needle) in cases {
+            let text = base.replacen("seeds = 2\n", &format!("seeds = 2\n{extra}"), 1);
+            // `[experiment.eval]` has to come after the [experiment] keys.
+            let text = text.replacen("[[method]]", "\n[[method]]", 1);
+            let e = Experiment::from_str(&text, &file).unwrap_err().to_string();
+            assert!(e.contains(needle), "{needle}: {e}");
+        }
     }
 
     #[test]

@@ -11,15 +11,20 @@ use buridan_policy::Mode;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use buridan_learner::train::{
-    Algo, InProcess, MetricsRow, Progress, Run, Summary, TrainConfig, TrainError,
+    Algo, InProcess, MetricsRow, Progress, Run, Summary, TrainConfig, TrainError, WeightedMap,
 };
 
 /// Arguments of `learner train`.
 #[derive(Debug, clap::Args)]
 pub struct TrainArgs {
-    /// Reference model id (`rm-2.1`) or path to a MovingAI `.map` file.
-    #[arg(long)]
+    /// Reference model id (`rm-2.1`) or path to a MovingAI `.map` file
+    /// (replaces a config's `maps`).
+    #[arg(long, conflicts_with = "maps")]
     pub map: Option<String>,
+    /// Several layouts with weights, `NAME:WEIGHT,…` (weight 1 if left
+    /// out), e.g. `rm-2.2:1,rm-3.1:1`: each env draws every episode's layout.
+    #[arg(long, value_name = "NAME[:WEIGHT],...")]
+    pub maps: Option<String>,
     /// Agents per env.
     #[arg(long)]
     pub agents: Option<usize>,
@@ -106,6 +111,10 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
     };
     if let Some(v) = &args.map {
         cfg.map = v.clone();
+        cfg.maps = None;
+    }
+    if let Some(v) = &args.maps {
+        cfg.maps = Some(WeightedMap::parse_list(v)?);
     }
     if let Some(v) = args.agents {
         cfg.agents = v;
@@ -137,6 +146,10 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
             toml::from_str(&cfg.to_toml()).context("configuration round trip")?;
         for o in &args.overrides {
             set_key(&mut table, o)?;
+            // Like the flags: naming one map replaces the list.
+            if o.split_once('=').is_some_and(|(k, _)| k.trim() == "map") {
+                table.remove("maps");
+            }
         }
         cfg = table.try_into().context("invalid --set override")?;
     }
@@ -191,7 +204,7 @@ impl Progress for TerminalProgress {
             "{} {} {} n={}",
             cfg.algo,
             format!("{:?}", cfg.mode).to_lowercase(),
-            cfg.map,
+            cfg.map_label(),
             cfg.agents
         ));
     }
@@ -333,7 +346,7 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
         "{} {} on {}, {} agents",
         cfg.algo,
         format!("{:?}", cfg.mode).to_lowercase(),
-        cfg.map,
+        cfg.map_label(),
         cfg.agents
     );
     write_curves(&args.out, &title).context("drawing the learning curves")?;
@@ -347,5 +360,12 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
         summary.episode_len_mean,
         args.out.display()
     );
+    for (map, success) in &summary.success_by_map {
+        let episodes = summary.episodes_by_map.get(map).copied().unwrap_or(0);
+        eprintln!(
+            "  {map}: success {:.1}% over its last 100 episodes ({episodes} episodes in all)",
+            100.0 * success
+        );
+    }
     Ok(())
 }

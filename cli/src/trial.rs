@@ -68,6 +68,9 @@ pub enum TrialRunError {
         /// Why.
         source: buridan_policy::PolicyError,
     },
+    /// An evaluation objective on a run over several layouts (which one?).
+    #[error("the trial trains on several layouts ({0}); evaluation objectives need one, use train_success")]
+    SeveralLayouts(String),
 }
 
 /// The message of `e` and all its causes, `a: b: c`.
@@ -301,6 +304,9 @@ impl LearnerRunner {
         reporter: &mut dyn Reporter,
     ) -> Result<Measurement, TrialRunError> {
         let cfg = trial_config(&self.base, spec)?;
+        if spec.objective != Objective::TrainSuccess && cfg.layouts().len() > 1 {
+            return Err(TrialRunError::SeveralLayouts(cfg.map_label()));
+        }
         tracing::info!(
             trial = spec.id,
             overrides = %buridan_study::overrides::describe(&spec.overrides),

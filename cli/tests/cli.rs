@@ -17,6 +17,7 @@ fn temp_dir(name: &str) -> PathBuf {
 fn train_args(out: PathBuf) -> TrainArgs {
     TrainArgs {
         map: Some("rm-1.1".into()),
+        maps: None,
         agents: Some(2),
         algo: Some(Algo::Ppo),
         mode: Some(Mode::Ctde),
@@ -197,4 +198,56 @@ fn config_layers_defaults_file_flags_and_overrides() {
     args.overrides.clear();
     assert!(format!("{:#}", train::resolve_config(&args).unwrap_err()).contains("run.toml"));
     std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_policy_trained_on_two_layouts_evaluates_on_a_third() {
+    let out = temp_dir("maps");
+    let mut args = train_args(out.clone());
+    args.map = None;
+    args.maps = Some("rm-2.2:1,rm-3.1:1".into());
+    (args.agents, args.starts) = (Some(4), Some(Starts::Random));
+    args.overrides.push("t_max=20".into());
+    let summary = train::run(&args).unwrap();
+    assert_eq!(summary.maps, ["rm-2.2", "rm-3.1"]);
+    // 3000 env steps of at most 20: 150 episodes or more, on both layouts.
+    assert!(
+        summary.episodes_by_map.values().all(|&n| n >= 30),
+        "{summary:?}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert!(json["success_by_map"]["rm-2.2"].is_number(), "{json}");
+    let spec = std::fs::read_to_string(out.join("checkpoints/final/spec.json")).unwrap();
+    assert!(spec.contains("rm-3.1"), "{spec}");
+    // The written config names the layouts and trains the same again.
+    let config = std::fs::read_to_string(out.join("config.toml")).unwrap();
+    assert!(
+        config.contains("[[maps]]") && !config.contains("map ="),
+        "{config}"
+    );
+
+    let eval_out = temp_dir("maps-eval");
+    let mut eval = eval_args(format!("checkpoint:{}", out.display()), eval_out.clone());
+    (eval.map, eval.agents, eval.starts) = ("rm-2.1".into(), "4".into(), Starts::Random);
+    let summaries = eval::run(&eval).unwrap();
+    assert_eq!(
+        (summaries[0].episodes, summaries[0].map.as_str()),
+        (3, "rm-2.1")
+    );
+
+    // CTE over several layouts is refused, and says why.
+    let mut cte = train_args(temp_dir("maps-cte"));
+    (cte.map, cte.maps, cte.mode) = (None, Some("rm-2.2,rm-3.1".into()), Some(Mode::Cte));
+    let err = format!("{:#}", train::run(&cte).unwrap_err());
+    assert!(err.contains("cte cannot train on several layouts"), "{err}");
+    // `--map` replaces a config's maps.
+    let mut one = train_args(temp_dir("maps-one"));
+    one.config = Some(out.join("config.toml"));
+    one.maps = None;
+    let cfg = train::resolve_config(&one).unwrap();
+    assert_eq!((cfg.maps, cfg.map.as_str()), (None, "rm-1.1"));
+    for dir in [out, eval_out] {
+        std::fs::remove_dir_all(dir).ok();
+    }
 }

@@ -262,6 +262,81 @@ config = "tiny.toml"
 }
 
 #[test]
+fn a_tiny_generalization_study_reports_each_layout_and_the_mean() {
+    let dir = tempfile::tempdir().unwrap();
+    tiny_config(dir.path());
+    let file = dir.path().join("generalization.toml");
+    std::fs::write(
+        &file,
+        r#"
+[experiment]
+name = "tiny-generalization"
+layouts = ["rm-1.1:1,rm-1.2:1"]
+seeds = 2
+steps = 2000
+[experiment.eval]
+episodes = 4
+starts = "random"
+actions = ["sampled"]
+layouts = ["rm-1.1", "rm-1.2", "rm-1.3"]
+[[method]]
+name = "ppo"
+config = "tiny.toml"
+set = ["starts=\"random\""]
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let args = StudyArgs {
+        command: None,
+        experiment: Some(file),
+        out: Some(out.clone()),
+        parallel: Some(1),
+        quiet: true,
+    };
+    assert_eq!(study::run(&args).unwrap().jobs_run, 2);
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("runs/rm-1.1_1+rm-1.2_1/ppo/seed-1/summary.json"))
+            .unwrap(),
+    )
+    .unwrap();
+    assert_eq!(summary["maps"], serde_json::json!(["rm-1.1", "rm-1.2"]));
+    let mut csv = csv::Reader::from_path(out.join("table.csv")).unwrap();
+    let header: Vec<String> = csv.headers().unwrap().iter().map(String::from).collect();
+    assert_eq!(header[..3], ["layout", "trained on", "method"]);
+    let rows: Vec<csv::StringRecord> = csv.records().map(Result::unwrap).collect();
+    let layouts: Vec<&str> = rows.iter().map(|r| &r[0]).collect();
+    assert_eq!(layouts, ["rm-1.1", "rm-1.2", "rm-1.3", "mean"]);
+    assert!(
+        rows.iter().all(|r| &r[1] == "rm-1.1:1,rm-1.2:1"),
+        "{rows:?}"
+    );
+    // The mean row is the mean over layouts of each seed's success.
+    let cells: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("cells.json")).unwrap()).unwrap();
+    let rates: Vec<f64> = cells
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["success_rate"].as_f64().unwrap())
+        .collect();
+    assert_eq!(rates.len(), 2 * 3);
+    let mean = 100.0 * rates.iter().sum::<f64>() / 6.0;
+    let table: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("table.json")).unwrap()).unwrap();
+    let text = table.to_string();
+    assert!(text.contains("\"mean\""), "{text}");
+    let md = std::fs::read_to_string(out.join("table.md")).unwrap();
+    let mean_row = md.lines().find(|l| l.starts_with("| mean |")).unwrap();
+    assert!(mean_row.contains("| 2/2 |"), "{mean_row}");
+    assert!(
+        mean_row.contains(&format!("{mean:.1}")),
+        "{mean:.1} in {mean_row}"
+    );
+    assert!(out.join("success.png").is_file());
+}
+
+#[test]
 fn the_shipped_study_and_experiment_files_load() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../learner/studies");
     let mut seen = 0;

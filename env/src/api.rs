@@ -82,3 +82,64 @@ pub trait BatchedEnv {
         }
     }
 }
+
+/// A boxed batch is a batch: an actor can drive `Box<dyn BatchedEnv + Send>`
+/// when the kind of env is chosen at run time (one map or several).
+///
+/// ```
+/// use buridan_env::{BatchedEnv, EnvConfig, Map, ObsKind, VecEnv};
+/// let map = std::sync::Arc::new(Map::load("rm-2.1").unwrap());
+/// let venv = VecEnv::new(map, EnvConfig::default(), 2, ObsKind::Local, 1).unwrap();
+/// let boxed: Box<dyn BatchedEnv + Send> = Box::new(venv);
+/// assert_eq!(boxed.rows(), 8);
+/// ```
+impl<E: BatchedEnv + ?Sized> BatchedEnv for Box<E> {
+    fn num_envs(&self) -> usize {
+        (**self).num_envs()
+    }
+    fn agents(&self) -> usize {
+        (**self).agents()
+    }
+    fn kind(&self) -> ObsKind {
+        (**self).kind()
+    }
+    fn obs_dim(&self) -> usize {
+        (**self).obs_dim()
+    }
+    fn obs(&self) -> &[f32] {
+        (**self).obs()
+    }
+    fn masks(&self) -> &[u8] {
+        (**self).masks()
+    }
+    fn step(&mut self, actions: &[u8]) -> Result<(), EnvError> {
+        (**self).step(actions)
+    }
+    fn rewards(&self) -> &[f32] {
+        (**self).rewards()
+    }
+    fn terminated(&self) -> &[u8] {
+        (**self).terminated()
+    }
+    fn truncated(&self) -> &[u8] {
+        (**self).truncated()
+    }
+    fn final_obs(&self) -> &[f32] {
+        (**self).final_obs()
+    }
+    fn drain_episodes(&mut self) -> Vec<EpisodeStats> {
+        (**self).drain_episodes()
+    }
+    fn rows_per_env(&self) -> usize {
+        (**self).rows_per_env()
+    }
+    fn rows(&self) -> usize {
+        (**self).rows()
+    }
+    fn write_row_rewards(&self, out: &mut [f32]) {
+        (**self).write_row_rewards(out)
+    }
+    fn write_row_done(&self, out: &mut [u8]) {
+        (**self).write_row_done(out)
+    }
+}

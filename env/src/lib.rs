@@ -5,6 +5,7 @@
 //! - [`world`]: [`GridEnv`], one env under the `thesis` ruleset.
 //! - [`obs`]: CTDE/DTE local and CTE central observations, action masks.
 //! - [`vec_env`]: [`VecEnv`], a batch of envs with auto-reset.
+//! - [`mixture`]: [`LayoutMixture`], one env over several layouts with weights.
 //! - [`monitor`]: deadlock and livelock detection.
 //! - [`api`]: [`BatchedEnv`], the batched interface actors drive.
 //! - [`seed`]: how one run seed becomes every random stream's seed.
@@ -23,6 +24,7 @@ pub mod api;
 pub mod config;
 pub mod error;
 pub mod map;
+pub mod mixture;
 pub mod monitor;
 pub mod obs;
 pub mod recipe;
@@ -35,8 +37,9 @@ pub use api::BatchedEnv;
 pub use config::{episode_instance, episode_rng, EnvConfig, Starts};
 pub use error::{EnvError, MapError};
 pub use map::{Cell, Grid, Map, MapSource, Scenario, REFERENCE_MODELS};
+pub use mixture::{LayoutMixture, WeightedLayout};
 pub use obs::{central_obs_dim, local_obs_dim, ObsKind};
 pub use recipe::{ObsFeatures, Shaping, PATH_FEATURE_DIM};
 pub use stats::EpisodeStats;
-pub use vec_env::VecEnv;
+pub use vec_env::{EnvSlot, VecEnv};
 pub use world::{GridEnv, StepOutcome, NUM_ACTIONS};

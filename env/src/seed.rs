@@ -58,6 +58,12 @@ pub fn lifelong_goals(env_seed: u64) -> u64 {
     env_seed ^ 0x6c69_6665_6c6f_6e67 // "lifelong"
 }
 
+/// Seed of the layout draws of a multi-layout env seeded `env_seed` (which
+/// layout each episode plays; a stream apart from the episode instances').
+pub fn layout_draw(env_seed: u64) -> u64 {
+    env_seed ^ 0x6c61_796f_7574 // "layout"
+}
+
 /// Seed of the random controller's action draws for evaluation seed `seed`.
 pub fn random_controller(seed: u64) -> u64 {
     seed ^ 0x7261_6e64_6f6d // "random"

@@ -23,6 +23,10 @@ pub struct EpisodeStats {
     pub livelock_steps: u32,
     /// Times an agent became deadlocked.
     pub deadlock_events: u32,
+    /// Which layout of a multi-layout env the episode played (its index in
+    /// the [`crate::LayoutMixture`]'s list); 0 for a single-map env.
+    #[serde(default)]
+    pub layout: u32,
 }
 
 impl EpisodeStats {

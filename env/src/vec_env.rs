@@ -11,7 +11,9 @@
 //! - `masks`, `rewards` (per agent), `terminated` and `truncated` (per env).
 //!
 //! Env `e` plays episodes `e, e + N, e + 2N, …` (N envs), so every episode is
-//! reproducible from (map, agents, seed, episode index).
+//! reproducible from (map, agents, seed, episode index). Over several
+//! layouts ([`VecEnv::with_layouts`]) each env is a [`LayoutMixture`] and
+//! the episode index also decides the layout.
 //!
 //! ```
 //! use buridan_env::{EnvConfig, Map, ObsKind, VecEnv};
@@ -34,13 +36,48 @@ use crate::api::BatchedEnv;
 use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::map::Map;
+use crate::mixture::{LayoutMixture, WeightedLayout};
 use crate::obs::ObsKind;
 use crate::stats::EpisodeStats;
 use crate::world::{GridEnv, NUM_ACTIONS};
 
-/// A batch of environments with flat observation, mask and reward buffers.
-pub struct VecEnv {
-    envs: Vec<GridEnv>,
+/// One env of a [`VecEnv`]: a [`GridEnv`] (one map), or a
+/// [`LayoutMixture`] that moves to another layout at its resets. The batch
+/// loop is generic over it, so the single-map batch compiles to the same
+/// code as before mixtures existed.
+pub trait EnvSlot: Send {
+    /// The env of the current episode.
+    fn env(&self) -> &GridEnv;
+    /// The env of the current episode, to step it.
+    fn env_mut(&mut self) -> &mut GridEnv;
+    /// Starts the slot's next episode (`episode + stride`).
+    fn reset_next(&mut self, stride: u64) -> Result<(), EnvError>;
+    /// Statistics of the current episode.
+    fn stats(&self) -> EpisodeStats;
+}
+
+impl EnvSlot for GridEnv {
+    #[inline]
+    fn env(&self) -> &GridEnv {
+        self
+    }
+    #[inline]
+    fn env_mut(&mut self) -> &mut GridEnv {
+        self
+    }
+    fn reset_next(&mut self, stride: u64) -> Result<(), EnvError> {
+        GridEnv::reset_next(self, stride)
+    }
+    fn stats(&self) -> EpisodeStats {
+        GridEnv::stats(self)
+    }
+}
+
+/// A batch of environments with flat observation, mask and reward buffers;
+/// each env one map ([`VecEnv::new`]) or a mixture of layouts
+/// ([`VecEnv::with_layouts`]).
+pub struct VecEnv<S: EnvSlot = GridEnv> {
+    envs: Vec<S>,
     kind: ObsKind,
     agents: usize,
     obs_dim: usize,
@@ -66,20 +103,78 @@ impl VecEnv {
         kind: ObsKind,
         threads: usize,
     ) -> Result<Self, EnvError> {
-        if num_envs == 0 {
+        let n = cfg.agents;
+        let envs = (0..num_envs)
+            .map(|e| GridEnv::with_episode(map.clone(), cfg.clone(), e as u64))
+            .collect::<Result<Vec<_>, _>>()?;
+        Self::from_slots(envs, n, kind, threads)
+    }
+
+    /// Visit counts summed over all envs since creation (row-major cells).
+    pub fn visits(&self) -> Vec<u64> {
+        let mut totals = vec![0u64; self.envs[0].visits().len()];
+        for env in &self.envs {
+            for (t, &v) in totals.iter_mut().zip(env.visits()) {
+                *t += v;
+            }
+        }
+        totals
+    }
+}
+
+impl VecEnv<LayoutMixture> {
+    /// `num_envs` envs over several layouts: each draws the layout of every
+    /// episode from `layouts`' weights ([`LayoutMixture`]). The layouts
+    /// must give observations of one size for `kind` (any layouts for local
+    /// observations; equally sized ones for central).
+    pub fn with_layouts(
+        layouts: &[WeightedLayout],
+        cfg: EnvConfig,
+        num_envs: usize,
+        kind: ObsKind,
+        threads: usize,
+    ) -> Result<Self, EnvError> {
+        let n = cfg.agents;
+        let envs = (0..num_envs)
+            .map(|e| LayoutMixture::new(layouts, cfg.clone(), e as u64))
+            .collect::<Result<Vec<_>, _>>()?;
+        if let Some(first) = envs.first() {
+            let dims: Vec<usize> = first
+                .envs()
+                .iter()
+                .map(|env| obs_dims(env, kind).0)
+                .collect();
+            if dims.iter().any(|&d| d != dims[0]) {
+                return Err(EnvError::InvalidConfig(format!(
+                    "the layouts give {kind:?} observations of different sizes {dims:?}; \
+                     one batch needs one size"
+                )));
+            }
+        }
+        Self::from_slots(envs, n, kind, threads)
+    }
+}
+
+/// Floats per observation row and bytes per mask row of `env` for `kind`.
+fn obs_dims(env: &GridEnv, kind: ObsKind) -> (usize, usize) {
+    match kind {
+        ObsKind::Local => (env.local_obs_dim(), NUM_ACTIONS),
+        ObsKind::Central => (env.central_obs_dim(), NUM_ACTIONS * env.agents()),
+    }
+}
+
+impl<S: EnvSlot> VecEnv<S> {
+    /// The batch of `envs` (each with `n` agents), its buffers filled with
+    /// the first observations.
+    fn from_slots(envs: Vec<S>, n: usize, kind: ObsKind, threads: usize) -> Result<Self, EnvError> {
+        if envs.is_empty() {
             return Err(EnvError::InvalidConfig(
                 "a VecEnv needs at least one env".into(),
             ));
         }
-        let envs = (0..num_envs)
-            .map(|e| GridEnv::with_episode(map.clone(), cfg.clone(), e as u64))
-            .collect::<Result<Vec<_>, _>>()?;
-        let n = cfg.agents;
+        let num_envs = envs.len();
         let rows = num_envs * kind.rows_per_env(n);
-        let (obs_dim, mask_dim) = match kind {
-            ObsKind::Local => (envs[0].local_obs_dim(), NUM_ACTIONS),
-            ObsKind::Central => (envs[0].central_obs_dim(), NUM_ACTIONS * n),
-        };
+        let (obs_dim, mask_dim) = obs_dims(envs[0].env(), kind);
         let pool = if threads > 1 {
             Some(
                 rayon::ThreadPoolBuilder::new()
@@ -114,8 +209,8 @@ impl VecEnv {
             .obs
             .chunks_mut(rows * obs_dim)
             .zip(venv.masks.chunks_mut(rows * mask_dim));
-        for (env, (obs, masks)) in venv.envs.iter().zip(per_env) {
-            write_obs(env, kind, obs, masks)?;
+        for (slot, (obs, masks)) in venv.envs.iter().zip(per_env) {
+            write_obs(slot.env(), kind, obs, masks)?;
         }
         Ok(venv)
     }
@@ -142,11 +237,12 @@ impl VecEnv {
         let (o, m) = (rows * self.obs_dim, rows * self.mask_dim);
         let stride = self.envs.len() as u64;
         let kind = self.kind;
-        let step_one = |(env, act, rew, obs, final_obs, mask, term, trunc, finished): EnvSlot| {
-            step_env(
-                env, kind, stride, act, rew, obs, final_obs, mask, term, trunc, finished,
-            )
-        };
+        let step_one =
+            |(env, act, rew, obs, final_obs, mask, term, trunc, finished): SlotBuffers<'_, S>| {
+                step_env(
+                    env, kind, stride, act, rew, obs, final_obs, mask, term, trunc, finished,
+                )
+            };
         match &self.pool {
             Some(pool) => pool.install(|| {
                 (
@@ -245,7 +341,7 @@ impl VecEnv {
     }
 
     /// The envs, for inspection.
-    pub fn envs(&self) -> &[GridEnv] {
+    pub fn envs(&self) -> &[S] {
         &self.envs
     }
 
@@ -253,22 +349,11 @@ impl VecEnv {
     pub fn drain_episodes(&mut self) -> Vec<EpisodeStats> {
         std::mem::take(&mut self.episodes)
     }
-
-    /// Visit counts summed over all envs since creation (row-major cells).
-    pub fn visits(&self) -> Vec<u64> {
-        let mut totals = vec![0u64; self.envs[0].visits().len()];
-        for env in &self.envs {
-            for (t, &v) in totals.iter_mut().zip(env.visits()) {
-                *t += v;
-            }
-        }
-        totals
-    }
 }
 
 /// One env's share of the batch buffers.
-type EnvSlot<'a> = (
-    &'a mut GridEnv,
+type SlotBuffers<'a, S> = (
+    &'a mut S,
     &'a [u8],
     &'a mut [f32],
     &'a mut [f32],
@@ -282,8 +367,8 @@ type EnvSlot<'a> = (
 /// Steps one env, records its episode end, auto-resets it and writes its
 /// observations.
 #[allow(clippy::too_many_arguments)]
-fn step_env(
-    env: &mut GridEnv,
+fn step_env<S: EnvSlot>(
+    slot: &mut S,
     kind: ObsKind,
     stride: u64,
     actions: &[u8],
@@ -295,15 +380,15 @@ fn step_env(
     truncated: &mut u8,
     finished: &mut Option<EpisodeStats>,
 ) -> Result<(), EnvError> {
-    let out = env.step(actions, rewards)?;
+    let out = slot.env_mut().step(actions, rewards)?;
     *terminated = u8::from(out.terminated);
     *truncated = u8::from(out.truncated);
     if out.done() {
-        write_obs(env, kind, final_obs, mask)?;
-        *finished = Some(env.stats());
-        env.reset_next(stride)?;
+        write_obs(slot.env(), kind, final_obs, mask)?;
+        *finished = Some(slot.stats());
+        slot.reset_next(stride)?;
     }
-    write_obs(env, kind, obs, mask)
+    write_obs(slot.env(), kind, obs, mask)
 }
 
 fn write_obs(
@@ -328,7 +413,7 @@ fn write_obs(
     }
 }
 
-impl BatchedEnv for VecEnv {
+impl<S: EnvSlot> BatchedEnv for VecEnv<S> {
     fn num_envs(&self) -> usize {
         VecEnv::num_envs(self)
     }

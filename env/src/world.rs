@@ -578,6 +578,7 @@ impl GridEnv {
             deadlock_steps: self.monitor.deadlock_steps(),
             livelock_steps: self.monitor.livelock_steps(),
             deadlock_events: self.monitor.deadlock_events(),
+            layout: 0,
         }
     }
 

@@ -4,12 +4,14 @@
 use std::error::Error;
 
 use buridan_actor::{CollectError, Collector};
-use buridan_env::{BatchedEnv, EnvError, EpisodeStats, ObsKind, Starts, VecEnv};
-use buridan_learner::train::{ExchangeError, InProcess, NoProgress, Run, TrainConfig, TrainError};
+use buridan_env::{BatchedEnv, EnvError, EpisodeStats, ObsKind, Starts};
+use buridan_learner::train::{
+    ActorEnv, ExchangeError, InProcess, NoProgress, Run, TrainConfig, TrainError,
+};
 
 /// A grid env batch whose simulator breaks down after `healthy_steps`.
 struct BreaksDown {
-    inner: VecEnv,
+    inner: ActorEnv,
     healthy_steps: usize,
 }
 

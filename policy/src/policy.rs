@@ -319,16 +319,20 @@ impl Policy {
         Ok(policy)
     }
 
-    /// Loads a checkpoint and checks that its spec equals `expected`.
+    /// Loads a checkpoint whose network is `expected`'s
+    /// ([`ModelSpec::same_network`]); the policy takes `expected` as its
+    /// spec, so a run resumed on other layouts records those.
     pub fn load_expecting(dir: &Path, expected: &ModelSpec) -> Result<Self, PolicyError> {
         let spec = Self::read_spec(dir)?;
-        if &spec != expected {
+        if !spec.same_network(expected) {
             return Err(PolicyError::SpecMismatch {
                 expected: serde_json::to_string(expected).expect("serialises"),
                 found: serde_json::to_string(&spec).expect("serialises"),
             });
         }
-        Self::load(dir)
+        let policy = Policy::new(expected.clone(), 0)?;
+        policy.load_weights_file(&dir.join(MODEL_FILE), dir)?;
+        Ok(policy)
     }
 
     fn load_weights_file(&self, path: &Path, dir: &Path) -> Result<(), PolicyError> {

@@ -151,6 +151,10 @@ pub struct ModelSpec {
     /// evaluation env must write them too).
     #[serde(default, skip_serializing_if = "ObsFeatures::is_none")]
     pub features: ObsFeatures,
+    /// The layouts the policy was trained on (a record: a policy with
+    /// local observations runs on any layout). Empty if unknown.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub maps: Vec<String>,
 }
 
 fn default_hidden() -> Vec<usize> {
@@ -172,6 +176,7 @@ impl ModelSpec {
             mode,
             agents,
             features: ObsFeatures::default(),
+            maps: Vec::new(),
         }
     }
 
@@ -232,6 +237,24 @@ impl ModelSpec {
             }
         }
         Ok(())
+    }
+
+    /// Whether `other` describes the same network (everything but the
+    /// record of training layouts), so that its weights fit.
+    ///
+    /// ```
+    /// use buridan_policy::{ModelSpec, Mode};
+    /// let a = ModelSpec::new(Mode::Ctde, 4, 129);
+    /// let b = ModelSpec { maps: vec!["rm-2.2".into(), "rm-3.1".into()], ..a.clone() };
+    /// assert!(a.same_network(&b));
+    /// assert!(!a.same_network(&ModelSpec::new(Mode::Dte, 4, 129)));
+    /// ```
+    pub fn same_network(&self, other: &ModelSpec) -> bool {
+        let strip = |s: &ModelSpec| ModelSpec {
+            maps: Vec::new(),
+            ..s.clone()
+        };
+        strip(self) == strip(other)
     }
 
     /// Whether the network is recurrent.

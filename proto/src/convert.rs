@@ -313,6 +313,7 @@ fn episode_to_message(e: &EpisodeStats) -> v1::EpisodeStats {
         deadlock_steps: e.deadlock_steps,
         livelock_steps: e.livelock_steps,
         deadlock_events: e.deadlock_events,
+        layout: e.layout,
     }
 }
 
@@ -328,6 +329,7 @@ fn episode_from_message(m: &v1::EpisodeStats) -> EpisodeStats {
         deadlock_steps: m.deadlock_steps,
         livelock_steps: m.livelock_steps,
         deadlock_events: m.deadlock_events,
+        layout: m.layout,
     }
 }
 

@@ -86,6 +86,9 @@ pub enum ServeError {
     /// An empty token would accept everyone.
     #[error("an empty --token would accept everyone; leave it out instead")]
     EmptyToken,
+    /// The run trains on several layouts, which remote actors cannot run yet.
+    #[error("this run trains on several layouts ({0}); remote actors receive one map, so train it embedded with `learner train`")]
+    SeveralLayouts(String),
 }
 pub use service::LearnerService;
 
@@ -152,6 +155,10 @@ pub fn serve(
     ready: Option<std::sync::mpsc::Sender<Option<SocketAddr>>>,
     progress: &mut dyn Progress,
 ) -> Result<Summary, ServeError> {
+    // The join reply carries one map: refuse before preparing anything.
+    if cfg.maps.as_ref().is_some_and(|m| m.len() > 1) {
+        return Err(ServeError::SeveralLayouts(cfg.map_label()));
+    }
     let mut run = Run::prepare(cfg, out)?;
     if let Some(flag) = &opts.interrupt {
         run.interrupt_on(flag.clone());
@@ -229,7 +236,7 @@ pub fn serve(
 fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
     let cfg = run.config();
     let spec = run.spec();
-    let map = MapSource::read(&cfg.map)?;
+    let map = MapSource::read(&cfg.layouts()[0].name)?;
     let run_id = format!("{}-{:016x}", run.map().name, rand::rng().random::<u64>());
     Ok(RunInfo {
         run_id,

@@ -2,8 +2,9 @@
 //! dissertation's comparison settings as defaults, loadable from TOML.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
-use buridan_env::{ObsFeatures, Starts};
+use buridan_env::{EnvError, Map, MapError, ObsFeatures, Starts, WeightedLayout};
 use buridan_policy::{LstmSpec, Mode, ModelSpec, ValueHead};
 use serde::{Deserialize, Serialize};
 
@@ -34,6 +35,60 @@ pub enum ConfigError {
     /// A value is out of its range.
     #[error("invalid configuration: {0}")]
     Invalid(&'static str),
+    /// A file sets both `map` and `maps`.
+    #[error("config {} sets both map and maps: use one (maps lists several layouts with weights)", path.display())]
+    MapAndMaps {
+        /// The file.
+        path: PathBuf,
+    },
+    /// `maps` is an empty list.
+    #[error("invalid configuration: maps is empty: name at least one layout (or use map)")]
+    NoMaps,
+    /// An entry of a `--maps` list is not `NAME` or `NAME:WEIGHT`.
+    #[error("invalid maps entry '{entry}': expected NAME or NAME:WEIGHT, e.g. rm-2.2:1,rm-3.1:2")]
+    BadMapsEntry {
+        /// The entry.
+        entry: String,
+    },
+    /// A layout's weight is not a positive finite number.
+    #[error("invalid configuration: map '{map}' has weight {weight}: weights must be positive and finite")]
+    BadWeight {
+        /// The layout.
+        map: String,
+        /// Its weight.
+        weight: f64,
+    },
+    /// A layout is listed twice.
+    #[error("invalid configuration: map '{map}' is listed twice in maps")]
+    DuplicateMap {
+        /// The layout.
+        map: String,
+    },
+    /// CTE with several layouts.
+    #[error(
+        "invalid configuration: cte cannot train on several layouts: its central observation \
+         is 1 + 2·agents planes of the map's height × width cells, so its size (the network's \
+         input) depends on the layout; use ctde or dte, whose local observations have one size on every layout"
+    )]
+    CentralOnSeveralMaps,
+    /// A layout cannot be loaded.
+    #[error("invalid configuration: map '{map}' cannot be loaded")]
+    UnknownMap {
+        /// The layout as named.
+        map: String,
+        /// Why.
+        source: MapError,
+    },
+    /// A layout cannot hold the configured agents.
+    #[error("invalid configuration: {agents} agents do not fit map '{map}'")]
+    AgentsDoNotFit {
+        /// The layout.
+        map: String,
+        /// Agents configured.
+        agents: usize,
+        /// What the env says (too few free cells, too small a scenario).
+        source: EnvError,
+    },
 }
 
 fn ensure(ok: bool, why: &'static str) -> Result<(), ConfigError> {
@@ -41,6 +96,65 @@ fn ensure(ok: bool, why: &'static str) -> Result<(), ConfigError> {
         Ok(())
     } else {
         Err(ConfigError::Invalid(why))
+    }
+}
+
+/// One training layout and its weight: `maps = [{ name = "rm-2.2", weight
+/// = 1.0 }, …]` in TOML, `--maps rm-2.2:1,rm-3.1:1` on the command line.
+///
+/// ```
+/// use buridan_learner::train::WeightedMap;
+/// let maps = WeightedMap::parse_list("rm-2.2:3, rm-3.1").unwrap();
+/// assert_eq!(maps[0], WeightedMap { name: "rm-2.2".into(), weight: 3.0 });
+/// assert_eq!(maps[1].weight, 1.0);
+/// assert_eq!(WeightedMap::label(&maps), "rm-2.2:3+rm-3.1:1");
+/// assert!(WeightedMap::parse_list("rm-2.2:x").is_err());
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WeightedMap {
+    /// Reference model id or MovingAI `.map` path.
+    pub name: String,
+    /// Relative frequency of its episodes (default 1).
+    #[serde(default = "unit_weight")]
+    pub weight: f64,
+}
+
+fn unit_weight() -> f64 {
+    1.0
+}
+
+impl WeightedMap {
+    /// Parses `NAME[:WEIGHT],…` (weight 1 if left out).
+    pub fn parse_list(text: &str) -> Result<Vec<WeightedMap>, ConfigError> {
+        text.split(',')
+            .map(|entry| {
+                let entry = entry.trim();
+                let bad = || ConfigError::BadMapsEntry {
+                    entry: entry.to_string(),
+                };
+                let (name, weight) = match entry.rsplit_once(':') {
+                    Some((name, w)) => (name, w.trim().parse::<f64>().map_err(|_| bad())?),
+                    None => (entry, 1.0),
+                };
+                let name = name.trim();
+                if name.is_empty() {
+                    return Err(bad());
+                }
+                Ok(WeightedMap {
+                    name: name.to_string(),
+                    weight,
+                })
+            })
+            .collect()
+    }
+
+    /// A short name of a list: `NAME:WEIGHT` joined by `+`.
+    pub fn label(maps: &[WeightedMap]) -> String {
+        maps.iter()
+            .map(|m| format!("{}:{}", m.name, m.weight))
+            .collect::<Vec<_>>()
+            .join("+")
     }
 }
 
@@ -215,6 +329,11 @@ pub struct TrainConfig {
     pub mode: Mode,
     /// Reference model id (`rm-2.1`) or a MovingAI `.map` path.
     pub map: String,
+    /// Several layouts with weights, instead of `map`: each env draws the
+    /// layout of every episode from them (a file sets one of `map` and
+    /// `maps`; when `maps` is set, `map` is not used). CTDE and DTE only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub maps: Option<Vec<WeightedMap>>,
     /// Agents per env.
     pub agents: usize,
     /// Fixed (`.scen`) or random starts and goals.
@@ -270,6 +389,7 @@ impl Default for TrainConfig {
             algo: Algo::Ppo,
             mode: Mode::Ctde,
             map: "rm-2.1".into(),
+            maps: None,
             agents: 4,
             starts: Starts::Random,
             t_max: 100,
@@ -297,23 +417,122 @@ impl Default for TrainConfig {
 }
 
 impl TrainConfig {
-    /// Reads a TOML file.
+    /// Reads a TOML file (which sets at most one of `map` and `maps`).
     pub fn from_toml_file(path: &Path) -> Result<Self, ConfigError> {
         let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
             path: path.to_path_buf(),
             source,
         })?;
-        let cfg: Self = toml::from_str(&text).map_err(|source| ConfigError::Parse {
+        let parse_error = |source| ConfigError::Parse {
             path: path.to_path_buf(),
             source,
-        })?;
+        };
+        let table: toml::Table = toml::from_str(&text).map_err(parse_error)?;
+        if table.contains_key("map") && table.contains_key("maps") {
+            return Err(ConfigError::MapAndMaps {
+                path: path.to_path_buf(),
+            });
+        }
+        let cfg: Self = table.try_into().map_err(parse_error)?;
         cfg.validate()?;
         Ok(cfg)
     }
 
-    /// The config as TOML.
+    /// The config as TOML (without the unused `map` when `maps` is set, so
+    /// that the text reads back with [`Self::from_toml_file`]).
     pub fn to_toml(&self) -> String {
-        toml::to_string_pretty(self).expect("config serialises")
+        if self.maps.is_none() {
+            return toml::to_string_pretty(self).expect("config serialises");
+        }
+        let mut table = toml::Table::try_from(self).expect("config serialises");
+        table.remove("map");
+        toml::to_string_pretty(&table).expect("config serialises")
+    }
+
+    /// The training layouts: `maps`, or `map` with weight 1.
+    pub fn layouts(&self) -> Vec<WeightedMap> {
+        match &self.maps {
+            Some(maps) => maps.clone(),
+            None => vec![WeightedMap {
+                name: self.map.clone(),
+                weight: 1.0,
+            }],
+        }
+    }
+
+    /// The training layouts' names, in order.
+    pub fn layout_names(&self) -> Vec<String> {
+        self.layouts().into_iter().map(|m| m.name).collect()
+    }
+
+    /// What the run trains on, in one word: `map`, or the
+    /// [`WeightedMap::label`] of `maps`.
+    pub fn map_label(&self) -> String {
+        match &self.maps {
+            Some(maps) => WeightedMap::label(maps),
+            None => self.map.clone(),
+        }
+    }
+
+    /// Loads the layouts of `maps` with their weights, checking that each
+    /// exists and holds the configured agents (one episode of each is
+    /// drawn). `None` for a single-map config.
+    ///
+    /// ```
+    /// use buridan_learner::train::{ConfigError, TrainConfig, WeightedMap};
+    /// let mut cfg = TrainConfig { maps: Some(WeightedMap::parse_list("rm-2.2,rm-3.1").unwrap()), ..TrainConfig::default() };
+    /// assert_eq!(cfg.load_maps().unwrap().unwrap().len(), 2);
+    /// cfg.agents = 200; // 400 distinct cells: more than rm-2.2 has
+    /// assert!(matches!(cfg.load_maps(), Err(ConfigError::AgentsDoNotFit { .. })));
+    /// ```
+    pub fn load_maps(&self) -> Result<Option<Vec<WeightedLayout>>, ConfigError> {
+        let Some(maps) = &self.maps else {
+            return Ok(None);
+        };
+        self.validate()?;
+        maps.iter()
+            .map(|m| {
+                let map = Map::load(&m.name).map_err(|source| ConfigError::UnknownMap {
+                    map: m.name.clone(),
+                    source,
+                })?;
+                buridan_env::episode_instance(&map, self.agents, self.starts, self.seed, 0)
+                    .map_err(|source| ConfigError::AgentsDoNotFit {
+                        map: m.name.clone(),
+                        agents: self.agents,
+                        source,
+                    })?;
+                Ok((Arc::new(map), m.weight))
+            })
+            .collect::<Result<Vec<_>, _>>()
+            .map(Some)
+    }
+
+    /// Checks the `maps` list without loading maps.
+    fn validate_maps(&self) -> Result<(), ConfigError> {
+        let Some(maps) = &self.maps else {
+            return Ok(());
+        };
+        if maps.is_empty() {
+            return Err(ConfigError::NoMaps);
+        }
+        for (i, m) in maps.iter().enumerate() {
+            if !(m.weight.is_finite() && m.weight > 0.0) {
+                return Err(ConfigError::BadWeight {
+                    map: m.name.clone(),
+                    weight: m.weight,
+                });
+            }
+            if maps[..i].iter().any(|o| o.name == m.name) {
+                return Err(ConfigError::DuplicateMap {
+                    map: m.name.clone(),
+                });
+            }
+        }
+        if maps.len() > 1 && self.mode == Mode::Cte {
+            return Err(ConfigError::CentralOnSeveralMaps);
+        }
+        Ok(())
     }
 
     /// Checks ranges.
@@ -348,7 +567,7 @@ impl TrainConfig {
             "impala.train_batch must be positive",
         )?;
         ensure(self.lstm_cells >= 1, "lstm_cells must be positive")?;
-        Ok(())
+        self.validate_maps()
     }
 
     /// Whether the algorithm learns only from the newest policy's
@@ -414,6 +633,7 @@ impl TrainConfig {
                 prev_reward: true,
             }),
             features: self.features,
+            maps: self.layout_names(),
             ..ModelSpec::new(self.mode, self.agents, obs_dim)
         }
     }

@@ -1,7 +1,7 @@
 //! Per-update metrics (`metrics.csv`), the run summary (`summary.json`) and
 //! the rolling episode window.
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::path::{Path, PathBuf};
 
 use buridan_env::EpisodeStats;
@@ -76,6 +76,76 @@ impl EpisodeWindow {
     /// Whether the window is empty.
     pub fn is_empty(&self) -> bool {
         self.recent.is_empty()
+    }
+}
+
+/// One [`EpisodeWindow`] per training layout: episodes go to the window of
+/// their [`EpisodeStats::layout`], so each layout's success is over its own
+/// last [`EPISODE_WINDOW`] episodes.
+///
+/// ```
+/// use buridan_env::EpisodeStats;
+/// use buridan_learner::train::LayoutWindows;
+/// let mut w = LayoutWindows::new(2);
+/// let ep = |layout, success| EpisodeStats { layout, success, ..Default::default() };
+/// w.extend(&[ep(0, true), ep(1, false), ep(0, false), ep(0, true)]);
+/// assert_eq!(w.totals(), vec![3, 1]);
+/// assert!((w.success_rates()[0] - 2.0 / 3.0).abs() < 1e-12);
+/// assert_eq!(w.success_rates()[1], 0.0);
+/// ```
+#[derive(Debug, Clone, Default)]
+pub struct LayoutWindows {
+    windows: Vec<EpisodeWindow>,
+}
+
+impl LayoutWindows {
+    /// Empty windows for `layouts` layouts.
+    pub fn new(layouts: usize) -> Self {
+        Self {
+            windows: vec![EpisodeWindow::default(); layouts],
+        }
+    }
+
+    /// Windows of `layouts` layouts holding what [`Self::totals`] and
+    /// [`Self::recent`] saved (missing entries start empty).
+    pub fn restore(layouts: usize, totals: &[u64], recent: &[Vec<EpisodeStats>]) -> Self {
+        let windows = (0..layouts)
+            .map(|l| {
+                EpisodeWindow::restore(
+                    totals.get(l).copied().unwrap_or(0),
+                    recent.get(l).map_or(&[][..], Vec::as_slice),
+                )
+            })
+            .collect();
+        Self { windows }
+    }
+
+    /// Adds finished episodes, each to its layout's window (episodes of an
+    /// unknown layout are ignored here; the overall window has them).
+    pub fn extend(&mut self, episodes: &[EpisodeStats]) {
+        for e in episodes {
+            if let Some(w) = self.windows.get_mut(e.layout as usize) {
+                w.extend(std::slice::from_ref(e));
+            }
+        }
+    }
+
+    /// Episodes seen per layout.
+    pub fn totals(&self) -> Vec<u64> {
+        self.windows.iter().map(|w| w.total).collect()
+    }
+
+    /// Each layout's window, oldest first.
+    pub fn recent(&self) -> Vec<Vec<EpisodeStats>> {
+        self.windows.iter().map(EpisodeWindow::recent).collect()
+    }
+
+    /// Each layout's success rate over its window (NaN while empty).
+    pub fn success_rates(&self) -> Vec<f64> {
+        self.windows
+            .iter()
+            .map(EpisodeWindow::success_rate)
+            .collect()
     }
 }
 
@@ -207,6 +277,16 @@ pub struct Summary {
     pub stale_fragments: u64,
     /// Whether the stop criteria ended the run before the step budget.
     pub stopped_early: bool,
+    /// The training layouts (one for a single-map run).
+    #[serde(default)]
+    pub maps: Vec<String>,
+    /// Runs on several layouts: per layout, the success rate of its last
+    /// 100 episodes.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub success_by_map: BTreeMap<String, f64>,
+    /// Runs on several layouts: per layout, the episodes finished.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub episodes_by_map: BTreeMap<String, u64>,
     /// Directory of the final checkpoint.
     pub final_checkpoint: PathBuf,
 }

@@ -34,7 +34,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use buridan_actor::Collector;
-use buridan_env::{seed, EnvConfig, Map, Shaping, VecEnv};
+use buridan_env::{seed, BatchedEnv, EnvConfig, Map, Shaping, VecEnv, WeightedLayout};
 use buridan_policy::checkpoint::{self, CONFIG_FILE, OPTIMIZER_FILE, TRAINER_FILE};
 use buridan_policy::{Fragment, Inference, ModelSpec, Policy, Weights};
 use rand::SeedableRng;
@@ -46,10 +46,10 @@ use crate::algo::optim::ClippedAdam;
 use crate::algo::ppo::Ppo;
 use crate::algo::{AlgoError, UpdateStats};
 
-pub use config::{Algo, ConfigError, ImpalaConfig, PpoConfig, TrainConfig};
+pub use config::{Algo, ConfigError, ImpalaConfig, PpoConfig, TrainConfig, WeightedMap};
 pub use error::{ExchangeError, Interrupted, TrainError};
 pub use exchange::{Exchange, InProcess, Shared, Ticket};
-pub use metrics::{EpisodeWindow, MetricsError, MetricsRow, MetricsWriter, Summary};
+pub use metrics::{EpisodeWindow, LayoutWindows, MetricsError, MetricsRow, MetricsWriter, Summary};
 
 /// The run's metrics file inside its output directory.
 pub const METRICS_FILE: &str = "metrics.csv";
@@ -98,6 +98,21 @@ pub struct TrainerState {
     /// from its first update on.
     #[serde(default)]
     pub recent_episodes: Vec<buridan_env::EpisodeStats>,
+    /// Runs on several layouts: each layout's episode count and window.
+    #[serde(default)]
+    pub layouts: Vec<LayoutRecord>,
+}
+
+/// One training layout's counters in a checkpoint: a resumed run picks
+/// them up by map name (so a resume on other layouts starts those afresh).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct LayoutRecord {
+    /// The map.
+    pub map: String,
+    /// Episodes finished on it.
+    pub episodes: u64,
+    /// Its last episodes (its metrics window).
+    pub recent: Vec<buridan_env::EpisodeStats>,
 }
 
 enum Learner {
@@ -183,6 +198,10 @@ fn write_file(path: &Path, text: &str) -> Result<(), TrainError> {
     std::fs::write(path, text).map_err(|e| TrainError::io("cannot write", path, e))
 }
 
+/// The envs of an in-process actor: one map or a mixture of layouts,
+/// chosen by the configuration at run time.
+pub type ActorEnv = Box<dyn BatchedEnv + Send>;
+
 /// Trains a policy as configured, writing metrics, checkpoints and the
 /// summary into `out` (created if needed), reporting to `progress`: the
 /// embedded default, with `cfg.num_actors` actor threads in this process.
@@ -209,12 +228,14 @@ pub fn train(
 pub struct Run {
     cfg: TrainConfig,
     out: PathBuf,
-    map: Arc<Map>,
+    /// The training layouts with their weights (one for a single map).
+    layouts: Vec<WeightedLayout>,
     spec: ModelSpec,
     policy: Policy,
     learner: Learner,
     state: TrainerState,
     window: EpisodeWindow,
+    layout_windows: LayoutWindows,
     wall_offset: f64,
     t_start: Instant,
     interrupt: Option<Arc<AtomicBool>>,
@@ -229,11 +250,16 @@ impl Run {
         let t_start = Instant::now();
         std::fs::create_dir_all(out).map_err(|e| TrainError::io("cannot create", out, e))?;
         write_file(&out.join(CONFIG_FILE), &cfg.to_toml())?;
-        let map = Arc::new(Map::load(&cfg.map)?);
+        let layouts = match cfg.load_maps()? {
+            Some(layouts) => layouts,
+            None => vec![(Arc::new(Map::load(&cfg.map)?), 1.0)],
+        };
+        // One size on every layout: `load_maps` refuses central
+        // observations over several layouts.
         let obs_dim = cfg
             .mode
             .obs_kind()
-            .obs_dim(&map, &env_config(cfg, cfg.seed));
+            .obs_dim(&layouts[0].0, &env_config(cfg, cfg.seed));
         let spec = cfg.model_spec(obs_dim);
         let (policy, state) = match &cfg.resume {
             None => (
@@ -256,7 +282,7 @@ impl Run {
         tracing::info!(
             algo = %cfg.algo,
             mode = %cfg.mode,
-            map = %cfg.map,
+            map = %cfg.map_label(),
             agents = cfg.agents,
             params = policy.num_params(),
             candle_threads = buridan_policy::threads::candle_threads(),
@@ -266,7 +292,8 @@ impl Run {
         Ok(Run {
             cfg: cfg.clone(),
             out: out.to_path_buf(),
-            map,
+            layout_windows: restore_layout_windows(&cfg.layout_names(), &state.layouts),
+            layouts,
             spec,
             policy,
             learner,
@@ -280,19 +307,19 @@ impl Run {
 
     /// The collector of in-process actor `id`: its own envs and a copy of
     /// the current policy.
-    pub fn collector(&self, id: u32) -> Result<Collector, TrainError> {
+    pub fn collector(&self, id: u32) -> Result<Collector<ActorEnv>, TrainError> {
         let cfg = &self.cfg;
         let actor = u64::from(id);
-        let venv = VecEnv::new(
-            self.map.clone(),
-            env_config(cfg, self.actor_seed(actor)),
-            cfg.envs_per_actor,
-            cfg.mode.obs_kind(),
-            1,
-        )?;
+        let env = env_config(cfg, self.actor_seed(actor));
+        let (envs, kind) = (cfg.envs_per_actor, cfg.mode.obs_kind());
+        // One map keeps the plain batch; a mixture only when there is a choice.
+        let venv: ActorEnv = match self.layouts.as_slice() {
+            [(map, _)] => Box::new(VecEnv::new(map.clone(), env, envs, kind, 1)?),
+            layouts => Box::new(VecEnv::with_layouts(layouts, env, envs, kind, 1)?),
+        };
         let policy = Policy::new(self.spec.clone(), cfg.seed)?;
         policy.copy_from(&self.policy)?;
-        let rows = buridan_env::BatchedEnv::rows(&venv);
+        let rows = venv.rows();
         let sampling = seed::actor_sampling(cfg.seed, actor, self.state.updates);
         Ok(Collector {
             id,
@@ -351,9 +378,14 @@ impl Run {
         &self.cfg
     }
 
-    /// The map the run trains on.
+    /// The map the run trains on (the first of several layouts).
     pub fn map(&self) -> &Arc<Map> {
-        &self.map
+        &self.layouts[0].0
+    }
+
+    /// The layouts the run trains on, with their weights.
+    pub fn layouts(&self) -> &[WeightedLayout] {
+        &self.layouts
     }
 
     /// The model's shape.
@@ -471,6 +503,7 @@ impl Run {
             self.state.agent_steps += f.env_steps * self.cfg.agents as u64;
             ::metrics::counter!("buridan_env_steps_total").increment(f.env_steps);
             self.window.extend(&f.episodes);
+            self.layout_windows.extend(&f.episodes);
             let lag = self.state.updates.saturating_sub(f.policy_version);
             ::metrics::histogram!("buridan_policy_lag").record(lag as f64);
             if staleness.is_stale(f.policy_version, self.state.updates) {
@@ -500,6 +533,17 @@ impl Run {
         state.kl_coeffs = self.learner.kl_coeffs();
         state.wall_seconds = wall;
         state.recent_episodes = self.window.recent();
+        if self.cfg.maps.is_some() {
+            let lw = &self.layout_windows;
+            state.layouts = (self.cfg.layout_names().into_iter())
+                .zip(lw.totals().into_iter().zip(lw.recent()))
+                .map(|(map, (episodes, recent))| LayoutRecord {
+                    map,
+                    episodes,
+                    recent,
+                })
+                .collect();
+        }
         let row = MetricsRow {
             update: state.updates,
             env_steps: state.env_steps,
@@ -539,10 +583,20 @@ impl Run {
 
     fn summary(&self, final_checkpoint: PathBuf, stopped_early: bool) -> Summary {
         let (cfg, window, state) = (&self.cfg, &self.window, &self.state);
+        let names = cfg.layout_names();
+        let (mut success_by_map, mut episodes_by_map) = Default::default();
+        if cfg.maps.is_some() {
+            let lw = &self.layout_windows;
+            success_by_map = names.iter().cloned().zip(lw.success_rates()).collect();
+            episodes_by_map = names.iter().cloned().zip(lw.totals()).collect();
+        }
         Summary {
             algo: cfg.algo.to_string(),
             mode: cfg.mode.to_string(),
-            map: cfg.map.clone(),
+            map: cfg.map_label(),
+            maps: names,
+            success_by_map,
+            episodes_by_map,
             agents: cfg.agents,
             starts: match cfg.starts {
                 buridan_env::Starts::Fixed => "fixed".into(),
@@ -562,6 +616,21 @@ impl Run {
             final_checkpoint,
         }
     }
+}
+
+/// The per-layout windows of a run over `names`, with the counters of the
+/// checkpoint's layouts of the same names.
+fn restore_layout_windows(names: &[String], saved: &[LayoutRecord]) -> LayoutWindows {
+    let found: Vec<Option<&LayoutRecord>> = names
+        .iter()
+        .map(|n| saved.iter().find(|r| r.map == *n))
+        .collect();
+    let totals: Vec<u64> = found.iter().map(|r| r.map_or(0, |r| r.episodes)).collect();
+    let recent: Vec<Vec<buridan_env::EpisodeStats>> = found
+        .iter()
+        .map(|r| r.map_or_else(Vec::new, |r| r.recent.clone()))
+        .collect();
+    LayoutWindows::restore(names.len(), &totals, &recent)
 }
 
 /// The trainer counters of checkpoint `dir`.
