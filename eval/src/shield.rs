@@ -131,6 +131,10 @@ impl Controller for ShieldController {
         format!("{}+shield", self.policy.name())
     }
 
+    fn obs_features(&self) -> buridan_env::ObsFeatures {
+        self.policy.obs_features()
+    }
+
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
         self.policy.begin_episode(env)?;
         // A fixed order among equals per episode, independent of which
