@@ -3,6 +3,8 @@
 //! children as failed trials of a study that goes on, and PBT end to end
 //! with either runner.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use buridan_cli::process::{ProcessRunner, LOG_FILE};
@@ -17,26 +19,9 @@ fn learner() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_learner"))
 }
 
-/// A PPO config on rm-1.1 small enough for runs of a few thousand steps.
+/// The shared tiny PPO config on rm-1.1, written into `dir`, and parsed.
 fn tiny_base(dir: &Path) -> (PathBuf, TrainConfig) {
-    let path = dir.join("tiny.toml");
-    std::fs::write(
-        &path,
-        r#"
-algo = "ppo"
-mode = "ctde"
-map = "rm-1.1"
-agents = 2
-starts = "fixed"
-envs_per_actor = 4
-checkpoint_every = 1
-[ppo]
-train_batch = 1000
-minibatch = 500
-epochs = 2
-"#,
-    )
-    .unwrap();
+    let path = common::tiny_config(dir);
     let cfg = TrainConfig::from_toml_file(&path).unwrap();
     (path, cfg)
 }

@@ -2,31 +2,12 @@
 
 use std::path::{Path, PathBuf};
 
+mod common;
+
+use common::tiny_config;
+
 use buridan_cli::study::{self, StudyArgs, StudyCommand};
 use buridan_cli::tune::{self, TuneArgs};
-
-/// A PPO config on rm-1.1 small enough for a trial of a few thousand steps.
-fn tiny_config(dir: &Path) -> PathBuf {
-    let path = dir.join("tiny.toml");
-    std::fs::write(
-        &path,
-        r#"
-algo = "ppo"
-mode = "ctde"
-map = "rm-1.1"
-agents = 2
-starts = "fixed"
-envs_per_actor = 4
-checkpoint_every = 1
-[ppo]
-train_batch = 1000
-minibatch = 500
-epochs = 2
-"#,
-    )
-    .unwrap();
-    path
-}
 
 fn tune_file(dir: &Path, trials: u64) -> PathBuf {
     let path = dir.join("tune.toml");
