@@ -18,7 +18,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use buridan_env::{EnvError, MapError, VecEnv};
-use buridan_policy::{Inference, ModelSpec, Policy, PolicyError, Weights};
+use buridan_policy::{ActMode, Inference, ModelSpec, Policy, PolicyError, Weights};
 use buridan_proto::convert::{
     env_from_message, fragment_to_message, map_from_message, weights_from_message, ConvertError,
     WireTag,
@@ -614,6 +614,11 @@ pub fn build_collector(join: &v1::JoinReply) -> Result<Collector, SetupError> {
     Ok(Collector {
         id: join.actor_id,
         inference: Inference::new(policy, rows, buridan_env::seed::session_sampling(join.seed)),
+        behaviour: if join.greedy_mix > 0.0 {
+            ActMode::GreedyMix(join.greedy_mix)
+        } else {
+            ActMode::Sample
+        },
         venv,
         fragment_len: join.fragment_len as usize,
         // Nothing loaded yet: the first weights always load.

@@ -24,12 +24,19 @@ pub enum CollectError {
 /// use std::sync::Arc;
 /// use buridan_actor::Collector;
 /// use buridan_env::{EnvConfig, Map, ObsKind, Starts, VecEnv};
-/// use buridan_policy::{Inference, ModelSpec, Mode, Policy};
+/// use buridan_policy::{ActMode, Inference, ModelSpec, Mode, Policy};
 /// let map = Arc::new(Map::load("rm-1.1").unwrap());
 /// let env = EnvConfig { agents: 2, starts: Starts::Fixed, ..EnvConfig::default() };
 /// let venv = VecEnv::new(map, env, 3, ObsKind::Local, 1).unwrap();
 /// let policy = Policy::new(ModelSpec::new(Mode::Ctde, 2, venv.obs_dim()), 0).unwrap();
-/// let mut c = Collector { id: 0, inference: Inference::new(policy, 6, 0), venv, fragment_len: 10, version: 0 };
+/// let mut c = Collector {
+///     id: 0,
+///     inference: Inference::new(policy, 6, 0),
+///     behaviour: ActMode::Sample,
+///     venv,
+///     fragment_len: 10,
+///     version: 0,
+/// };
 /// let f = c.collect().unwrap();
 /// assert_eq!((f.len, f.rows, f.env_steps), (10, 6, 30));
 /// ```
@@ -40,6 +47,9 @@ pub struct Collector<E = VecEnv> {
     pub venv: E,
     /// Policy and sampling state.
     pub inference: Inference,
+    /// How rollouts choose actions: [`ActMode::Sample`], or
+    /// [`ActMode::GreedyMix`] to rehearse greedy execution (IMPALA).
+    pub behaviour: ActMode,
     /// Steps per fragment.
     pub fragment_len: usize,
     /// Weights version currently loaded.
@@ -93,7 +103,7 @@ impl<E: BatchedEnv> Collector<E> {
             let logits = self.inference.act(
                 self.venv.obs(),
                 self.venv.masks(),
-                ActMode::Sample,
+                self.behaviour,
                 &mut actions,
                 &mut logp,
             )?;

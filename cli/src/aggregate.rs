@@ -208,7 +208,12 @@ pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Ve
             .chain(&x.planners)
             .position(|m| *m == k.2)
             .unwrap_or(usize::MAX);
-        (l, k.4, t, m, k.3.map(|a| a != "sampled"))
+        let actions = k.3.as_ref().map(|a| {
+            ["sampled", "greedy", "shielded"]
+                .iter()
+                .position(|name| name == a)
+        });
+        (l, k.4, t, m, actions)
     };
     keys.sort_by_key(order);
     keys.into_iter()

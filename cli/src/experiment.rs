@@ -23,7 +23,7 @@
 //! [experiment.eval]
 //! episodes = 100                    # 1000 for generalization
 //! seed = 42
-//! actions = ["sampled", "greedy"]
+//! actions = ["sampled", "greedy"]  # and/or "shielded": greedy through the PIBT shield
 //! agents = "4..20"                  # default: the agents each policy trained with
 //! time_limit = 60.0                 # planners, seconds per instance
 //! layouts = ["rm-2.1", "rm-3.1"]    # evaluate on these (default: the training layout)
@@ -154,6 +154,10 @@ pub enum Actions {
     Sampled,
     /// The most probable action.
     Greedy,
+    /// The most probable actions through the PIBT collision shield
+    /// (`learner eval --controller shield:checkpoint:DIR`): deterministic,
+    /// conflict-free.
+    Shielded,
 }
 
 impl Actions {
@@ -162,6 +166,7 @@ impl Actions {
         match self {
             Actions::Sampled => "sampled",
             Actions::Greedy => "greedy",
+            Actions::Shielded => "shielded",
         }
     }
 }
@@ -401,7 +406,7 @@ impl Experiment {
         }
         if e.actions.is_empty() && !parsed.method.is_empty() {
             return Err(bad(
-                "[experiment.eval] actions: name sampled, greedy or both".into(),
+                "[experiment.eval] actions: name one or more of sampled, greedy, shielded".into(),
             ));
         }
         if !(e.time_limit > 0.0 && e.time_limit.is_finite()) {
@@ -605,9 +610,14 @@ impl Experiment {
     /// The `learner eval --controller` value of an evaluation cell.
     pub fn controller(&self, cell: &EvalCell, out: &Path) -> String {
         match &cell.evaluated {
-            Evaluated::Policy { train, .. } => {
+            Evaluated::Policy { train, actions } => {
+                let shield = if *actions == Actions::Shielded {
+                    "shield:"
+                } else {
+                    ""
+                };
                 format!(
-                    "checkpoint:{}",
+                    "{shield}checkpoint:{}",
                     out.join(&self.train[*train].run_dir).display()
                 )
             }
@@ -793,6 +803,45 @@ mod tests {
         assert!(x
             .eval_command(p, Path::new("out"))
             .contains("--controller cbs"));
+    }
+
+    #[test]
+    fn shielded_cells_run_the_greedy_policy_through_the_shield() {
+        let dir = tempfile::tempdir().unwrap();
+        write_config(dir.path());
+        let x = Experiment::from_str(
+            r#"
+            [experiment]
+            name = "s"
+            layouts = ["rm-1.1"]
+            seeds = 1
+            [experiment.eval]
+            actions = ["shielded", "greedy"]
+            [[method]]
+            name = "ppo"
+            config = "tiny.toml"
+            "#,
+            &dir.path().join("s.toml"),
+        )
+        .unwrap();
+        let cmds: Vec<String> = x
+            .evals
+            .iter()
+            .map(|c| x.eval_command(c, Path::new("out")))
+            .collect();
+        assert_eq!(cmds.len(), 2);
+        assert!(
+            cmds[0].contains("--controller shield:checkpoint:out/runs/rm-1.1/ppo/seed-0"),
+            "{}",
+            cmds[0]
+        );
+        assert!(x.evals[0].dir.ends_with("shielded/agents-2"));
+        assert!(
+            cmds[1].contains("--controller checkpoint:out/runs/rm-1.1/ppo/seed-0"),
+            "{}",
+            cmds[1]
+        );
+        assert!(cmds.iter().all(|c| !c.contains("--sample")));
     }
 
     #[test]

@@ -367,15 +367,16 @@ pub fn measure(
         jobs: 1,
     };
     let report = evaluate_policy(&spec.run_dir, &map, &eval_spec, act_mode)?;
+    // Objectives evaluate sampled or greedy; a greedy mix counts as sampled.
     let name = match act_mode {
-        ActMode::Sample => "eval-sampled",
+        ActMode::Sample | ActMode::GreedyMix(_) => "eval-sampled",
         ActMode::Greedy => "eval-greedy",
     };
     write_report(&spec.run_dir.join(name), &report, &map.grid)?;
     let s = &report.summary;
     let len = mean_len(&report);
     match act_mode {
-        ActMode::Sample => {
+        ActMode::Sample | ActMode::GreedyMix(_) => {
             (m.eval_sampled_success, m.eval_sampled_len) = (Some(s.success_rate), len)
         }
         ActMode::Greedy => (m.eval_greedy_success, m.eval_greedy_len) = (Some(s.success_rate), len),

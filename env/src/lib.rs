@@ -39,7 +39,9 @@ pub use error::{EnvError, MapError};
 pub use map::{Cell, Grid, Map, MapSource, Scenario, REFERENCE_MODELS};
 pub use mixture::{LayoutMixture, WeightedLayout};
 pub use obs::{central_obs_dim, local_obs_dim, ObsKind};
-pub use recipe::{ObsFeatures, Shaping, PATH_FEATURE_DIM};
+pub use recipe::{
+    priority_feature_dim, ObsFeatures, Shaping, PATH_FEATURE_DIM, PRESSURE_FEATURE_DIM,
+};
 pub use stats::EpisodeStats;
 pub use vec_env::{EnvSlot, VecEnv};
 pub use world::{GridEnv, StepOutcome, NUM_ACTIONS};

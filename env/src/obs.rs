@@ -110,12 +110,15 @@ impl ObsKind {
     /// let map = Map::load("rm-1.1").unwrap();
     /// let cfg = EnvConfig { agents: 2, ..EnvConfig::default() };
     /// assert_eq!(ObsKind::Local.obs_dim(&map, &cfg), 129);
-    /// let cfg = EnvConfig { features: ObsFeatures { path: true }, ..cfg };
+    /// let path = ObsFeatures { path: true, ..ObsFeatures::default() };
+    /// let cfg = EnvConfig { features: path, ..cfg };
     /// assert_eq!(ObsKind::Local.obs_dim(&map, &cfg), 134);
     /// ```
     pub fn obs_dim(self, map: &crate::Map, cfg: &crate::EnvConfig) -> usize {
         match self {
-            ObsKind::Local => local_obs_dim(cfg.sensor_range) + cfg.features.extra_dim(),
+            ObsKind::Local => {
+                local_obs_dim(cfg.sensor_range) + cfg.features.extra_dim(cfg.sensor_range)
+            }
             ObsKind::Central => central_obs_dim(map.grid.height(), map.grid.width(), cfg.agents),
         }
     }
@@ -150,7 +153,8 @@ fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), EnvE
 impl GridEnv {
     /// Floats of one local observation of this env.
     pub fn local_obs_dim(&self) -> usize {
-        local_obs_dim(self.config().sensor_range) + self.config().features.extra_dim()
+        local_obs_dim(self.config().sensor_range)
+            + self.config().features.extra_dim(self.config().sensor_range)
     }
 
     /// Floats of one central observation of this env.
@@ -217,10 +221,64 @@ impl GridEnv {
         tail[1] = p.col as f32 / sx;
         tail[2] = (g.row as f32 - p.row as f32) / sy;
         tail[3] = (g.col as f32 - p.col as f32) / sx;
-        if self.config().features.path {
-            self.write_path_feature(agent, features);
+        let features_on = self.config().features;
+        let mut features = features;
+        if features_on.path {
+            let (path, rest) = features.split_at_mut(crate::PATH_FEATURE_DIM);
+            self.write_path_feature(agent, path);
+            features = rest;
+        }
+        if features_on.priority {
+            let (priority, rest) =
+                features.split_at_mut(crate::priority_feature_dim(self.config().sensor_range));
+            self.write_priority_feature(agent, priority);
+            features = rest;
+        }
+        if features_on.pressure {
+            self.write_pressure_feature(agent, features);
         }
         Ok(())
+    }
+
+    /// The priority feature ([`crate::recipe`]): who outranks whom in the
+    /// window, and the own urgency.
+    fn write_priority_feature(&self, agent: usize, out: &mut [f32]) {
+        let raw = self.raw();
+        let side = 2 * self.config().sensor_range + 1;
+        let r = side / 2;
+        let (window, urgency) = out.split_at_mut(side * side);
+        let mut start = raw.pos[agent] - r * raw.padded_width - r;
+        for out_row in window.chunks_exact_mut(side) {
+            for (slot, &who) in out_row.iter_mut().zip(&raw.occupant[start..start + side]) {
+                *slot = match usize::from(who) {
+                    0 => 0.0,
+                    k if k - 1 == agent => 0.0,
+                    k if self.outranks(k - 1, agent) => 1.0,
+                    _ => -1.0,
+                };
+            }
+            start += raw.padded_width;
+        }
+        let t_max = self.config().t_max.max(1) as f32;
+        urgency[0] = (self.steps_off_goal(agent) as f32 / t_max).min(1.0);
+    }
+
+    /// The pressure feature ([`crate::recipe`]): which neighbours the
+    /// observer stands in the way of.
+    fn write_pressure_feature(&self, agent: usize, out: &mut [f32]) {
+        let raw = self.raw();
+        let here = self.position(agent);
+        for (slot, &offset) in out.iter_mut().zip(&raw.step_offsets[1..]) {
+            let who = usize::from(raw.occupant[raw.pos[agent].wrapping_add_signed(offset)]);
+            *slot = if who == 0 {
+                0.0
+            } else {
+                let other = who - 1;
+                let there = self.goal_distance(other);
+                let via_me = self.goal_distance_at(other, here);
+                f32::from(u8::from(via_me < there))
+            };
+        }
     }
 
     /// The path feature ([`crate::recipe`]): which moves lead one step

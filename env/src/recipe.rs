@@ -19,6 +19,36 @@
 //! agents, so the field is the same for every policy and costs one table
 //! lookup per neighbour.
 //!
+//! # The priority feature
+//!
+//! Two agents with the same observation and one shared policy choose the
+//! same action: face to face in an aisle, both wait forever (Buridan's
+//! donkey). Sampling breaks the tie by chance; a greedy policy needs a
+//! reason to act differently. With [`ObsFeatures::priority`] each agent
+//! gets PIBT's priority (Okumura et al., 2022): the steps it has been off
+//! its goal since it last stood on it, ties going to the lower index (the
+//! agent that moves first under the env's rules). The observation then ends
+//! with [`priority_feature_dim`]`(R)` floats:
+//!
+//! | offset | content |
+//! |---|---|
+//! | `0..(2R+1)²` | per window cell (row-major, as the window): +1 if another agent stands there and outranks the observer, −1 if the observer outranks it, else 0 |
+//! | `(2R+1)²` | the observer's own urgency: steps off goal / `T_max`, at most 1 |
+//!
+//! Priorities need no random draws, so episodes stay reproducible and the
+//! dynamics stay the dissertation's.
+//!
+//! # The pressure feature
+//!
+//! With [`ObsFeatures::pressure`], [`PRESSURE_FEATURE_DIM`] more floats: for
+//! each neighbour up / right / down / left, 1 if another agent stands there
+//! whose shortest path to its goal leads through the observer's cell (the
+//! observer is in its way), else 0 — the blocking pressure the
+//! dissertation's author later added to the reference env.
+//!
+//! The features follow one another in this order: path, priority,
+//! pressure.
+//!
 //! # Shaping
 //!
 //! With [`Shaping`] each agent's reward gets `coeff · (γ·Φ(s′) − Φ(s))`, with
@@ -33,34 +63,62 @@ use serde::{Deserialize, Serialize};
 /// Floats the path feature appends to a local observation.
 pub const PATH_FEATURE_DIM: usize = 5;
 
+/// Floats the pressure feature appends to a local observation.
+pub const PRESSURE_FEATURE_DIM: usize = 4;
+
+/// Floats the priority feature appends to a local observation with sensor
+/// range `r`: one per window cell and the own urgency.
+///
+/// ```
+/// assert_eq!(buridan_env::priority_feature_dim(2), 26);
+/// ```
+pub const fn priority_feature_dim(sensor_range: usize) -> usize {
+    let side = 2 * sensor_range + 1;
+    side * side + 1
+}
+
 /// Optional local-observation features (none by default: the dissertation's
 /// observation).
 ///
 /// ```
 /// use buridan_env::ObsFeatures;
-/// assert_eq!(ObsFeatures::default().extra_dim(), 0);
-/// assert_eq!(ObsFeatures { path: true }.extra_dim(), 5);
+/// assert_eq!(ObsFeatures::default().extra_dim(2), 0);
+/// let path = ObsFeatures { path: true, ..ObsFeatures::default() };
+/// assert_eq!(path.extra_dim(2), 5);
+/// let all = ObsFeatures { path: true, priority: true, pressure: true };
+/// assert_eq!(all.extra_dim(2), 5 + 26 + 4);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ObsFeatures {
     /// The shortest-path direction field and the cost-to-go (module docs).
     pub path: bool,
+    /// PIBT's priorities of the agents in the window (module docs).
+    pub priority: bool,
+    /// Which neighbours the observer stands in the way of (module docs).
+    pub pressure: bool,
 }
 
 impl ObsFeatures {
-    /// Floats these features add to one local observation.
-    pub const fn extra_dim(&self) -> usize {
+    /// Floats these features add to one local observation with sensor range
+    /// `sensor_range`.
+    pub const fn extra_dim(&self, sensor_range: usize) -> usize {
+        let mut dim = 0;
         if self.path {
-            PATH_FEATURE_DIM
-        } else {
-            0
+            dim += PATH_FEATURE_DIM;
         }
+        if self.priority {
+            dim += priority_feature_dim(sensor_range);
+        }
+        if self.pressure {
+            dim += PRESSURE_FEATURE_DIM;
+        }
+        dim
     }
 
     /// True if no feature is on.
     pub const fn is_none(&self) -> bool {
-        !self.path
+        !(self.path || self.priority || self.pressure)
     }
 }
 

@@ -110,6 +110,9 @@ pub struct GridEnv {
     /// Goal distance maps (unpadded, row-major) of each agent's goal.
     goal_distance: Vec<Arc<[u16]>>,
     reached: Vec<bool>,
+    /// Steps each agent has been off its goal since it last stood on it
+    /// (PIBT's priority, for the priority feature).
+    off_goal: Vec<u32>,
     step_offsets: [isize; NUM_ACTIONS],
     t: u32,
     episode: u64,
@@ -167,6 +170,7 @@ impl GridEnv {
             goal_cells: vec![Cell::new(0, 0); n],
             goal_distance: Vec::with_capacity(n),
             reached: vec![false; n],
+            off_goal: vec![0; n],
             step_offsets: [0, -pw, 1, pw, -1],
             t: 0,
             episode,
@@ -289,6 +293,7 @@ impl GridEnv {
         }
         let grid = &self.map.grid;
         self.reached.iter_mut().for_each(|r| *r = false);
+        self.off_goal.iter_mut().for_each(|k| *k = 0);
         self.t = 0;
         self.episode = episode;
         self.over = false;
@@ -381,6 +386,7 @@ impl GridEnv {
             }
             let home = p == self.goal[i];
             self.scratch_at_goal[i] = home;
+            self.off_goal[i] = if home { 0 } else { self.off_goal[i] + 1 };
             if home {
                 if self.cfg.lifelong {
                     *reward += REWARD_GOAL;
@@ -587,6 +593,7 @@ impl GridEnv {
         RawView {
             padded_width: self.padded_width,
             goal_owner: &self.goal_owner,
+            occupant: &self.occupant,
             shared_code: &self.shared_code,
             pos: &self.pos,
             goal_pos: &self.goal,
@@ -606,12 +613,33 @@ impl GridEnv {
     pub(crate) fn goal_distance_at(&self, agent: usize, cell: Cell) -> u16 {
         self.goal_distance[agent][self.map.grid.index(cell)]
     }
+
+    /// Steps agent `i` has been off its goal since it last stood on it (0
+    /// on its goal and at the episode start): PIBT's priority.
+    pub fn steps_off_goal(&self, agent: usize) -> u32 {
+        self.off_goal[agent]
+    }
+
+    /// True if agent `a` has priority over agent `b`: longer off its goal,
+    /// ties to the lower index (see [`crate::recipe`]).
+    ///
+    /// ```
+    /// use std::sync::Arc;
+    /// use buridan_env::{EnvConfig, GridEnv, Map};
+    /// let env = GridEnv::new(Arc::new(Map::load("rm-2.1").unwrap()), EnvConfig::default()).unwrap();
+    /// // At the start nobody has waited: the index decides.
+    /// assert!(env.outranks(0, 1) && !env.outranks(1, 0));
+    /// ```
+    pub fn outranks(&self, a: usize, b: usize) -> bool {
+        (self.off_goal[a], std::cmp::Reverse(a)) > (self.off_goal[b], std::cmp::Reverse(b))
+    }
 }
 
 /// Borrowed internals for the observation encoders.
 pub(crate) struct RawView<'a> {
     pub padded_width: usize,
     pub goal_owner: &'a [u16],
+    pub occupant: &'a [u16],
     pub shared_code: &'a [u8],
     pub pos: &'a [usize],
     pub goal_pos: &'a [usize],

@@ -4,8 +4,17 @@
 
 mod common;
 
-use buridan_env::{local_obs_dim, EnvConfig, GridEnv, ObsFeatures, Shaping, PATH_FEATURE_DIM};
+use buridan_env::{
+    local_obs_dim, priority_feature_dim, EnvConfig, GridEnv, ObsFeatures, Shaping,
+    PATH_FEATURE_DIM, PRESSURE_FEATURE_DIM,
+};
 use common::{fixed_cfg, map_from_rows, step};
+
+const SYMMETRY: ObsFeatures = ObsFeatures {
+    path: false,
+    priority: true,
+    pressure: true,
+};
 
 /// A U-shaped corridor: the goal at (0, 2) lies two columns right of the
 /// agent at (0, 0), but a wall between them forces the way down and around.
@@ -34,7 +43,10 @@ fn path_tail(env: &GridEnv) -> Vec<f32> {
 
 #[test]
 fn path_feature_points_around_the_wall_not_at_the_goal() {
-    let path = ObsFeatures { path: true };
+    let path = ObsFeatures {
+        path: true,
+        ..ObsFeatures::default()
+    };
     let mut env = u_corridor(path, None);
     assert_eq!(env.local_obs_dim(), local_obs_dim(2) + PATH_FEATURE_DIM);
     // At (0, 0): the goal is to the right, but only "down" shortens the
@@ -123,5 +135,113 @@ fn bad_shaping_is_a_config_error() {
         .validate()
         .unwrap_err();
         assert!(err.to_string().contains("shaping"), "{err}");
+    }
+}
+
+/// An aisle of five cells with a pocket above its middle; agent 0 at the
+/// left end wants the right end, agent 1 next to it wants the left end,
+/// agent 2 waits in the pocket on its goal.
+///
+/// ```text
+///      col 0 1 2 3 4
+/// row 0    @ @ 2 @ @
+/// row 1    0 1 . . .
+/// ```
+fn aisle(features: ObsFeatures) -> GridEnv {
+    let map = map_from_rows(
+        &["@@.@@", "....."],
+        &[(1, 0), (1, 1), (0, 2)],
+        &[(1, 4), (1, 0), (0, 2)],
+    );
+    let cfg = EnvConfig {
+        features,
+        sensor_range: 1,
+        ..fixed_cfg(3, 10)
+    };
+    GridEnv::new(map, cfg).unwrap()
+}
+
+/// The symmetry features of `agent`: the 3×3 priority window, the
+/// urgency, then the four pressure flags.
+fn symmetry_tail(env: &GridEnv, agent: usize) -> (Vec<f32>, f32, Vec<f32>) {
+    let mut obs = vec![f32::NAN; env.local_obs_dim()];
+    env.write_local_obs(agent, &mut obs).unwrap();
+    let tail = &obs[local_obs_dim(1)..];
+    let window = priority_feature_dim(1) - 1;
+    (
+        tail[..window].to_vec(),
+        tail[window],
+        tail[window + 1..].to_vec(),
+    )
+}
+
+#[test]
+fn priority_window_marks_who_outranks_the_observer() {
+    let mut env = aisle(SYMMETRY);
+    assert_eq!(
+        env.local_obs_dim(),
+        local_obs_dim(1) + priority_feature_dim(1) + PRESSURE_FEATURE_DIM
+    );
+    // At the start nobody has been off its goal: the lower index outranks.
+    // Agent 1 at (1, 1) sees agent 0 left (+1) and agent 2 above-right (−1).
+    let (window, urgency, _) = symmetry_tail(&env, 1);
+    assert_eq!(window, vec![0., 0., -1., 1., 0., 0., 0., 0., 0.]);
+    assert_eq!(urgency, 0.0);
+    // Agent 0 sees agent 1 right of it, outranked.
+    assert_eq!(
+        symmetry_tail(&env, 0).0,
+        vec![0., 0., 0., 0., 0., -1., 0., 0., 0.]
+    );
+}
+
+#[test]
+fn priority_rises_off_the_goal_and_flips_the_order() {
+    // Agent 0 starts on its goal at the left end, agent 1 beside it is off
+    // its goal.
+    let map = map_from_rows(&["...."], &[(0, 0), (0, 1)], &[(0, 0), (0, 3)]);
+    let cfg = EnvConfig {
+        features: SYMMETRY,
+        sensor_range: 1,
+        ..fixed_cfg(2, 10)
+    };
+    let mut env = GridEnv::new(map, cfg).unwrap();
+    // Nobody has waited yet: the lower index outranks.
+    assert!(env.outranks(0, 1));
+    let (window, urgency, _) = symmetry_tail(&env, 1);
+    assert_eq!(window, vec![0., 0., 0., 1., 0., 0., 0., 0., 0.]);
+    assert_eq!(urgency, 0.0);
+    step(&mut env, &[0, 0]);
+    // Agent 1 has now been off its goal for a step, agent 0 not at all.
+    assert_eq!((env.steps_off_goal(0), env.steps_off_goal(1)), (0, 1));
+    assert!(env.outranks(1, 0));
+    let (window, urgency, _) = symmetry_tail(&env, 1);
+    assert_eq!(window, vec![0., 0., 0., -1., 0., 0., 0., 0., 0.]);
+    assert!(
+        (urgency - 0.1).abs() < 1e-6,
+        "1 step of T_max 10: {urgency}"
+    );
+    assert_eq!(symmetry_tail(&env, 0).0[5], 1.0);
+}
+
+#[test]
+fn pressure_flags_the_neighbours_the_observer_blocks() {
+    let env = aisle(SYMMETRY);
+    // Agent 0's way to (1, 4) runs through agent 1's cell: agent 1 feels
+    // pressure from the left. Agent 1's goal is agent 0's cell: agent 0
+    // feels pressure from the right.
+    assert_eq!(symmetry_tail(&env, 1).2, vec![0., 0., 0., 1.]);
+    assert_eq!(symmetry_tail(&env, 0).2, vec![0., 1., 0., 0.]);
+    // Agent 2 in the pocket blocks nobody's shortest path.
+    assert_eq!(symmetry_tail(&env, 2).2, vec![0., 0., 0., 0.]);
+}
+
+#[test]
+fn symmetry_features_leave_the_dynamics_unchanged() {
+    let mut plain = aisle(ObsFeatures::default());
+    let mut with = aisle(SYMMETRY);
+    for actions in [[2u8, 0, 0], [0, 1, 0], [3, 4, 0], [2, 2, 3]] {
+        let (ra, oa) = step(&mut plain, &actions);
+        let (rb, ob) = step(&mut with, &actions);
+        assert_eq!((ra, oa), (rb, ob));
     }
 }

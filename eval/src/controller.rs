@@ -60,6 +60,11 @@ pub trait Controller: Send {
     fn obs_features(&self) -> buridan_env::ObsFeatures {
         buridan_env::ObsFeatures::default()
     }
+    /// The local window's radius this controller reads: a trained
+    /// policy's, recorded in its checkpoint; the env's default otherwise.
+    fn obs_sensor_range(&self) -> usize {
+        buridan_env::EnvConfig::default().sensor_range
+    }
 }
 
 /// Optional facts a planner reports about its plan.

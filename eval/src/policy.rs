@@ -44,6 +44,7 @@ pub struct PolicyController {
     logp: Vec<f32>,
     name: String,
     features: ObsFeatures,
+    sensor_range: usize,
 }
 
 impl PolicyController {
@@ -86,6 +87,7 @@ impl PolicyController {
             logp: vec![0.0; rows],
             name: format!("{:?}-policy", spec.mode).to_lowercase(),
             features: spec.features,
+            sensor_range: spec.sensor_range,
             inference,
         })
     }
@@ -174,6 +176,10 @@ impl Controller for PolicyController {
 
     fn obs_features(&self) -> ObsFeatures {
         self.features
+    }
+
+    fn obs_sensor_range(&self) -> usize {
+        self.sensor_range
     }
 
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {

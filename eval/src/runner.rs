@@ -176,15 +176,19 @@ pub fn evaluate(
     on_episode: &(dyn Fn(&EpisodeRecord) + Sync),
 ) -> Result<EvalReport, EnvError> {
     let started = Instant::now();
+    let probe = make();
     let cfg = EnvConfig {
         agents: spec.agents,
         t_max: spec.t_max,
         starts: spec.starts,
         seed: spec.seed,
-        // The env writes what the controller reads (a policy's features).
-        features: make().obs_features(),
+        // The env writes what the controller reads (a policy's window and
+        // features).
+        sensor_range: probe.obs_sensor_range(),
+        features: probe.obs_features(),
         ..EnvConfig::default()
     };
+    drop(probe);
     // Fail early, on the caller's thread, for bad configurations.
     GridEnv::new(map.clone(), cfg.clone())?;
     let next = AtomicUsize::new(0);

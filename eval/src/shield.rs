@@ -135,6 +135,10 @@ impl Controller for ShieldController {
         self.policy.obs_features()
     }
 
+    fn obs_sensor_range(&self) -> usize {
+        self.policy.obs_sensor_range()
+    }
+
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
         self.policy.begin_episode(env)?;
         // A fixed order among equals per episode, independent of which

@@ -31,6 +31,7 @@ fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
     let mut actor = Collector {
         id: 0,
         inference: Inference::new(Policy::new(spec, 0).unwrap(), rows, 1),
+        behaviour: cfg.behaviour(),
         venv,
         fragment_len: cfg.fragment_len,
         version: 0,

@@ -81,6 +81,7 @@ fn the_learner_names_the_failing_actors_cause() {
             healthy_steps: 120,
         },
         inference: healthy.inference,
+        behaviour: healthy.behaviour,
         fragment_len: healthy.fragment_len,
         version: healthy.version,
     };

@@ -20,6 +20,7 @@ fn actor(cfg: &TrainConfig, kind: ObsKind) -> (Collector, Policy) {
     let a = Collector {
         id: 0,
         inference: Inference::new(policy.clone(), rows, 9),
+        behaviour: cfg.behaviour(),
         venv,
         fragment_len: cfg.fragment_len,
         version: 0,

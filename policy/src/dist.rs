@@ -140,6 +140,47 @@ pub fn sample_head<R: Rng + ?Sized>(logits: &[f32], mask: &[u8], rng: &mut R) ->
     Some((last_legal as u8, logits[last_legal] - lse))
 }
 
+/// Samples one head from the greedy mixture `μ = (1 − g)·π + g·δ_greedy`:
+/// with probability `g` the most probable legal action, else a draw from
+/// the masked softmax `π`. Overwrites the legal entries of `logits` with
+/// `ln μ` (valid logits of `μ`: their softmax over the legal actions is
+/// `μ`), so a learner that keeps them as behaviour logits sees the
+/// distribution the action really came from. Returns the action and
+/// `ln μ(action)`, or `None` if nothing is legal.
+///
+/// ```
+/// use rand::SeedableRng;
+/// let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+/// // Two legal actions with equal logits (π = (0.5, 0.5)), the third masked; g = 0.5.
+/// let mut logits = [0.0f32, 0.0, 5.0];
+/// let (a, lp) = buridan_policy::dist::greedy_mix_head(&mut logits, &[1, 1, 0], 0.5, &mut rng).unwrap();
+/// // The greedy one is the lowest index: μ = (0.5·0.5 + 0.5, 0.5·0.5) = (0.75, 0.25).
+/// assert!((logits[0].exp() - 0.75).abs() < 1e-6 && (logits[1].exp() - 0.25).abs() < 1e-6);
+/// assert!((lp - logits[a as usize]).abs() < 1e-6);
+/// ```
+pub fn greedy_mix_head<R: Rng + ?Sized>(
+    logits: &mut [f32],
+    mask: &[u8],
+    greedy: f32,
+    rng: &mut R,
+) -> Option<(u8, f32)> {
+    let (best, _) = greedy_head(logits, mask)?;
+    let lse = legal_lse(logits, mask)?;
+    let (a, _) = if rng.random::<f32>() < greedy {
+        (best, 0.0)
+    } else {
+        sample_head(logits, mask, rng)?
+    };
+    for (k, (l, &m)) in logits.iter_mut().zip(mask).enumerate() {
+        if m != 0 {
+            let pi = (*l - lse).exp();
+            let mu = (1.0 - greedy) * pi + if k == usize::from(best) { greedy } else { 0.0 };
+            *l = mu.max(f32::MIN_POSITIVE).ln();
+        }
+    }
+    Some((a, logits[usize::from(a)]))
+}
+
 /// The most probable legal action of one head and its log-probability, or
 /// `None` if nothing is legal (ties go to the lowest index).
 ///

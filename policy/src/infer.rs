@@ -7,7 +7,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::dist::{greedy_head, sample_head};
+use crate::dist::{greedy_head, greedy_mix_head, sample_head};
 use crate::error::PolicyError;
 use crate::net::RecurrentInput;
 use crate::policy::Policy;
@@ -16,12 +16,20 @@ use crate::policy::Policy;
 pub const NO_ACTION: u8 = u8::MAX;
 
 /// How actions are chosen.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ActMode {
     /// Sample from the masked softmax (training rollouts).
     Sample,
     /// The most probable legal action (evaluation).
     Greedy,
+    /// Training rollouts that rehearse greedy execution: with probability
+    /// `g` the most probable legal action, else a sample, so the policy meets
+    /// the standoffs its greedy actions run into. The behaviour distribution
+    /// is `(1 − g)·π + g·δ_greedy`; [`Inference::act`] returns its
+    /// log-probabilities in place of the logits, so an off-policy learner
+    /// (IMPALA's V-trace) corrects for it exactly
+    /// ([`crate::dist::greedy_mix_head`]).
+    GreedyMix(f32),
 }
 
 /// Per-row recurrent state: LSTM `(h, c)` and the previous action and
@@ -178,7 +186,9 @@ impl Inference {
 
     /// Chooses actions for all rows: `obs [rows, obs_dim]`, `masks [rows,
     /// heads·5]`; writes `actions [rows, heads]` and the joint log-prob
-    /// `logp [rows]`, and returns the raw logits `[rows, heads·5]`. For a
+    /// `logp [rows]`, and returns the logits `[rows, heads·5]` of the
+    /// distribution the actions came from (the net's raw logits, except
+    /// under [`ActMode::GreedyMix`]). For a
     /// recurrent policy the LSTM state advances (call
     /// [`RecurrentState::observe`] after the env step).
     pub fn act(
@@ -216,11 +226,12 @@ impl Inference {
             let mut total = 0.0;
             for h in 0..heads {
                 let lo = r * w + h * na;
-                let l = &self.logits[lo..lo + na];
+                let l = &mut self.logits[lo..lo + na];
                 let m = &masks[lo..lo + na];
                 let (a, lp) = match mode {
                     ActMode::Sample => sample_head(l, m, &mut self.rng),
                     ActMode::Greedy => greedy_head(l, m),
+                    ActMode::GreedyMix(g) => greedy_mix_head(l, m, g, &mut self.rng),
                 }
                 .ok_or(PolicyError::EmptyMask { row: r, head: h })?;
                 actions[r * heads + h] = a;

@@ -151,10 +151,25 @@ pub struct ModelSpec {
     /// evaluation env must write them too).
     #[serde(default, skip_serializing_if = "ObsFeatures::is_none")]
     pub features: ObsFeatures,
+    /// The local window's radius the policy was trained with (its
+    /// evaluation env must use it too); 2 (5×5) if not recorded.
+    #[serde(
+        default = "default_sensor_range",
+        skip_serializing_if = "is_default_sensor_range"
+    )]
+    pub sensor_range: usize,
     /// The layouts the policy was trained on (a record: a policy with
     /// local observations runs on any layout). Empty if unknown.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub maps: Vec<String>,
+}
+
+fn default_sensor_range() -> usize {
+    buridan_env::EnvConfig::default().sensor_range
+}
+
+fn is_default_sensor_range(r: &usize) -> bool {
+    *r == default_sensor_range()
 }
 
 fn default_hidden() -> Vec<usize> {
@@ -176,6 +191,7 @@ impl ModelSpec {
             mode,
             agents,
             features: ObsFeatures::default(),
+            sensor_range: default_sensor_range(),
             maps: Vec::new(),
         }
     }

@@ -503,3 +503,46 @@ fn fast_tanh_matches_libm_and_has_the_right_gradient() {
         assert!((gi - s * (1.0 - s)).abs() < 1e-5);
     }
 }
+
+#[test]
+fn greedy_mix_draws_from_the_mixture_it_reports() {
+    // Legal actions 0, 2, 3 with π ∝ (1, 1, e); action 3 is the greedy one.
+    let raw = [0.0f32, 50.0, 0.0, 1.0, 0.0];
+    let mask = [1u8, 0, 1, 1, 0];
+    let g = 0.6f32;
+    let z = 2.0 + 1f32.exp();
+    let pi = [1.0 / z, 0.0, 1.0 / z, 1f32.exp() / z, 0.0];
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let mut counts = [0usize; 5];
+    let draws = 40_000;
+    for _ in 0..draws {
+        let mut logits = raw;
+        let (a, lp) = dist::greedy_mix_head(&mut logits, &mask, g, &mut rng).unwrap();
+        counts[a as usize] += 1;
+        assert_eq!(lp, logits[a as usize]);
+        // The reported logits are ln μ, μ = (1 − g)·π + g·δ₃.
+        for k in [0, 2, 3] {
+            let mu = (1.0 - g) * pi[k] + if k == 3 { g } else { 0.0 };
+            assert!((logits[k].exp() - mu).abs() < 1e-5, "action {k}");
+        }
+    }
+    assert_eq!(counts[1] + counts[4], 0, "masked actions never come out");
+    let freq3 = counts[3] as f32 / draws as f32;
+    assert!((freq3 - ((1.0 - g) * pi[3] + g)).abs() < 0.01, "{freq3}");
+    // The learner's masked softmax over the reported logits is μ again.
+    let mut logits = raw;
+    dist::greedy_mix_head(&mut logits, &mask, g, &mut rng).unwrap();
+    let dev = Device::Cpu;
+    let l = Tensor::from_slice(&logits, (1, 5), &dev).unwrap();
+    let bias = dist::mask_bias(&mask, 1, 5, &dev).unwrap();
+    let p: Vec<f32> = dist::masked_log_probs(&l, &bias, 1)
+        .unwrap()
+        .exp()
+        .unwrap()
+        .flatten_all()
+        .unwrap()
+        .to_vec1()
+        .unwrap();
+    assert!((p[3] - ((1.0 - g) * pi[3] + g)).abs() < 1e-5);
+    assert!((p[0] - (1.0 - g) * pi[0]).abs() < 1e-5);
+}

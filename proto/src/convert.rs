@@ -397,6 +397,8 @@ pub fn env_to_message(e: &EnvConfig) -> v1::EnvSettings {
         lifelong: e.lifelong,
         stall_window: e.stall_window,
         path_feature: e.features.path,
+        priority_feature: e.features.priority,
+        pressure_feature: e.features.pressure,
         shaping: e.shaping.map_or(0.0, |s| s.coeff),
         shaping_gamma: e.shaping.map_or(0.0, |s| s.gamma),
     }
@@ -415,6 +417,8 @@ pub fn env_from_message(m: &v1::EnvSettings, seed: u64) -> Result<EnvConfig, Con
         stall_window: m.stall_window,
         features: ObsFeatures {
             path: m.path_feature,
+            priority: m.priority_feature,
+            pressure: m.pressure_feature,
         },
         shaping: (m.shaping > 0.0).then_some(Shaping {
             coeff: m.shaping,

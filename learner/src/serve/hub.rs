@@ -38,6 +38,8 @@ pub struct RunInfo {
     pub on_policy: bool,
     /// IMPALA's largest accepted policy lag.
     pub max_policy_lag: u64,
+    /// IMPALA's greedy steps in rollouts (`impala.greedy_mix`).
+    pub greedy_mix: f32,
     /// Base of the actors' env seeds.
     pub seed_base: u64,
     /// Observation floats per row.

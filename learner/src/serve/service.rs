@@ -140,6 +140,7 @@ impl Learner for LearnerService {
             on_policy: info.on_policy,
             max_policy_lag: info.max_policy_lag,
             env: Some(info.env.clone()),
+            greedy_mix: info.greedy_mix,
             run_finished: false,
         }))
     }

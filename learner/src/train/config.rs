@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use buridan_env::{EnvError, Map, MapError, ObsFeatures, Starts, WeightedLayout};
-use buridan_policy::{LstmSpec, Mode, ModelSpec, ValueHead};
+use buridan_policy::{ActMode, LstmSpec, Mode, ModelSpec, ValueHead};
 use serde::{Deserialize, Serialize};
 
 use crate::algo::impala::ImpalaSettings;
@@ -277,6 +277,11 @@ pub struct ImpalaConfig {
     pub max_policy_lag: u64,
     /// Fragments the actor→learner queue holds (0: one train batch).
     pub queue_capacity: usize,
+    /// Probability that a rollout step takes the policy's most probable
+    /// action instead of a sample (0: plain sampling). Rollouts then
+    /// rehearse greedy execution, and V-trace corrects for the mixed
+    /// behaviour ([`ActMode::GreedyMix`]).
+    pub greedy_mix: f32,
 }
 
 impl Default for ImpalaConfig {
@@ -293,6 +298,7 @@ impl Default for ImpalaConfig {
             lambda: 1.0,
             max_policy_lag: 8,
             queue_capacity: 0,
+            greedy_mix: 0.0,
         }
     }
 }
@@ -566,8 +572,38 @@ impl TrainConfig {
             self.impala.train_batch >= 1,
             "impala.train_batch must be positive",
         )?;
+        ensure(
+            (0.0..1.0).contains(&self.impala.greedy_mix),
+            "impala.greedy_mix must be in [0, 1)",
+        )?;
+        ensure(
+            self.impala.greedy_mix == 0.0 || self.algo == Algo::Impala,
+            "impala.greedy_mix needs algo = \"impala\" (PPO's ratio assumes sampled rollouts)",
+        )?;
         ensure(self.lstm_cells >= 1, "lstm_cells must be positive")?;
         self.validate_maps()
+    }
+
+    /// How rollouts choose actions: samples, mixed with greedy steps when
+    /// IMPALA's `greedy_mix` is set (PPO always samples: its clipped ratio
+    /// assumes the behaviour is the policy itself).
+    ///
+    /// ```
+    /// use buridan_learner::train::{Algo, TrainConfig};
+    /// use buridan_policy::ActMode;
+    /// let mut cfg = TrainConfig::default();
+    /// assert_eq!(cfg.behaviour(), ActMode::Sample);
+    /// cfg.algo = Algo::Impala;
+    /// cfg.impala.greedy_mix = 0.5;
+    /// assert_eq!(cfg.behaviour(), ActMode::GreedyMix(0.5));
+    /// ```
+    pub fn behaviour(&self) -> ActMode {
+        match self.algo {
+            Algo::Impala if self.impala.greedy_mix > 0.0 => {
+                ActMode::GreedyMix(self.impala.greedy_mix)
+            }
+            _ => ActMode::Sample,
+        }
     }
 
     /// Whether the algorithm learns only from the newest policy's
@@ -633,6 +669,7 @@ impl TrainConfig {
                 prev_reward: true,
             }),
             features: self.features,
+            sensor_range: self.sensor_range,
             maps: self.layout_names(),
             ..ModelSpec::new(self.mode, self.agents, obs_dim)
         }

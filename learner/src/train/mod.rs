@@ -324,6 +324,7 @@ impl Run {
         Ok(Collector {
             id,
             inference: Inference::new(policy, rows, sampling),
+            behaviour: cfg.behaviour(),
             venv,
             fragment_len: cfg.fragment_len,
             version: self.state.updates,
