@@ -37,7 +37,7 @@ pub struct TrainArgs {
     /// `random` starts and goals, or `fixed` (the map's `.scen`).
     #[arg(long)]
     pub starts: Option<Starts>,
-    /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it.
+    /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it. Without one: the default recipe (IMPALA with the path and pressure features and shaping, 1M steps; README, "The recipe's ablation")
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Env-step budget.
@@ -107,7 +107,7 @@ pub fn set_key(table: &mut toml::Table, assignment: &str) -> Result<()> {
 pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
     let mut cfg = match &args.config {
         Some(path) => TrainConfig::from_toml_file(path)?,
-        None => TrainConfig::default(),
+        None => TrainConfig::recipe(),
     };
     if let Some(v) = &args.map {
         cfg.map = v.clone();

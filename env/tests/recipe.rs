@@ -177,7 +177,7 @@ fn symmetry_tail(env: &GridEnv, agent: usize) -> (Vec<f32>, f32, Vec<f32>) {
 
 #[test]
 fn priority_window_marks_who_outranks_the_observer() {
-    let mut env = aisle(SYMMETRY);
+    let env = aisle(SYMMETRY);
     assert_eq!(
         env.local_obs_dim(),
         local_obs_dim(1) + priority_feature_dim(1) + PRESSURE_FEATURE_DIM

@@ -423,6 +423,47 @@ impl Default for TrainConfig {
 }
 
 impl TrainConfig {
+    /// The default recipe: what `learner train --map LAYOUT` runs without a
+    /// config (issue 10). IMPALA, CTDE, the settings tuned on rm-2.1 (train
+    /// batch 500, lr 5e-4, no value loss weight, entropy 0.01), the path and
+    /// pressure features and potential-based shaping 0.05, 1M env steps.
+    /// Chosen by the 10-seed ablation (README, "The recipe's ablation";
+    /// `learner/studies/recipe-ablation.toml`): the path feature takes rm-2.2
+    /// from 0 % to 91 %, shaping rm-3.1 from 36 % to 83 %, the pressure
+    /// feature adds 3 points there and on shielded rm-2.2; success curves
+    /// are flat after about 200k steps, so 1M steps (about 20 s here) is
+    /// budget enough.
+    ///
+    /// ```
+    /// use buridan_learner::train::{Algo, TrainConfig};
+    /// let r = TrainConfig::recipe();
+    /// assert_eq!(r.algo, Algo::Impala);
+    /// assert!(r.features.path && r.features.pressure && r.shaping > 0.0);
+    /// r.validate().unwrap();
+    /// ```
+    pub fn recipe() -> Self {
+        Self {
+            algo: Algo::Impala,
+            features: ObsFeatures {
+                path: true,
+                pressure: true,
+                ..ObsFeatures::default()
+            },
+            shaping: 0.05,
+            steps: 1_000_000,
+            envs_per_actor: 10,
+            checkpoint_every: 500,
+            impala: ImpalaConfig {
+                lr: 5e-4,
+                train_batch: 500,
+                vf_coeff: 0.0,
+                entropy_coeff: 0.01,
+                ..ImpalaConfig::default()
+            },
+            ..Self::default()
+        }
+    }
+
     /// Reads a TOML file (which sets at most one of `map` and `maps`).
     pub fn from_toml_file(path: &Path) -> Result<Self, ConfigError> {
         let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
