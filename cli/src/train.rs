@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
-use buridan_env::Starts;
+use buridan_env::{ObsFeatures, Starts};
 use buridan_eval::plot::{line_chart, Series};
 use buridan_policy::Mode;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -127,6 +127,11 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
     }
     if let Some(v) = args.starts {
         cfg.starts = v;
+    }
+    if args.config.is_none() && cfg.mode == Mode::Cte {
+        // The recipe's features extend local observations; CTE's central
+        // observation already shows the whole layout.
+        cfg.features = ObsFeatures::default();
     }
     if let Some(v) = args.steps {
         cfg.steps = v;
