@@ -614,11 +614,7 @@ pub fn build_collector(join: &v1::JoinReply) -> Result<Collector, SetupError> {
     Ok(Collector {
         id: join.actor_id,
         inference: Inference::new(policy, rows, buridan_env::seed::session_sampling(join.seed)),
-        behaviour: if join.greedy_mix > 0.0 {
-            ActMode::GreedyMix(join.greedy_mix)
-        } else {
-            ActMode::Sample
-        },
+        behaviour: ActMode::rollout(join.greedy_mix),
         venv,
         fragment_len: join.fragment_len as usize,
         // Nothing loaded yet: the first weights always load.

@@ -172,10 +172,8 @@ impl GridEnv {
         let side = 2 * r + 1;
         check_len("window codes", side * side, out.len())?;
         let raw = self.raw();
-        let mut start = raw.pos[agent] - r * raw.padded_width - r;
-        for out_row in out.chunks_exact_mut(side) {
-            out_row.copy_from_slice(&raw.shared_code[start..start + side]);
-            start += raw.padded_width;
+        for (out_row, cells) in out.chunks_exact_mut(side).zip(raw.window_rows(agent, r)) {
+            out_row.copy_from_slice(&raw.shared_code[cells]);
         }
         for (k, code) in self.window_fixups(agent) {
             out[k] = code;
@@ -188,7 +186,7 @@ impl GridEnv {
         check_len("observation floats", self.local_obs_dim(), out.len())?;
         let side = 2 * self.config().sensor_range + 1;
         let (window, tail) = out.split_at_mut(side * side * NUM_LOCAL_CODES);
-        let (tail, features) = tail.split_at_mut(4);
+        let (tail, mut features) = tail.split_at_mut(4);
         // One 5-float one-hot row per cell, written whole (no memset, no
         // scatter); the usual window sizes get fully unrolled copies.
         match side {
@@ -198,14 +196,14 @@ impl GridEnv {
             7 => self.write_shared_window::<7, 35>(agent, window),
             _ => {
                 let raw = self.raw();
-                let r = side / 2;
-                let mut start = raw.pos[agent] - r * raw.padded_width - r;
-                for out_row in window.chunks_exact_mut(side * NUM_LOCAL_CODES) {
-                    let codes = &raw.shared_code[start..start + side];
+                let rows = window
+                    .chunks_exact_mut(side * NUM_LOCAL_CODES)
+                    .zip(raw.window_rows(agent, side / 2));
+                for (out_row, cells) in rows {
+                    let codes = &raw.shared_code[cells];
                     for (cell, &code) in out_row.chunks_exact_mut(NUM_LOCAL_CODES).zip(codes) {
                         cell.copy_from_slice(&ONE_HOT[code as usize]);
                     }
-                    start += raw.padded_width;
                 }
             }
         }
@@ -222,7 +220,6 @@ impl GridEnv {
         tail[2] = (g.row as f32 - p.row as f32) / sy;
         tail[3] = (g.col as f32 - p.col as f32) / sx;
         let features_on = self.config().features;
-        let mut features = features;
         if features_on.path {
             let (path, rest) = features.split_at_mut(crate::PATH_FEATURE_DIM);
             self.write_path_feature(agent, path);
@@ -244,12 +241,11 @@ impl GridEnv {
     /// window, and the own urgency.
     fn write_priority_feature(&self, agent: usize, out: &mut [f32]) {
         let raw = self.raw();
-        let side = 2 * self.config().sensor_range + 1;
-        let r = side / 2;
+        let r = self.config().sensor_range;
+        let side = 2 * r + 1;
         let (window, urgency) = out.split_at_mut(side * side);
-        let mut start = raw.pos[agent] - r * raw.padded_width - r;
-        for out_row in window.chunks_exact_mut(side) {
-            for (slot, &who) in out_row.iter_mut().zip(&raw.occupant[start..start + side]) {
+        for (out_row, cells) in window.chunks_exact_mut(side).zip(raw.window_rows(agent, r)) {
+            for (slot, &who) in out_row.iter_mut().zip(&raw.occupant[cells]) {
                 *slot = match usize::from(who) {
                     0 => 0.0,
                     k if k - 1 == agent => 0.0,
@@ -257,7 +253,6 @@ impl GridEnv {
                     _ => -1.0,
                 };
             }
-            start += raw.padded_width;
         }
         let t_max = self.config().t_max.max(1) as f32;
         urgency[0] = (self.steps_off_goal(agent) as f32 / t_max).min(1.0);

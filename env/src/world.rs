@@ -14,6 +14,7 @@
 //! goals); there is no termination bonus and no truncation penalty, and
 //! throughput = goals reached per step.
 
+use std::ops::Range;
 use std::sync::Arc;
 
 use rand::Rng;
@@ -646,4 +647,18 @@ pub(crate) struct RawView<'a> {
     pub cells: &'a [Cell],
     pub goal_cells: &'a [Cell],
     pub step_offsets: &'a [isize; NUM_ACTIONS],
+}
+
+impl RawView<'_> {
+    /// The padded-index range of each row of `agent`'s window of radius
+    /// `r`, top row first (the padding keeps every range inside the grid's
+    /// buffers).
+    pub fn window_rows(&self, agent: usize, r: usize) -> impl Iterator<Item = Range<usize>> + '_ {
+        let side = 2 * r + 1;
+        let top_left = self.pos[agent] - r * self.padded_width - r;
+        (0..side).map(move |k| {
+            let start = top_left + k * self.padded_width;
+            start..start + side
+        })
+    }
 }

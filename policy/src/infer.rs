@@ -32,6 +32,32 @@ pub enum ActMode {
     GreedyMix(f32),
 }
 
+impl ActMode {
+    /// Rollouts with greedy steps at rate `greedy_mix`: plain sampling at 0.
+    ///
+    /// ```
+    /// use buridan_policy::ActMode;
+    /// assert_eq!(ActMode::rollout(0.0), ActMode::Sample);
+    /// assert_eq!(ActMode::rollout(0.5).greedy_mix(), 0.5);
+    /// ```
+    pub fn rollout(greedy_mix: f32) -> Self {
+        if greedy_mix > 0.0 {
+            ActMode::GreedyMix(greedy_mix)
+        } else {
+            ActMode::Sample
+        }
+    }
+
+    /// The rate of greedy steps of a rollout mode (0 unless
+    /// [`ActMode::GreedyMix`]): the inverse of [`ActMode::rollout`].
+    pub fn greedy_mix(self) -> f32 {
+        match self {
+            ActMode::GreedyMix(g) => g,
+            _ => 0.0,
+        }
+    }
+}
+
 /// Per-row recurrent state: LSTM `(h, c)` and the previous action and
 /// reward, all zero/[`NO_ACTION`] at an episode start.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -249,10 +249,7 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
         fragment_len: cfg.fragment_len as u32,
         on_policy: cfg.on_policy(),
         max_policy_lag: cfg.impala.max_policy_lag,
-        greedy_mix: match cfg.behaviour() {
-            buridan_policy::ActMode::GreedyMix(g) => g,
-            _ => 0.0,
-        },
+        greedy_mix: cfg.behaviour().greedy_mix(),
         seed_base: run.actor_seed(0),
         obs_dim: spec.obs_dim as u32,
         heads: spec.heads as u32,

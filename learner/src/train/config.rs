@@ -640,10 +640,8 @@ impl TrainConfig {
     /// ```
     pub fn behaviour(&self) -> ActMode {
         match self.algo {
-            Algo::Impala if self.impala.greedy_mix > 0.0 => {
-                ActMode::GreedyMix(self.impala.greedy_mix)
-            }
-            _ => ActMode::Sample,
+            Algo::Impala => ActMode::rollout(self.impala.greedy_mix),
+            Algo::Ppo => ActMode::Sample,
         }
     }
 
