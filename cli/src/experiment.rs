@@ -26,11 +26,13 @@
 //! actions = ["sampled", "greedy"]  # and/or "shielded": greedy through the PIBT shield
 //! agents = "4..20"                  # default: the agents each policy trained with
 //! time_limit = 60.0                 # planners, seconds per instance
-//! layouts = ["rm-2.1", "rm-3.1"]    # evaluate on these (default: the training layout)
+//! layouts = ["rm-2.1", "maps/comb.map"]  # evaluate on these (default: the training layout);
+//!                                   # map files relative to the working dir or this file
 //!
 //! [[method]]
 //! name = "ppo-ctde"
-//! config = "../configs/ppo-ctde-rm-2.1.toml"        # relative to this file (or the working dir)
+//! config = "../configs/ppo-ctde-rm-2.1.toml"        # relative to this file (or the working dir);
+//!                                                   # no config: the default recipe (`learner train` without --config)
 //! configs = { "rm-2.2" = "../configs/ppo-ctde-rm-2.2.toml" }  # per-layout configs
 //! set = ["ppo.lr=5e-4"]             # `learner train --set` overrides
 //! ```
@@ -207,8 +209,10 @@ pub struct TrainCell {
     pub seed: u64,
     /// Run directory, relative to the experiment directory.
     pub run_dir: PathBuf,
-    /// The configuration file.
-    pub config: PathBuf,
+    /// The configuration file (`None`: the default recipe, as `learner
+    /// train` without `--config`).
+    #[serde(default)]
+    pub config: Option<PathBuf>,
     /// Step budget (`None`: the config's).
     pub steps: Option<u64>,
     /// `--set` overrides.
@@ -375,7 +379,18 @@ impl Experiment {
                 .collect::<Vec<_>>()
                 .join(" "))
         })?;
-        let x = parsed.experiment;
+        let mut x = parsed.experiment;
+        // Map files are named relative to the working directory or, failing
+        // that, to this file (as configs are).
+        let locate = |layout: &mut String| {
+            if !is_mixture(layout) && layout.ends_with(".map") {
+                *layout = crate::tune::resolve_relative(file, layout)
+                    .display()
+                    .to_string();
+            }
+        };
+        x.layouts.iter_mut().for_each(locate);
+        x.eval.layouts.iter_mut().flatten().for_each(locate);
         if x.name.trim().is_empty() {
             return Err(bad("[experiment] name is empty".into()));
         }
@@ -471,7 +486,7 @@ impl Experiment {
         for p in &x.planners {
             if buridan_mapf::planner_by_name(p).is_none() && p != "random" {
                 return Err(bad(format!(
-                    "planner '{p}' is unknown: expected ma-astar, cbs or random"
+                    "planner '{p}' is unknown: expected ma-astar, cbs, pibt, lacam, lacam-star or random"
                 )));
             }
         }
@@ -501,13 +516,17 @@ impl Experiment {
         for layout in &x.layouts {
             let ldir = PathBuf::from(layout_dir(layout));
             for m in &parsed.method {
-                let Some(config) = m.configs.get(layout).or(m.config.as_ref()) else {
+                if m.config.is_none() && !m.configs.is_empty() && !m.configs.contains_key(layout) {
                     return Err(bad(format!(
-                        "[[method]] '{}': no config for layout '{layout}' (set config or configs)",
+                        "[[method]] '{}': no config for layout '{layout}' (set config, or leave out configs for the default recipe)",
                         m.name
                     )));
-                };
-                let config = crate::tune::resolve_relative(file, config);
+                }
+                let config = m
+                    .configs
+                    .get(layout)
+                    .or(m.config.as_ref())
+                    .map(|c| crate::tune::resolve_relative(file, c));
                 for &seed in &seeds {
                     let cell = TrainCell {
                         layout: layout.clone(),
@@ -679,7 +698,7 @@ impl TrainCell {
             algo: None,
             mode: None,
             starts: None,
-            config: Some(self.config.clone()),
+            config: self.config.clone(),
             steps: self.steps,
             seed: Some(self.seed),
             resume: Some(PathBuf::from("auto")),
@@ -699,11 +718,11 @@ impl TrainCell {
     /// The equivalent `learner train` command line.
     pub fn command(&self, out: &Path) -> String {
         let a = self.train_args(out);
-        let mut args = vec![
-            "learner".to_string(),
-            "train".into(),
-            "--config".into(),
-            self.config.display().to_string(),
+        let mut args = vec!["learner".to_string(), "train".into()];
+        if let Some(config) = &self.config {
+            args.extend(["--config".into(), config.display().to_string()]);
+        }
+        args.extend([
             if is_mixture(&self.layout) {
                 "--maps".into()
             } else {
@@ -712,7 +731,7 @@ impl TrainCell {
             self.layout.clone(),
             "--seed".into(),
             self.seed.to_string(),
-        ];
+        ]);
         if let Some(s) = self.steps {
             args.extend(["--steps".into(), s.to_string()]);
         }
@@ -803,6 +822,46 @@ mod tests {
         assert!(x
             .eval_command(p, Path::new("out"))
             .contains("--controller cbs"));
+    }
+
+    #[test]
+    fn a_method_without_a_config_trains_the_default_recipe() {
+        let dir = tempfile::tempdir().unwrap();
+        write_config(dir.path());
+        let x = Experiment::from_str(
+            r#"
+            [experiment]
+            name = "r"
+            layouts = ["rm-2.1", "rm-2.2"]
+            seeds = 1
+            [[method]]
+            name = "recipe"
+            [[method]]
+            name = "partial"
+            configs = { "rm-2.1" = "tiny.toml" }
+            "#,
+            &dir.path().join("r.toml"),
+        )
+        .unwrap_err();
+        assert!(
+            x.problem
+                .contains("'partial': no config for layout 'rm-2.2'"),
+            "{x}"
+        );
+        let x = Experiment::from_str(
+            "[experiment]\nname = \"r\"\nlayouts = [\"rm-2.1\"]\nseeds = 1\n[[method]]\nname = \"recipe\"\n",
+            &dir.path().join("r.toml"),
+        )
+        .unwrap();
+        let cmd = x.train[0].command(Path::new("out"));
+        assert!(
+            cmd.starts_with("learner train --map rm-2.1 --seed 0"),
+            "{cmd}"
+        );
+        let cfg = x.train[0].config_in(Path::new("out")).unwrap();
+        let recipe = TrainConfig::recipe();
+        assert_eq!((cfg.algo, cfg.features), (recipe.algo, recipe.features));
+        assert_eq!(cfg.shaping, recipe.shaping);
     }
 
     #[test]

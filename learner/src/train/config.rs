@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use buridan_env::{EnvError, Map, MapError, ObsFeatures, Starts, WeightedLayout};
+use buridan_imitate::ImitationConfig;
 use buridan_policy::{ActMode, LstmSpec, Mode, ModelSpec, ValueHead};
 use serde::{Deserialize, Serialize};
 
@@ -35,6 +36,9 @@ pub enum ConfigError {
     /// A value is out of its range.
     #[error("invalid configuration: {0}")]
     Invalid(&'static str),
+    /// The `[imitation]` section is out of range.
+    #[error("invalid configuration")]
+    Imitation(#[from] buridan_imitate::ImitationError),
     /// A file sets both `map` and `maps`.
     #[error("config {} sets both map and maps: use one (maps lists several layouts with weights)", path.display())]
     MapAndMaps {
@@ -387,6 +391,12 @@ pub struct TrainConfig {
     pub ppo: PpoConfig,
     /// IMPALA settings.
     pub impala: ImpalaConfig,
+    /// Imitate a planner before learning from rewards, TOML `[imitation]`
+    /// (DAgger, `buridan_imitate`): a fresh run's policy is first fitted
+    /// to the planner's actions on the states it visits, then trained by
+    /// `algo` for `steps` env steps (0: imitation only). Off by default.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub imitation: Option<ImitationConfig>,
 }
 
 impl Default for TrainConfig {
@@ -418,6 +428,7 @@ impl Default for TrainConfig {
             resume: None,
             ppo: PpoConfig::default(),
             impala: ImpalaConfig::default(),
+            imitation: None,
         }
     }
 }
@@ -622,6 +633,13 @@ impl TrainConfig {
             "impala.greedy_mix needs algo = \"impala\" (PPO's ratio assumes sampled rollouts)",
         )?;
         ensure(self.lstm_cells >= 1, "lstm_cells must be positive")?;
+        if let Some(im) = &self.imitation {
+            im.validate()?;
+            ensure(
+                self.mode == Mode::Ctde && !self.lstm,
+                "[imitation] trains a feed-forward policy shared by all agents: mode = \"ctde\", lstm = false",
+            )?;
+        }
         self.validate_maps()
     }
 

@@ -35,6 +35,9 @@ pub enum TrainError {
         /// Why.
         source: PolicyError,
     },
+    /// Imitating the planner failed.
+    #[error("imitation")]
+    Imitation(#[from] buridan_imitate::ImitationError),
     /// A learner update failed.
     #[error("learner update")]
     Update(#[from] AlgoError),

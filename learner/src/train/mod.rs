@@ -35,6 +35,7 @@ use std::time::{Duration, Instant};
 
 use buridan_actor::Collector;
 use buridan_env::{seed, BatchedEnv, EnvConfig, Map, Shaping, VecEnv, WeightedLayout};
+use buridan_imitate::ImitationConfig;
 use buridan_policy::checkpoint::{self, CONFIG_FILE, OPTIMIZER_FILE, TRAINER_FILE};
 use buridan_policy::{Fragment, Inference, ModelSpec, Policy, Weights};
 use rand::SeedableRng;
@@ -194,6 +195,55 @@ pub fn env_config(cfg: &TrainConfig, seed: u64) -> EnvConfig {
     }
 }
 
+/// The imitation rounds of a run, one CSV row each.
+pub const IMITATION_FILE: &str = "imitation.csv";
+
+/// Fits a fresh policy to the planner's actions by DAgger on the run's
+/// layouts (its own envs and seed), logging each round to
+/// [`IMITATION_FILE`] in `out`.
+fn imitate(
+    cfg: &TrainConfig,
+    im: &ImitationConfig,
+    layouts: &[WeightedLayout],
+    policy: &Policy,
+    out: &Path,
+) -> Result<(), TrainError> {
+    // Episodes of their own: imitation does not replay the actors' episodes.
+    let seed = seed::actor_env(cfg.seed, u64::from(u32::MAX), 0);
+    let env = env_config(cfg, seed);
+    let kind = cfg.mode.obs_kind();
+    let path = out.join(IMITATION_FILE);
+    let mut rows = String::from(
+        "round,env_steps,rows,expert_calls,expert_failures,episodes,success_rate,loss,accuracy,seconds\n",
+    );
+    let mut log = |r: &buridan_imitate::RoundReport| {
+        rows.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{:.3}\n",
+            r.round,
+            r.env_steps,
+            r.rows,
+            r.expert_calls,
+            r.expert_failures,
+            r.episodes,
+            r.success_rate,
+            r.loss,
+            r.accuracy,
+            r.seconds
+        ));
+    };
+    match layouts {
+        [(map, _)] => {
+            let mut venv = VecEnv::new(map.clone(), env, im.envs, kind, 1)?;
+            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut log)?;
+        }
+        _ => {
+            let mut venv = VecEnv::with_layouts(layouts, env, im.envs, kind, 1)?;
+            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut log)?;
+        }
+    }
+    write_file(&path, &rows)
+}
+
 fn write_file(path: &Path, text: &str) -> Result<(), TrainError> {
     std::fs::write(path, text).map_err(|e| TrainError::io("cannot write", path, e))
 }
@@ -262,10 +312,13 @@ impl Run {
             .obs_dim(&layouts[0].0, &env_config(cfg, cfg.seed));
         let spec = cfg.model_spec(obs_dim);
         let (policy, state) = match &cfg.resume {
-            None => (
-                Policy::new(spec.clone(), cfg.seed)?,
-                TrainerState::default(),
-            ),
+            None => {
+                let policy = Policy::new(spec.clone(), cfg.seed)?;
+                if let Some(im) = &cfg.imitation {
+                    imitate(cfg, im, &layouts, &policy, out)?;
+                }
+                (policy, TrainerState::default())
+            }
             Some(dir) => {
                 let policy =
                     Policy::load_expecting(dir, &spec).map_err(|source| TrainError::Resume {

@@ -1,0 +1,127 @@
+//! The settings of an imitation run (`[imitation]` in a training config).
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::ImitationError;
+
+/// How the policy acts in the rollouts of DAgger's later rounds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Rollout {
+    /// The most probable legal action: the states greedy execution meets.
+    #[default]
+    Greedy,
+    /// Actions sampled from the policy.
+    Sampled,
+}
+
+/// Behaviour cloning of a planner with DAgger's on-policy correction
+/// ([`crate::dagger`]). The defaults are the recipe's.
+///
+/// ```
+/// let c: buridan_imitate::ImitationConfig = toml::from_str("rounds = 3\nexpert = [\"cbs\", \"lacam\"]").unwrap();
+/// assert_eq!((c.rounds, c.expert.len()), (3, 2));
+/// c.validate().unwrap();
+/// let bad = buridan_imitate::ImitationConfig { expert: vec!["dijkstra".into()], ..c };
+/// assert!(bad.validate().unwrap_err().to_string().contains("dijkstra"));
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImitationConfig {
+    /// Planners asked for a state's labels, in order, until one solves it
+    /// (any name `buridan_mapf::planner_by_name` knows).
+    pub expert: Vec<String>,
+    /// CPU seconds each planner may spend on one state.
+    pub expert_time: f64,
+    /// DAgger rounds. Round 0 follows the expert; later rounds follow the
+    /// policy being trained (with probability `beta` the expert instead).
+    pub rounds: usize,
+    /// Env steps collected per round.
+    pub steps_per_round: u64,
+    /// Envs stepped side by side while collecting.
+    pub envs: usize,
+    /// Probability that an env follows the expert for one step in rounds
+    /// after the first (it unjams the policy, so later states get labels
+    /// too).
+    pub beta: f64,
+    /// How the policy acts in its rollouts.
+    pub rollout: Rollout,
+    /// Passes over the aggregated data after each round.
+    pub epochs: usize,
+    /// Rows per gradient step.
+    pub minibatch: usize,
+    /// Adam step size.
+    pub lr: f64,
+    /// Most labelled rows kept; beyond it new rows replace random old ones.
+    pub max_rows: usize,
+}
+
+impl Default for ImitationConfig {
+    fn default() -> Self {
+        Self {
+            expert: vec!["lacam".into()],
+            expert_time: 0.02,
+            rounds: 5,
+            steps_per_round: 20_000,
+            envs: 16,
+            beta: 0.25,
+            rollout: Rollout::Greedy,
+            epochs: 3,
+            minibatch: 1024,
+            lr: 1e-3,
+            max_rows: 2_000_000,
+        }
+    }
+}
+
+impl ImitationConfig {
+    /// Checks every setting; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), ImitationError> {
+        let bad = |field: &'static str, problem: &str| {
+            Err(ImitationError::Invalid {
+                field,
+                problem: problem.to_string(),
+            })
+        };
+        if self.expert.is_empty() {
+            return bad("expert", "name at least one planner");
+        }
+        if let Some(p) = self
+            .expert
+            .iter()
+            .find(|p| buridan_mapf::planner_by_name(p).is_none())
+        {
+            return bad(
+                "expert",
+                &format!(
+                    "unknown planner '{p}': expected ma-astar, cbs, pibt, lacam or lacam-star"
+                ),
+            );
+        }
+        if !(self.expert_time > 0.0 && self.expert_time.is_finite()) {
+            return bad("expert_time", "must be a positive number of seconds");
+        }
+        if self.rounds == 0 {
+            return bad("rounds", "must be at least 1");
+        }
+        if self.steps_per_round == 0 || self.envs == 0 {
+            return bad(
+                "steps_per_round",
+                "steps_per_round and envs must be at least 1",
+            );
+        }
+        if !(0.0..=1.0).contains(&self.beta) {
+            return bad("beta", "must lie in [0, 1]");
+        }
+        if self.epochs == 0 || self.minibatch == 0 || self.max_rows == 0 {
+            return bad(
+                "epochs",
+                "epochs, minibatch and max_rows must be at least 1",
+            );
+        }
+        if !(self.lr > 0.0 && self.lr.is_finite()) {
+            return bad("lr", "must be positive");
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,40 @@
+//! What can go wrong while imitating: errors as data.
+
+use buridan_env::EnvError;
+use buridan_policy::PolicyError;
+
+/// An imitation run that cannot start or continue.
+///
+/// ```
+/// use buridan_imitate::ImitationError;
+/// let e = ImitationError::Invalid { field: "rounds", problem: "must be at least 1".into() };
+/// assert_eq!(e.to_string(), "imitation.rounds: must be at least 1");
+/// ```
+#[derive(Debug, thiserror::Error)]
+pub enum ImitationError {
+    /// A setting is out of range.
+    #[error("imitation.{field}: {problem}")]
+    Invalid {
+        /// The setting (`rounds`, `expert`, ...).
+        field: &'static str,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// The policy cannot be trained by behaviour cloning.
+    #[error("imitation needs {needed}; this policy is {found}")]
+    Unsupported {
+        /// What imitation needs.
+        needed: &'static str,
+        /// What the policy is.
+        found: String,
+    },
+    /// The environment refused a step or a reset.
+    #[error(transparent)]
+    Env(#[from] EnvError),
+    /// The network failed.
+    #[error(transparent)]
+    Policy(#[from] PolicyError),
+    /// A tensor operation failed.
+    #[error("tensor: {0}")]
+    Tensor(#[from] candle_core::Error),
+}
