@@ -13,6 +13,7 @@ use buridan_eval::{evaluate, Controller, EvalSpec, EvalSummary, RandomController
 use buridan_policy::ActMode;
 
 use buridan_eval::policy::PolicyController;
+use buridan_eval::rescue::RescueController;
 use buridan_eval::shield::{Ranking, ShieldController};
 use buridan_mapf::{planner_by_name, Limits, Planner};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -35,7 +36,9 @@ pub struct EvalArgs {
     /// `ma-astar`, `cbs`, `pibt`, `lacam`, `lacam-star`, `random`,
     /// `checkpoint:DIR`, or a checkpoint through the PIBT collision shield:
     /// `shield:checkpoint:DIR` (preferences over every move but walls) or
-    /// `shield-env:checkpoint:DIR` (moves into occupied cells ranked last).
+    /// `shield-env:checkpoint:DIR` (moves into occupied cells ranked last);
+    /// `rescue:CONTROLLER` adds LaCAM as a safety net: it plans from the
+    /// current state whenever an agent is stuck (within --time-limit).
     #[arg(long)]
     pub controller: String,
     /// `random` starts and goals, or `fixed` (the map's `.scen`).
@@ -118,6 +121,13 @@ pub fn controller_factory(
     limits: Limits,
     act_mode: ActMode,
 ) -> Result<ControllerFactory> {
+    if let Some(inner) = name.strip_prefix("rescue:") {
+        let inner = controller_factory(inner, agents, seed, limits, act_mode)?;
+        let lacam: Arc<dyn Planner> = planner_by_name("lacam").expect("lacam is a planner").into();
+        return Ok(Box::new(move || {
+            Box::new(RescueController::new(inner(), lacam.clone(), limits))
+        }));
+    }
     for (prefix, ranking) in [("shield:", Ranking::Walls), ("shield-env:", Ranking::Env)] {
         if let Some(inner) = name.strip_prefix(prefix) {
             let Some(dir) = inner.strip_prefix("checkpoint:") else {
@@ -147,7 +157,7 @@ pub fn controller_factory(
     }
     let planner: Arc<dyn Planner> = planner_by_name(name)
         .with_context(|| {
-            format!("unknown controller '{name}': expected ma-astar, cbs, pibt, lacam, lacam-star, random, checkpoint:DIR or shield:checkpoint:DIR")
+            format!("unknown controller '{name}': expected ma-astar, cbs, pibt, lacam, lacam-star, random, checkpoint:DIR, shield:checkpoint:DIR or rescue:CONTROLLER")
         })?
         .into();
     Ok(Box::new(move || {

@@ -23,7 +23,9 @@
 //! [experiment.eval]
 //! episodes = 100                    # 1000 for generalization
 //! seed = 42
-//! actions = ["sampled", "greedy"]  # and/or "shielded": greedy through the PIBT shield
+//! actions = ["sampled", "greedy"]  # and/or "shielded": greedy through the PIBT shield,
+//!                                   # "rescued": shielded, LaCAM planning whenever an agent is stuck
+//! rescue_time = 1.0                 # seconds per rescue plan
 //! agents = "4..20"                  # default: the agents each policy trained with
 //! time_limit = 60.0                 # planners, seconds per instance
 //! layouts = ["rm-2.1", "maps/comb.map"]  # evaluate on these (default: the training layout);
@@ -107,6 +109,10 @@ fn one() -> usize {
     1
 }
 
+fn default_rescue_time() -> f64 {
+    1.0
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields, default)]
 struct EvalToml {
@@ -117,6 +123,7 @@ struct EvalToml {
     starts: Starts,
     t_max: u32,
     time_limit: f64,
+    rescue_time: f64,
     memory_limit: usize,
     layouts: Option<Vec<String>>,
 }
@@ -131,6 +138,7 @@ impl Default for EvalToml {
             starts: Starts::Random,
             t_max: 100,
             time_limit: 60.0,
+            rescue_time: 1.0,
             memory_limit: 2048,
             layouts: None,
         }
@@ -160,15 +168,20 @@ pub enum Actions {
     /// (`learner eval --controller shield:checkpoint:DIR`): deterministic,
     /// conflict-free.
     Shielded,
+    /// Shielded, with LaCAM planning from the current state whenever an
+    /// agent is stuck (`--controller rescue:shield:checkpoint:DIR`, within
+    /// `rescue_time` seconds per call).
+    Rescued,
 }
 
 impl Actions {
-    /// `sampled` or `greedy`.
+    /// `sampled`, `greedy`, `shielded` or `rescued`.
     pub fn name(&self) -> &'static str {
         match self {
             Actions::Sampled => "sampled",
             Actions::Greedy => "greedy",
             Actions::Shielded => "shielded",
+            Actions::Rescued => "rescued",
         }
     }
 }
@@ -190,6 +203,9 @@ pub struct EvalProtocol {
     pub t_max: u32,
     /// Planner time limit per instance, seconds.
     pub time_limit: f64,
+    /// Time limit of each rescue plan (`rescued` actions), seconds.
+    #[serde(default = "default_rescue_time")]
+    pub rescue_time: f64,
     /// Planner memory cap, MiB.
     pub memory_limit: usize,
     /// Layouts every policy (and planner) is evaluated on; `None`: each
@@ -421,7 +437,13 @@ impl Experiment {
         }
         if e.actions.is_empty() && !parsed.method.is_empty() {
             return Err(bad(
-                "[experiment.eval] actions: name one or more of sampled, greedy, shielded".into(),
+                "[experiment.eval] actions: name one or more of sampled, greedy, shielded, rescued"
+                    .into(),
+            ));
+        }
+        if !(e.rescue_time > 0.0 && e.rescue_time.is_finite()) {
+            return Err(bad(
+                "[experiment.eval] rescue_time must be a positive number of seconds".into(),
             ));
         }
         if !(e.time_limit > 0.0 && e.time_limit.is_finite()) {
@@ -472,6 +494,7 @@ impl Experiment {
             starts: e.starts,
             t_max: e.t_max,
             time_limit: e.time_limit,
+            rescue_time: e.rescue_time,
             memory_limit: e.memory_limit,
             layouts: e.layouts,
         };
@@ -630,10 +653,10 @@ impl Experiment {
     pub fn controller(&self, cell: &EvalCell, out: &Path) -> String {
         match &cell.evaluated {
             Evaluated::Policy { train, actions } => {
-                let shield = if *actions == Actions::Shielded {
-                    "shield:"
-                } else {
-                    ""
+                let shield = match actions {
+                    Actions::Shielded => "shield:",
+                    Actions::Rescued => "rescue:shield:",
+                    Actions::Sampled | Actions::Greedy => "",
                 };
                 format!(
                     "{shield}checkpoint:{}",
@@ -669,11 +692,11 @@ impl Experiment {
             self.controller(cell, out),
         ];
         match &cell.evaluated {
-            Evaluated::Policy { actions, .. } => {
-                if *actions == Actions::Sampled {
-                    args.push("--sample".into());
-                }
-            }
+            Evaluated::Policy { actions, .. } => match actions {
+                Actions::Sampled => args.push("--sample".into()),
+                Actions::Rescued => args.extend(["--time-limit".into(), e.rescue_time.to_string()]),
+                Actions::Greedy | Actions::Shielded => {}
+            },
             Evaluated::Planner => args.extend([
                 "--time-limit".into(),
                 e.time_limit.to_string(),
@@ -875,7 +898,8 @@ mod tests {
             layouts = ["rm-1.1"]
             seeds = 1
             [experiment.eval]
-            actions = ["shielded", "greedy"]
+            actions = ["shielded", "greedy", "rescued"]
+            rescue_time = 0.5
             [[method]]
             name = "ppo"
             config = "tiny.toml"
@@ -888,7 +912,13 @@ mod tests {
             .iter()
             .map(|c| x.eval_command(c, Path::new("out")))
             .collect();
-        assert_eq!(cmds.len(), 2);
+        assert_eq!(cmds.len(), 3);
+        assert!(
+            cmds[2].contains("--controller rescue:shield:checkpoint:out/runs/rm-1.1/ppo/seed-0")
+                && cmds[2].contains("--time-limit 0.5"),
+            "{}",
+            cmds[2]
+        );
         assert!(
             cmds[0].contains("--controller shield:checkpoint:out/runs/rm-1.1/ppo/seed-0"),
             "{}",
@@ -901,6 +931,7 @@ mod tests {
             cmds[1]
         );
         assert!(cmds.iter().all(|c| !c.contains("--sample")));
+        assert!(!cmds[0].contains("--time-limit"), "{}", cmds[0]);
     }
 
     #[test]

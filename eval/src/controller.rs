@@ -76,6 +76,9 @@ pub struct PlanNotes {
     pub plan_sum_of_costs: Option<u32>,
     /// Search nodes expanded.
     pub expanded: Option<u64>,
+    /// Plans a rescuing controller followed to end a jam
+    /// ([`crate::rescue`]).
+    pub rescues: Option<u32>,
 }
 
 /// Uniformly random legal actions (the action mask decides what is legal);

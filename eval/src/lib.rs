@@ -17,6 +17,7 @@ pub mod output;
 pub mod planner;
 pub mod plot;
 pub mod policy;
+pub mod rescue;
 pub mod runner;
 pub mod shield;
 pub mod stats;

@@ -84,6 +84,8 @@ pub struct EpisodeRecord {
     /// Agents stuck after the last step (off their goals, no progress for
     /// `k` steps), jammed or on their own.
     pub stuck_at_end: u32,
+    /// Plans a rescuing controller followed to end a jam (empty for others).
+    pub rescues: Option<u32>,
 }
 
 /// Writes `[3, 0, 5]` as `"3 0 5"`: one CSV cell, and still readable in JSON.
@@ -271,6 +273,7 @@ pub fn run_episode(
             livelock_steps_per_agent: vec![0; n],
             jammed_at_end: 0,
             stuck_at_end: 0,
+            rescues: notes.rescues,
         });
     }
     let mut actions = vec![0u8; n];
@@ -314,6 +317,7 @@ pub fn run_episode(
         livelock_steps_per_agent: monitor.agent_livelock_steps().to_vec(),
         jammed_at_end: (monitor.deadlocked() + monitor.livelocked()) as u32,
         stuck_at_end: monitor.stuck() as u32,
+        rescues: controller.episode_notes().rescues,
     })
 }
 

@@ -18,35 +18,10 @@ use std::collections::HashMap;
 use std::time::Duration;
 
 use buridan_env::{Cell, GridEnv};
+use buridan_mapf::replay::action_between;
 use buridan_mapf::{planner_by_name, Limits, Planner};
 
 use crate::config::ImitationConfig;
-
-/// The action (0 stay, 1 up, 2 right, 3 down, 4 left) from `from` to the
-/// neighbouring or equal cell `to`; `None` if they are not adjacent.
-///
-/// ```
-/// use buridan_env::Cell;
-/// use buridan_imitate::expert::action_between;
-/// assert_eq!(action_between(Cell::new(2, 2), Cell::new(1, 2)), Some(1));
-/// assert_eq!(action_between(Cell::new(2, 2), Cell::new(2, 1)), Some(4));
-/// assert_eq!(action_between(Cell::new(2, 2), Cell::new(2, 2)), Some(0));
-/// assert_eq!(action_between(Cell::new(2, 2), Cell::new(4, 2)), None);
-/// ```
-pub fn action_between(from: Cell, to: Cell) -> Option<u8> {
-    let (dr, dc) = (
-        to.row as i64 - from.row as i64,
-        to.col as i64 - from.col as i64,
-    );
-    match (dr, dc) {
-        (0, 0) => Some(0),
-        (-1, 0) => Some(1),
-        (0, 1) => Some(2),
-        (1, 0) => Some(3),
-        (0, -1) => Some(4),
-        _ => None,
-    }
-}
 
 /// The expert's next joint step in one state.
 #[derive(Debug, Clone, PartialEq, Eq)]

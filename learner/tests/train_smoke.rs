@@ -205,3 +205,34 @@ fn bundled_configs_parse() {
     }
     assert!(n >= 4);
 }
+
+#[test]
+fn imitation_runs_before_learning_and_logs_its_rounds() {
+    buridan_policy::threads::pin_threads(1);
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = tiny(Algo::Impala, Mode::Ctde);
+    cfg.starts = Starts::Random;
+    cfg.steps = 0; // imitation only
+    cfg.imitation = Some(buridan_imitate::ImitationConfig {
+        rounds: 2,
+        steps_per_round: 400,
+        envs: 4,
+        ..Default::default()
+    });
+    let summary = train(&cfg, dir.path(), &mut NoProgress).unwrap();
+    assert_eq!((summary.env_steps, summary.updates), (0, 0));
+    let csv = std::fs::read_to_string(dir.path().join("imitation.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+    assert!(csv.starts_with("round,env_steps,rows,"), "{csv}");
+    // The imitated policy is the run's final checkpoint, and it is trained.
+    let trained = Policy::load(&final_checkpoint(dir.path())).unwrap();
+    let fresh = Policy::new(trained.spec().clone(), cfg.seed).unwrap();
+    assert_ne!(
+        trained.weights(0).unwrap().tensors[0].data,
+        fresh.weights(0).unwrap().tensors[0].data
+    );
+    // Imitation needs a network shared by all agents.
+    cfg.mode = Mode::Dte;
+    let err = train(&cfg, dir.path(), &mut NoProgress).unwrap_err();
+    assert!(matches!(err, TrainError::Config(_)), "{err}");
+}

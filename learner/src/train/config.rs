@@ -38,7 +38,7 @@ pub enum ConfigError {
     Invalid(&'static str),
     /// The `[imitation]` section is out of range.
     #[error("invalid configuration")]
-    Imitation(#[from] buridan_imitate::ImitationError),
+    Imitation(#[source] Box<buridan_imitate::ImitationError>),
     /// A file sets both `map` and `maps`.
     #[error("config {} sets both map and maps: use one (maps lists several layouts with weights)", path.display())]
     MapAndMaps {
@@ -634,7 +634,8 @@ impl TrainConfig {
         )?;
         ensure(self.lstm_cells >= 1, "lstm_cells must be positive")?;
         if let Some(im) = &self.imitation {
-            im.validate()?;
+            im.validate()
+                .map_err(|e| ConfigError::Imitation(Box::new(e)))?;
             ensure(
                 self.mode == Mode::Ctde && !self.lstm,
                 "[imitation] trains a feed-forward policy shared by all agents: mode = \"ctde\", lstm = false",

@@ -37,7 +37,7 @@ pub enum TrainError {
     },
     /// Imitating the planner failed.
     #[error("imitation")]
-    Imitation(#[from] buridan_imitate::ImitationError),
+    Imitation(#[source] Box<buridan_imitate::ImitationError>),
     /// A learner update failed.
     #[error("learner update")]
     Update(#[from] AlgoError),

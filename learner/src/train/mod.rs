@@ -231,16 +231,17 @@ fn imitate(
             r.seconds
         ));
     };
-    match layouts {
+    let imitated = match layouts {
         [(map, _)] => {
             let mut venv = VecEnv::new(map.clone(), env, im.envs, kind, 1)?;
-            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut log)?;
+            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut log)
         }
         _ => {
             let mut venv = VecEnv::with_layouts(layouts, env, im.envs, kind, 1)?;
-            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut log)?;
+            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut log)
         }
-    }
+    };
+    imitated.map_err(|e| TrainError::Imitation(Box::new(e)))?;
     write_file(&path, &rows)
 }
 

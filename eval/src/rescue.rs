@@ -1,0 +1,161 @@
+//! A controller with a planner as its safety net (`--controller
+//! rescue:INNER`, e.g. `rescue:shield:checkpoint:DIR`).
+//!
+//! The inner controller — a trained policy, usually through the collision
+//! shield — drives the robots. When the stall detector
+//! ([`buridan_env::monitor`]) reports an agent *stuck* (off its goal, no
+//! progress for `k` steps: jammed in a standoff, or dithering alone), a
+//! planner (LaCAM by default: complete, milliseconds on these layouts)
+//! plans from the current state, and its plan is followed to its end; then
+//! the inner controller takes over again. A plan that stops matching the
+//! env is dropped. If the planner finds nothing within its limit, the inner
+//! controller goes on and the planner is asked again after `k` more steps,
+//! then after `2k`, `4k`, … (a state the planner cannot solve quickly
+//! costs a few calls per episode, not one every `k` steps).
+//!
+//! The count of plans followed per episode is reported as `rescues` in the
+//! evaluation's CSV: how often the learned controller needed the net.
+//! While a plan is followed the inner controller does not act (a recurrent
+//! policy misses those steps' actions as inputs).
+
+use std::sync::Arc;
+
+use buridan_env::GridEnv;
+use buridan_mapf::replay::action_between;
+use buridan_mapf::{Limits, Plan, Planner};
+
+use crate::controller::{Controller, GiveUp, PlanNotes};
+
+/// An inner controller rescued from stalls by a planner (see the
+/// [module docs](self)).
+///
+/// ```
+/// use std::sync::Arc;
+/// use buridan_eval::{evaluate, rescue::RescueController, EvalSpec, RandomController};
+/// use buridan_mapf::{planner_by_name, Limits};
+/// let map = Arc::new(buridan_env::Map::load("rm-2.1").unwrap());
+/// let spec = EvalSpec { agents: 4, episodes: 10, ..EvalSpec::default() };
+/// let make = || -> Box<dyn buridan_eval::Controller> {
+///     let lacam: Arc<dyn buridan_mapf::Planner> = planner_by_name("lacam").unwrap().into();
+///     Box::new(RescueController::new(Box::new(RandomController::new(42)), lacam, Limits::default()))
+/// };
+/// let report = evaluate(&map, &spec, &make, &|_| {}).unwrap();
+/// // Random walks never finish; rescued by LaCAM once stuck, they do.
+/// assert!(report.summary.success_rate >= 0.9, "{}", report.summary.success_rate);
+/// assert!(report.records.iter().all(|r| r.rescues.unwrap() >= 1));
+/// ```
+pub struct RescueController {
+    inner: Box<dyn Controller>,
+    planner: Arc<dyn Planner>,
+    limits: Limits,
+    plan: Option<Plan>,
+    /// The plan's step the env is at.
+    step: usize,
+    /// No planner call before this env step (after a failed one).
+    retry_at: u32,
+    /// Planner calls of this episode that found nothing.
+    failures: u32,
+    rescues: u32,
+}
+
+impl RescueController {
+    /// `inner` rescued by `planner`, which gets `limits` per call.
+    pub fn new(inner: Box<dyn Controller>, planner: Arc<dyn Planner>, limits: Limits) -> Self {
+        Self {
+            inner,
+            planner,
+            limits,
+            plan: None,
+            step: 0,
+            retry_at: 0,
+            failures: 0,
+            rescues: 0,
+        }
+    }
+
+    /// Writes the plan's next step if the env is where the plan says;
+    /// otherwise drops the plan.
+    fn follow(&mut self, env: &GridEnv, actions: &mut [u8]) -> bool {
+        let Some(plan) = &self.plan else {
+            return false;
+        };
+        let t = self.step;
+        let on_track = t < plan.makespan() && plan.positions_at(t) == env.positions();
+        if on_track {
+            for (i, a) in actions.iter_mut().enumerate() {
+                *a = match (plan.position(i, t), plan.position(i, t + 1)) {
+                    (Some(from), Some(to)) => action_between(from, to).unwrap_or(0),
+                    _ => 0,
+                };
+            }
+            self.step += 1;
+            return true;
+        }
+        self.plan = None;
+        false
+    }
+}
+
+impl Controller for RescueController {
+    fn name(&self) -> String {
+        format!("{}+rescue-{}", self.inner.name(), self.planner.name())
+    }
+
+    fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
+        self.plan = None;
+        self.step = 0;
+        self.retry_at = 0;
+        self.failures = 0;
+        self.rescues = 0;
+        self.inner.begin_episode(env)
+    }
+
+    fn act(&mut self, env: &GridEnv, actions: &mut [u8]) {
+        if self.follow(env, actions) {
+            return;
+        }
+        let monitor = env.monitor();
+        if monitor.stuck() > 0 && env.t() >= self.retry_at {
+            let solved = self.planner.solve(
+                &env.map().grid,
+                &env.positions(),
+                &env.goals(),
+                &self.limits,
+            );
+            match solved {
+                Ok(solution) => {
+                    self.plan = Some(solution.plan);
+                    self.step = 0;
+                    self.rescues += 1;
+                    if self.follow(env, actions) {
+                        return;
+                    }
+                }
+                Err(_) => {
+                    self.retry_at = env.t() + (monitor.window() << self.failures.min(8));
+                    self.failures += 1;
+                }
+            }
+        }
+        self.inner.act(env, actions);
+    }
+
+    fn after_step(&mut self, rewards: &[f32]) {
+        self.inner.after_step(rewards);
+    }
+
+    fn episode_notes(&self) -> PlanNotes {
+        PlanNotes {
+            rescues: Some(self.rescues),
+            ..self.inner.episode_notes()
+        }
+    }
+
+    fn obs_features(&self) -> buridan_env::ObsFeatures {
+        self.inner.obs_features()
+    }
+
+    fn obs_sensor_range(&self) -> usize {
+        self.inner.obs_sensor_range()
+    }
+}

@@ -1,0 +1,49 @@
+//! The planner rescue: a jammed policy is freed by LaCAM's plan from the
+//! jammed state, an unjammed one never calls the planner.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use buridan_env::{EnvConfig, GridEnv, Map};
+use buridan_eval::policy::PolicyController;
+use buridan_eval::rescue::RescueController;
+use buridan_eval::run_episode;
+use buridan_mapf::{planner_by_name, Limits};
+use buridan_policy::ActMode;
+
+#[test]
+fn lacam_frees_the_jammed_greedy_ppo_policy_and_stays_out_of_solved_episodes() {
+    // The committed PPO checkpoint (rm-2.1, 4 agents): its greedy actions
+    // end these seed-42 episodes in a jam (tests/shield.rs) ...
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../docs/results/ppo-ctde-rm-2.1/checkpoint");
+    let map = Arc::new(Map::load("rm-2.1").unwrap());
+    let cfg = EnvConfig {
+        agents: 4,
+        seed: 42,
+        ..EnvConfig::default()
+    };
+    let mut env = GridEnv::new(map, cfg).unwrap();
+    let policy = || Box::new(PolicyController::load(&dir, 4, ActMode::Greedy, 42).unwrap());
+    let lacam: Arc<dyn buridan_mapf::Planner> = planner_by_name("lacam").unwrap().into();
+    let mut rescued = RescueController::new(policy(), lacam, Limits::default());
+    let mut raw = policy();
+    for episode in [15, 17, 24, 43, 45, 51, 73] {
+        let r = run_episode(&mut env, &mut rescued, episode).unwrap();
+        assert!(r.success, "episode {episode}: {r:?}");
+        assert!(r.rescues.unwrap() >= 1, "episode {episode}: {r:?}");
+    }
+    // ... and solves these alone: the rescue never steps in, and the
+    // episode is played exactly as without it.
+    let mut untouched = 0;
+    for episode in 0..15 {
+        let plain = run_episode(&mut env, raw.as_mut(), episode).unwrap();
+        let r = run_episode(&mut env, &mut rescued, episode).unwrap();
+        if plain.success && plain.deadlock_steps == 0 && r.rescues == Some(0) {
+            assert_eq!((r.success, r.timesteps), (true, plain.timesteps));
+            untouched += 1;
+        }
+        assert!(r.success || !plain.success, "episode {episode}: {r:?}");
+    }
+    assert!(untouched >= 5, "{untouched}");
+}

@@ -1,0 +1,160 @@
+//! The expert's labels drive the env to success, the labels for the policy
+//! respect its action mask, and DAgger turns an untrained network into one
+//! that imitates the planner.
+
+use std::sync::Arc;
+
+use buridan_env::{EnvConfig, EnvSlot, GridEnv, Map, ObsKind, VecEnv};
+use buridan_imitate::{dagger, Expert, ImitationConfig};
+use buridan_policy::{ActMode, Inference, Mode, ModelSpec, Policy};
+
+fn map(name: &str) -> Arc<Map> {
+    Arc::new(Map::load(name).unwrap())
+}
+
+#[test]
+fn following_the_experts_plan_steps_solves_the_episodes() {
+    let mut expert = Expert::new(&ImitationConfig::default());
+    let mut solved = 0;
+    for episode in 0..20 {
+        let cfg = EnvConfig {
+            seed: 42,
+            ..EnvConfig::default()
+        };
+        let mut env = GridEnv::with_episode(map("rm-2.2"), cfg, episode).unwrap();
+        let mut rewards = vec![0.0; env.agents()];
+        loop {
+            let actions = match expert.label(&env) {
+                Some(l) => l.plan.clone(),
+                None => vec![0; env.agents()],
+            };
+            if env.step(&actions, &mut rewards).unwrap().done() {
+                break;
+            }
+        }
+        solved += usize::from(env.stats().success);
+    }
+    // LaCAM solves 99 of the 100 seed-42 rm-2.2 instances (README).
+    assert!(solved >= 19, "{solved}/20");
+    // One call per episode: the rest of a plan is labelled with it.
+    assert!(expert.calls <= 25, "{} calls", expert.calls);
+}
+
+#[test]
+fn labels_for_the_policy_are_legal_under_its_mask() {
+    let mut expert = Expert::new(&ImitationConfig::default());
+    let env_cfg = EnvConfig {
+        seed: 3,
+        ..EnvConfig::default()
+    };
+    let mut venv = VecEnv::new(map("rm-2.1"), env_cfg, 8, ObsKind::Local, 1).unwrap();
+    let n = venv.agents();
+    let (mut checked, mut waits_for_following) = (0, 0);
+    for _ in 0..60 {
+        let mut actions = vec![0u8; 8 * n];
+        for e in 0..8 {
+            let Some(l) = expert.label(venv.envs()[e].env()) else {
+                continue;
+            };
+            for a in 0..n {
+                let mask = &venv.masks()[(e * n + a) * 5..(e * n + a + 1) * 5];
+                assert_eq!(mask[usize::from(l.policy[a])], 1, "masked label");
+                waits_for_following += usize::from(l.policy[a] != l.plan[a]);
+                checked += 1;
+            }
+            actions[e * n..(e + 1) * n].copy_from_slice(&l.plan);
+        }
+        venv.step(&actions).unwrap();
+    }
+    assert!(checked > 1000, "{checked}");
+    // Plans under the env's index order do follow lower-index agents.
+    assert!(waits_for_following > 0);
+}
+
+#[test]
+fn dagger_teaches_an_untrained_policy_the_planners_moves() {
+    let env_cfg = EnvConfig {
+        agents: 2,
+        seed: 5,
+        ..EnvConfig::default()
+    };
+    let mut venv = VecEnv::new(map("rm-2.1"), env_cfg.clone(), 8, ObsKind::Local, 1).unwrap();
+    let spec = ModelSpec::new(Mode::Ctde, 2, venv.obs_dim());
+    let policy = Policy::new(spec.clone(), 0).unwrap();
+    let greedy_success = |policy: &Policy| {
+        let copy = Policy::new(spec.clone(), 0).unwrap();
+        copy.copy_from(policy).unwrap();
+        let cfg = EnvConfig {
+            seed: 42,
+            ..env_cfg.clone()
+        };
+        let mut venv = VecEnv::new(map("rm-2.1"), cfg, 10, ObsKind::Local, 1).unwrap();
+        let mut inference = Inference::new(copy, 20, 0);
+        let (mut actions, mut logp) = (vec![0u8; 20], vec![0f32; 20]);
+        for _ in 0..100 {
+            let (obs, masks) = (venv.obs().to_vec(), venv.masks().to_vec());
+            inference
+                .act(&obs, &masks, ActMode::Greedy, &mut actions, &mut logp)
+                .unwrap();
+            venv.step(&actions).unwrap();
+        }
+        let eps = venv.drain_episodes();
+        eps.iter().filter(|e| e.success).count() as f64 / eps.len() as f64
+    };
+    let before = greedy_success(&policy);
+    let cfg = ImitationConfig {
+        rounds: 3,
+        steps_per_round: 4_000,
+        envs: 8,
+        ..ImitationConfig::default()
+    };
+    let reports = dagger(&cfg, &policy, &mut venv, 1, &mut |_| {}).unwrap();
+    let after = greedy_success(&policy);
+    assert_eq!(reports.len(), 3);
+    assert!(reports[0].success_rate > 0.95, "{:?}", reports[0]);
+    assert!(reports[2].accuracy > 0.8, "{:?}", reports[2]);
+    assert!(
+        after > before + 0.3 && after > 0.6,
+        "greedy success {before} -> {after}"
+    );
+}
+
+#[test]
+fn policies_it_cannot_clone_are_refused_with_the_reason() {
+    let mut venv = VecEnv::new(
+        map("rm-1.1"),
+        EnvConfig {
+            agents: 2,
+            ..EnvConfig::default()
+        },
+        2,
+        ObsKind::Local,
+        1,
+    )
+    .unwrap();
+    let spec = ModelSpec::new(Mode::Dte, 2, venv.obs_dim());
+    let policy = Policy::new(spec, 0).unwrap();
+    let err = dagger(
+        &ImitationConfig::default(),
+        &policy,
+        &mut venv,
+        0,
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("shared by all agents"), "{err}");
+    let bad = ImitationConfig {
+        rounds: 0,
+        ..ImitationConfig::default()
+    };
+    let spec = ModelSpec::new(Mode::Ctde, 2, venv.obs_dim());
+    let err = dagger(
+        &bad,
+        &Policy::new(spec, 0).unwrap(),
+        &mut venv,
+        0,
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert_eq!(err.to_string(), "imitation.rounds: must be at least 1");
+}
