@@ -667,6 +667,18 @@ impl Experiment {
         }
     }
 
+    /// The planner time limit of an evaluation cell, seconds: the rescue's
+    /// for rescued policies, the planners' otherwise.
+    pub fn time_limit(&self, cell: &EvalCell) -> f64 {
+        match cell.evaluated {
+            Evaluated::Policy {
+                actions: Actions::Rescued,
+                ..
+            } => self.eval.rescue_time,
+            _ => self.eval.time_limit,
+        }
+    }
+
     /// The equivalent `learner eval` command line of an evaluation cell.
     pub fn eval_command(&self, cell: &EvalCell, out: &Path) -> String {
         let e = &self.eval;
@@ -694,12 +706,14 @@ impl Experiment {
         match &cell.evaluated {
             Evaluated::Policy { actions, .. } => match actions {
                 Actions::Sampled => args.push("--sample".into()),
-                Actions::Rescued => args.extend(["--time-limit".into(), e.rescue_time.to_string()]),
+                Actions::Rescued => {
+                    args.extend(["--time-limit".into(), self.time_limit(cell).to_string()])
+                }
                 Actions::Greedy | Actions::Shielded => {}
             },
             Evaluated::Planner => args.extend([
                 "--time-limit".into(),
-                e.time_limit.to_string(),
+                self.time_limit(cell).to_string(),
                 "--memory-limit".into(),
                 e.memory_limit.to_string(),
             ]),
@@ -932,6 +946,9 @@ mod tests {
         );
         assert!(cmds.iter().all(|c| !c.contains("--sample")));
         assert!(!cmds[0].contains("--time-limit"), "{}", cmds[0]);
+        // In-process evaluations use the same limits as the commands.
+        assert_eq!(x.time_limit(&x.evals[2]), 0.5);
+        assert_eq!(x.time_limit(&x.evals[0]), 60.0);
     }
 
     #[test]

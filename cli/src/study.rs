@@ -162,7 +162,7 @@ fn run_eval(x: &Experiment, out: &Path, index: usize, bars: &Bars) -> Result<()>
         _ => ActMode::Greedy,
     };
     let limits = Limits {
-        time: Duration::from_secs_f64(e.time_limit),
+        time: Duration::from_secs_f64(x.time_limit(cell)),
         memory_bytes: e.memory_limit << 20,
         ..Limits::default()
     };

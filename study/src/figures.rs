@@ -133,6 +133,29 @@ pub struct Band {
     pub points: Vec<(f64, f64, f64, f64)>,
 }
 
+/// An axis tick as people write it: whole numbers without a decimal
+/// point, thousands and millions as `k` and `M`.
+///
+/// ```
+/// use buridan_study::figures::tick;
+/// assert_eq!(tick(16.0), "16");
+/// assert_eq!(tick(2.5), "2.5");
+/// assert_eq!(tick(200_000.0), "200k");
+/// assert_eq!(tick(1_500_000.0), "1.5M");
+/// assert_eq!(tick(-0.0), "0");
+/// ```
+pub fn tick(v: f64) -> String {
+    let short = |x: f64| {
+        let s = format!("{:.2}", x + 0.0); // + 0.0: no "-0"
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    };
+    match v.abs() {
+        a if a >= 1e6 => format!("{}M", short(v / 1e6)),
+        a if a >= 1e4 => format!("{}k", short(v / 1e3)),
+        _ => short(v),
+    }
+}
+
 /// Lines with shaded confidence bands (learning curves, scalability).
 ///
 /// ```
@@ -176,6 +199,8 @@ pub fn banded_lines(
         .configure_mesh()
         .x_desc(x_label)
         .y_desc(y_label)
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
         .draw()
         .map_err(|e| err(path, e))?;
     for (k, band) in bands.iter().enumerate() {
