@@ -21,7 +21,7 @@
 use std::sync::Arc;
 
 use buridan_env::GridEnv;
-use buridan_mapf::replay::action_between;
+use buridan_mapf::replay::plan_actions;
 use buridan_mapf::{Limits, Plan, Planner};
 
 use crate::controller::{Controller, GiveUp, PlanNotes};
@@ -48,7 +48,8 @@ pub struct RescueController {
     inner: Box<dyn Controller>,
     planner: Arc<dyn Planner>,
     limits: Limits,
-    plan: Option<Plan>,
+    /// The plan followed and its joint actions, step by step.
+    plan: Option<(Plan, Vec<Vec<u8>>)>,
     /// The plan's step the env is at.
     step: usize,
     /// No planner call before this env step (after a failed one).
@@ -76,18 +77,12 @@ impl RescueController {
     /// Writes the plan's next step if the env is where the plan says;
     /// otherwise drops the plan.
     fn follow(&mut self, env: &GridEnv, actions: &mut [u8]) -> bool {
-        let Some(plan) = &self.plan else {
+        let Some((plan, steps)) = &self.plan else {
             return false;
         };
         let t = self.step;
-        let on_track = t < plan.makespan() && plan.positions_at(t) == env.positions();
-        if on_track {
-            for (i, a) in actions.iter_mut().enumerate() {
-                *a = match (plan.position(i, t), plan.position(i, t + 1)) {
-                    (Some(from), Some(to)) => action_between(from, to).unwrap_or(0),
-                    _ => 0,
-                };
-            }
+        if t < plan.makespan() && plan.positions_at(t) == env.positions() {
+            actions.copy_from_slice(&steps[t]);
             self.step += 1;
             return true;
         }
@@ -122,16 +117,20 @@ impl Controller for RescueController {
                 &env.goals(),
                 &self.limits,
             );
-            match solved {
-                Ok(solution) => {
-                    self.plan = Some(solution.plan);
+            let planned = solved.ok().and_then(|solution| {
+                let steps = plan_actions(&solution.plan).ok()?;
+                Some((solution.plan, steps))
+            });
+            match planned {
+                Some(plan) => {
+                    self.plan = Some(plan);
                     self.step = 0;
                     self.rescues += 1;
                     if self.follow(env, actions) {
                         return;
                     }
                 }
-                Err(_) => {
+                None => {
                     self.retry_at = env.t() + (monitor.window() << self.failures.min(8));
                     self.failures += 1;
                 }

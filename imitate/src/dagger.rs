@@ -146,13 +146,13 @@ pub fn dagger<S: EnvSlot>(
                     }
                 }
                 let follow_expert = actor.is_none() || rng.random_bool(cfg.beta);
-                let chosen = match (labels, follow_expert) {
-                    (Some(l), true) => &l.plan,
+                let chosen = &mut actions[lo..lo + n];
+                match (labels, follow_expert) {
+                    (Some(l), true) => chosen.copy_from_slice(&l.plan),
                     // Round 0 without a plan: wait (the episode truncates).
-                    _ if actor.is_none() => &vec![0; n],
-                    _ => &policy_actions[lo..lo + n].to_vec(),
-                };
-                actions[lo..lo + n].copy_from_slice(chosen);
+                    _ if actor.is_none() => chosen.fill(0),
+                    _ => chosen.copy_from_slice(&policy_actions[lo..lo + n]),
+                }
             }
             venv.step(&actions)?;
             steps += envs as u64;

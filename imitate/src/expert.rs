@@ -18,7 +18,7 @@ use std::collections::HashMap;
 use std::time::Duration;
 
 use buridan_env::{Cell, GridEnv};
-use buridan_mapf::replay::action_between;
+use buridan_mapf::replay::plan_actions;
 use buridan_mapf::{planner_by_name, Limits, Planner};
 
 use crate::config::ImitationConfig;
@@ -127,16 +127,14 @@ impl Expert {
             return;
         };
         let plan = solution.plan;
-        for t in 0..plan.makespan() {
+        let Ok(steps) = plan_actions(&plan) else {
+            // Not a plan of unit moves: no labels from it.
+            self.failures += 1;
+            self.known.insert(key.clone(), None);
+            return;
+        };
+        for (t, actions) in steps.into_iter().enumerate() {
             let (from, to) = (plan.positions_at(t), plan.positions_at(t + 1));
-            let actions: Option<Vec<u8>> = from
-                .iter()
-                .zip(&to)
-                .map(|(&a, &b)| action_between(a, b))
-                .collect();
-            let Some(actions) = actions else {
-                return; // not a plan of unit moves: keep what came before
-            };
             self.known
                 .entry((key.0.clone(), goals.clone(), from.clone()))
                 .or_insert_with(|| Some(Labels::new(actions, &from, &to)));

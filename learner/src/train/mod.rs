@@ -212,37 +212,27 @@ fn imitate(
     let seed = seed::actor_env(cfg.seed, u64::from(u32::MAX), 0);
     let env = env_config(cfg, seed);
     let kind = cfg.mode.obs_kind();
-    let path = out.join(IMITATION_FILE);
-    let mut rows = String::from(
-        "round,env_steps,rows,expert_calls,expert_failures,episodes,success_rate,loss,accuracy,seconds\n",
-    );
-    let mut log = |r: &buridan_imitate::RoundReport| {
-        rows.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{:.3}\n",
-            r.round,
-            r.env_steps,
-            r.rows,
-            r.expert_calls,
-            r.expert_failures,
-            r.episodes,
-            r.success_rate,
-            r.loss,
-            r.accuracy,
-            r.seconds
-        ));
-    };
     let imitated = match layouts {
         [(map, _)] => {
             let mut venv = VecEnv::new(map.clone(), env, im.envs, kind, 1)?;
-            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut log)
+            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut |_| {})
         }
         _ => {
             let mut venv = VecEnv::with_layouts(layouts, env, im.envs, kind, 1)?;
-            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut log)
+            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut |_| {})
         }
     };
-    imitated.map_err(|e| TrainError::Imitation(Box::new(e)))?;
-    write_file(&path, &rows)
+    let rounds = imitated.map_err(|e| TrainError::Imitation(Box::new(e)))?;
+    let path = out.join(IMITATION_FILE);
+    let mut csv = csv::Writer::from_writer(Vec::new());
+    for round in &rounds {
+        csv.serialize(round)
+            .map_err(|e| TrainError::io("cannot write", &path, std::io::Error::other(e)))?;
+    }
+    let bytes = csv
+        .into_inner()
+        .map_err(|e| TrainError::io("cannot write", &path, e.into_error()))?;
+    std::fs::write(&path, bytes).map_err(|e| TrainError::io("cannot write", &path, e))
 }
 
 fn write_file(path: &Path, text: &str) -> Result<(), TrainError> {
