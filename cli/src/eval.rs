@@ -33,12 +33,15 @@ pub struct EvalArgs {
     /// Seed of the episode generator (42 as in the dissertation).
     #[arg(long, default_value_t = 42)]
     pub seed: u64,
-    /// `ma-astar`, `cbs`, `pibt`, `lacam`, `lacam-star`, `random`,
+    /// `ma-astar`, `od-astar`, `cbs`, `pibt`, `lacam`, `lacam-star`
+    /// (planners joined by `+` are tried in turn), `random`,
     /// `checkpoint:DIR`, or a checkpoint through the PIBT collision shield:
     /// `shield:checkpoint:DIR` (preferences over every move but walls) or
     /// `shield-env:checkpoint:DIR` (moves into occupied cells ranked last);
-    /// `rescue:CONTROLLER` adds LaCAM as a safety net: it plans from the
-    /// current state whenever an agent is stuck (within --time-limit).
+    /// `rescue:CONTROLLER` adds a planner as a safety net: it plans from the
+    /// current state whenever an agent is stuck (within --time-limit), by
+    /// default LaCAM then OD-A* (`lacam+od-astar`); `rescue=PLANNER:CONTROLLER`
+    /// names another (e.g. `rescue=lacam:shield:checkpoint:DIR`).
     #[arg(long)]
     pub controller: String,
     /// `random` starts and goals, or `fixed` (the map's `.scen`).
@@ -99,6 +102,11 @@ pub fn parse_agent_counts(text: &str) -> Result<Vec<usize>> {
     text.split(',').map(num).collect()
 }
 
+/// The planner of `rescue:CONTROLLER`: LaCAM answers in milliseconds
+/// where it answers at all; OD-A* takes over the dead-end orderings LaCAM
+/// does not finish (README, "Planners").
+pub const DEFAULT_RESCUE_PLANNER: &str = "lacam+od-astar";
+
 /// A factory of fresh controllers, one per evaluation thread.
 pub type ControllerFactory = Box<dyn Fn() -> Box<dyn Controller> + Sync>;
 
@@ -113,6 +121,12 @@ pub type ControllerFactory = Box<dyn Fn() -> Box<dyn Controller> + Sync>;
 /// assert_eq!(make().name(), "ctde-policy+shield");
 /// let err = controller_factory("shield:cbs", 4, 42, Default::default(), ActMode::Greedy).err().unwrap();
 /// assert!(err.to_string().contains("trained policies only"), "{err}");
+/// let rescued = controller_factory("rescue:random", 4, 42, Default::default(), ActMode::Greedy).unwrap();
+/// assert_eq!(rescued().name(), "random+rescue-lacam+od-astar");
+/// let by_lacam = controller_factory("rescue=lacam:random", 4, 42, Default::default(), ActMode::Greedy).unwrap();
+/// assert_eq!(by_lacam().name(), "random+rescue-lacam");
+/// let err = controller_factory("rescue=dijkstra:random", 4, 42, Default::default(), ActMode::Greedy).err().unwrap();
+/// assert!(err.to_string().contains("unknown rescue planner 'dijkstra'"), "{err}");
 /// ```
 pub fn controller_factory(
     name: &str,
@@ -121,11 +135,21 @@ pub fn controller_factory(
     limits: Limits,
     act_mode: ActMode,
 ) -> Result<ControllerFactory> {
-    if let Some(inner) = name.strip_prefix("rescue:") {
+    let rescue = match name.strip_prefix("rescue:") {
+        Some(inner) => Some((DEFAULT_RESCUE_PLANNER, inner)),
+        None => name
+            .strip_prefix("rescue=")
+            .map(|rest| rest.split_once(':').unwrap_or((rest, ""))),
+    };
+    if let Some((planner, inner)) = rescue {
+        let planner: Arc<dyn Planner> = planner_by_name(planner)
+            .with_context(|| {
+                format!("'{name}': unknown rescue planner '{planner}' (expected pibt, lacam, lacam-star, od-astar, cbs, ma-astar, or several joined by '+')")
+            })?
+            .into();
         let inner = controller_factory(inner, agents, seed, limits, act_mode)?;
-        let lacam: Arc<dyn Planner> = planner_by_name("lacam").expect("lacam is a planner").into();
         return Ok(Box::new(move || {
-            Box::new(RescueController::new(inner(), lacam.clone(), limits))
+            Box::new(RescueController::new(inner(), planner.clone(), limits))
         }));
     }
     for (prefix, ranking) in [("shield:", Ranking::Walls), ("shield-env:", Ranking::Env)] {
@@ -157,7 +181,7 @@ pub fn controller_factory(
     }
     let planner: Arc<dyn Planner> = planner_by_name(name)
         .with_context(|| {
-            format!("unknown controller '{name}': expected ma-astar, cbs, pibt, lacam, lacam-star, random, checkpoint:DIR, shield:checkpoint:DIR or rescue:CONTROLLER")
+            format!("unknown controller '{name}': expected ma-astar, od-astar, cbs, pibt, lacam, lacam-star, random, checkpoint:DIR, shield:checkpoint:DIR or rescue:CONTROLLER")
         })?
         .into();
     Ok(Box::new(move || {

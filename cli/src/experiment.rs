@@ -24,7 +24,7 @@
 //! episodes = 100                    # 1000 for generalization
 //! seed = 42
 //! actions = ["sampled", "greedy"]  # and/or "shielded": greedy through the PIBT shield,
-//!                                   # "rescued": shielded, LaCAM planning whenever an agent is stuck
+//!                                   # "rescued": shielded, LaCAM/OD-A* planning whenever an agent is stuck
 //! rescue_time = 1.0                 # seconds per rescue plan
 //! agents = "4..20"                  # default: the agents each policy trained with
 //! time_limit = 60.0                 # planners, seconds per instance
@@ -168,7 +168,7 @@ pub enum Actions {
     /// (`learner eval --controller shield:checkpoint:DIR`): deterministic,
     /// conflict-free.
     Shielded,
-    /// Shielded, with LaCAM planning from the current state whenever an
+    /// Shielded, with LaCAM then OD-A* planning from the current state whenever an
     /// agent is stuck (`--controller rescue:shield:checkpoint:DIR`, within
     /// `rescue_time` seconds per call).
     Rescued,

@@ -5,10 +5,12 @@
 //! shield — drives the robots. When the stall detector
 //! ([`buridan_env::monitor`]) reports an agent *stuck* (off its goal, no
 //! progress for `k` steps: jammed in a standoff, or dithering alone), a
-//! planner (LaCAM by default: complete, milliseconds on these layouts)
-//! plans from the current state, and its plan is followed to its end; then
+//! planner (on the command line LaCAM then OD-A* by default: LaCAM answers
+//! in milliseconds, OD-A* finds the dead-end orderings LaCAM misses) plans
+//! from the current state, and its plan is followed to its end; then
 //! the inner controller takes over again. A plan that stops matching the
-//! env is dropped. If the planner finds nothing within its limit, the inner
+//! env is dropped. Plans are asked for within the steps left in the episode
+//! ([`Limits::max_makespan`]). If the planner finds nothing within its limit, the inner
 //! controller goes on and the planner is asked again after `k` more steps,
 //! then after `2k`, `4k`, … (a state the planner cannot solve quickly
 //! costs a few calls per episode, not one every `k` steps).
@@ -111,12 +113,17 @@ impl Controller for RescueController {
         }
         let monitor = env.monitor();
         if monitor.stuck() > 0 && env.t() >= self.retry_at {
-            let solved = self.planner.solve(
-                &env.map().grid,
-                &env.positions(),
-                &env.goals(),
-                &self.limits,
-            );
+            // A plan that outlasts the episode is no rescue: planners that
+            // search within a cap (OD-A*, CBS) prune longer ones, a
+            // portfolio passes them on to its next planner.
+            let remaining = env.config().t_max.saturating_sub(env.t()) as usize;
+            let limits = Limits {
+                max_makespan: Some(remaining),
+                ..self.limits
+            };
+            let solved =
+                self.planner
+                    .solve(&env.map().grid, &env.positions(), &env.goals(), &limits);
             let planned = solved.ok().and_then(|solution| {
                 let steps = plan_actions(&solution.plan).ok()?;
                 Some((solution.plan, steps))

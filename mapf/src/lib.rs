@@ -6,6 +6,8 @@
 //! - [`validate`](mod@validate): [`validate()`] / [`validate_with`], typed [`PlanError`]s.
 //! - [`replay`](mod@replay): [`replay()`] a plan step by step in a [`buridan_env::GridEnv`].
 //! - [`maastar`]: [`MaAstar`], A* over joint states.
+//! - [`odastar`]: [`OdAstar`], A* with operator decomposition over the env's
+//!   sequential step: makespan-optimal, complete, for small fleets.
 //! - [`cbs`]: [`Cbs`], conflict-based search.
 //! - [`pibt`]: [`Pibt`], priority inheritance with backtracking, and the
 //!   configuration generator LaCAM builds on.
@@ -14,7 +16,8 @@
 //! - [`lifelong`]: [`LifelongPibt`], PIBT for goals that change on arrival.
 //! - [`shield`]: [`Shield`], PIBT over a learned policy's action preferences
 //!   (a collision shield whose joint moves the env executes exactly).
-//! - [`planner`]: the [`Planner`] trait (`Send + Sync`), [`Solution`], [`Stats`].
+//! - [`planner`]: the [`Planner`] trait (`Send + Sync`), [`Solution`], [`Stats`],
+//!   and [`Portfolio`] (several planners in turn, `"lacam+od-astar"`).
 //! - [`limits`]: [`Limits`] (time, memory, nodes, makespan cap), [`SolveError`].
 //! - [`rules`]: [`Rules`], the conflict model.
 //!
@@ -91,6 +94,7 @@ pub mod lifelong;
 pub mod limits;
 mod lowlevel;
 pub mod maastar;
+pub mod odastar;
 pub mod pibt;
 pub mod plan;
 pub mod planner;
@@ -104,9 +108,10 @@ pub use lacam::{Lacam, LacamStar, Objective, Outcome};
 pub use lifelong::LifelongPibt;
 pub use limits::{InstanceError, Limits, SolveError};
 pub use maastar::{Heuristic, MaAstar};
+pub use odastar::OdAstar;
 pub use pibt::Pibt;
 pub use plan::Plan;
-pub use planner::{planner_by_name, Planner, Solution, Stats};
+pub use planner::{planner_by_name, Planner, Portfolio, Solution, Stats};
 pub use replay::{replay, replay_exact, BlockedFollowing, Divergence, ReplayError, ReplayResult};
 pub use rules::Rules;
 pub use shield::{ActionOrder, Shield, ShieldError};

@@ -149,8 +149,8 @@ impl Planner for MaAstar {
     }
 }
 
-/// A joint state as a hash key.
-trait JointKey: Hash + Eq {
+/// A joint state as a hash key (also OD-A*'s, with the next agent appended).
+pub(crate) trait JointKey: Hash + Eq {
     fn pack(cells: &[u32], bits: u32) -> Self;
     /// Heap bytes owned by a key beyond `size_of::<Self>()`.
     fn heap_bytes(n: usize) -> usize;

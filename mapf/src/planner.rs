@@ -81,17 +81,29 @@ pub trait Planner: Send + Sync {
 }
 
 /// The default-configured planner of a name: `"ma-astar"` (also `"maastar"`,
-/// `"ma-a*"`), `"cbs"`, `"pibt"`, `"lacam"` or `"lacam-star"` (also
-/// `"lacam*"`).
+/// `"ma-a*"`), `"od-astar"` (also `"od-a*"`), `"od-astar-soc"`, `"cbs"`, `"pibt"`, `"lacam"`
+/// or `"lacam-star"` (also `"lacam*"`); names joined by `+` make a
+/// [`Portfolio`] of them, tried in that order.
 ///
 /// ```
 /// assert_eq!(buridan_mapf::planner_by_name("cbs").unwrap().name(), "cbs");
 /// assert_eq!(buridan_mapf::planner_by_name("LaCAM*").unwrap().name(), "lacam-star");
+/// assert_eq!(buridan_mapf::planner_by_name("lacam+od-astar").unwrap().name(), "lacam+od-astar");
 /// assert!(buridan_mapf::planner_by_name("dijkstra").is_none());
+/// assert!(buridan_mapf::planner_by_name("lacam+dijkstra").is_none());
 /// ```
 pub fn planner_by_name(name: &str) -> Option<Box<dyn Planner>> {
+    if name.contains('+') {
+        let planners = name
+            .split('+')
+            .map(|part| planner_by_name(part.trim()))
+            .collect::<Option<Vec<_>>>()?;
+        return Some(Box::new(Portfolio::new(planners)));
+    }
     match name.to_ascii_lowercase().as_str() {
         "ma-astar" | "maastar" | "ma-a*" | "ma_astar" => Some(Box::new(crate::MaAstar::default())),
+        "od-astar" | "odastar" | "od-a*" | "od_astar" => Some(Box::new(crate::OdAstar::default())),
+        "od-astar-soc" => Some(Box::new(crate::OdAstar::sum_of_loss())),
         "cbs" => Some(Box::new(crate::Cbs::default())),
         "pibt" => Some(Box::new(crate::Pibt::default())),
         "lacam" => Some(Box::new(crate::Lacam::default())),
@@ -99,5 +111,113 @@ pub fn planner_by_name(name: &str) -> Option<Box<dyn Planner>> {
             Some(Box::new(crate::LacamStar::default()))
         }
         _ => None,
+    }
+}
+
+/// Several planners in turn: the first plan any of them finds.
+///
+/// Planners fail in different places — LaCAM answers in milliseconds or
+/// runs to its limit on instances that need agents to make room in a given
+/// order, where [`crate::OdAstar`] answers at once, and the other way round
+/// for large fleets — so a portfolio is worth more than either. The time
+/// budget is shared: planner `k` of `m` may use an equal share of what is
+/// left, `remaining / (m - k)`, so time one planner does not need passes to
+/// the next. A plan longer than [`Limits::max_makespan`] (LaCAM does not
+/// search within a cap) does not end the turn: the next planner tries, and
+/// if none does better the shortest plan found is returned. A proof
+/// ([`SolveError::NoSolution`], [`SolveError::NoSolutionWithin`]) or a
+/// malformed instance ends the call at once; otherwise the error is the
+/// last planner's. Stats are the successful planner's, except the wall
+/// time, which covers the whole call.
+///
+/// ```
+/// use buridan_env::Map;
+/// use buridan_mapf::{Lacam, Limits, OdAstar, Planner, Portfolio};
+/// let map = Map::load("rm-1.1").unwrap();
+/// let scen = map.scenario.unwrap();
+/// let both = Portfolio::new(vec![Box::new(Lacam::default()), Box::new(OdAstar::default())]);
+/// let sol = both.solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+/// assert!(sol.plan.makespan() >= 10);
+/// // Within a cap of 10 steps: OD-A*'s optimal plan if LaCAM's is longer.
+/// let capped = Limits { max_makespan: Some(10), ..Limits::default() };
+/// let sol = both.solve(&map.grid, &scen.starts, &scen.goals, &capped).unwrap();
+/// assert_eq!(sol.plan.makespan(), 10);
+/// ```
+pub struct Portfolio {
+    planners: Vec<Box<dyn Planner>>,
+    name: String,
+}
+
+impl Portfolio {
+    /// The planners, tried in this order.
+    ///
+    /// # Panics
+    ///
+    /// If `planners` is empty (a portfolio must plan with something).
+    pub fn new(planners: Vec<Box<dyn Planner>>) -> Self {
+        assert!(
+            !planners.is_empty(),
+            "a portfolio needs at least one planner"
+        );
+        let name = planners
+            .iter()
+            .map(|p| p.name())
+            .collect::<Vec<_>>()
+            .join("+");
+        Self { planners, name }
+    }
+}
+
+impl Planner for Portfolio {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn solve(
+        &self,
+        grid: &Grid,
+        starts: &[Cell],
+        goals: &[Cell],
+        limits: &Limits,
+    ) -> Result<Solution, SolveError> {
+        let clock = crate::limits::Budget::new(limits);
+        let cap = limits.max_makespan.unwrap_or(usize::MAX);
+        let mut last = SolveError::NoSolution;
+        let mut too_long: Option<Solution> = None;
+        for (k, planner) in self.planners.iter().enumerate() {
+            let left = limits.time.saturating_sub(clock.cpu_elapsed());
+            let share = Limits {
+                time: left / (self.planners.len() - k) as u32,
+                ..*limits
+            };
+            match planner.solve(grid, starts, goals, &share) {
+                Ok(mut sol) if sol.plan.makespan() <= cap => {
+                    sol.stats.wall_time = clock.elapsed();
+                    return Ok(sol);
+                }
+                Ok(sol) => {
+                    if too_long
+                        .as_ref()
+                        .is_none_or(|best| sol.plan.makespan() < best.plan.makespan())
+                    {
+                        too_long = Some(sol);
+                    }
+                }
+                // A proof holds for every planner with the same rules.
+                Err(
+                    err @ (SolveError::NoSolution
+                    | SolveError::NoSolutionWithin { .. }
+                    | SolveError::Instance(_)),
+                ) => return Err(err),
+                Err(err) => last = err,
+            }
+        }
+        match too_long {
+            Some(mut sol) => {
+                sol.stats.wall_time = clock.elapsed();
+                Ok(sol)
+            }
+            None => Err(last),
+        }
     }
 }

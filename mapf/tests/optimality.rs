@@ -1,13 +1,16 @@
 //! Optimality against brute force on tiny instances: CBS's sum of costs
 //! equals the optimal SoC, MA-A* with an admissible heuristic the optimal
-//! makespan, under both rule sets; unsolvable instances end with a typed error.
+//! makespan, under both rule sets; OD-A* (env rules only) the optimal
+//! makespan; unsolvable instances end with a typed error.
 
 mod common;
 
 use std::time::Duration;
 
 use buridan_env::{Cell, Grid, Map};
-use buridan_mapf::{validate_with, Cbs, Heuristic, Limits, MaAstar, Planner, Rules, SolveError};
+use buridan_mapf::{
+    validate_with, Cbs, Heuristic, Limits, MaAstar, OdAstar, Planner, Rules, SolveError,
+};
 use common::{optimal_makespan, optimal_soc, random_instance, Rng};
 
 fn limits() -> Limits {
@@ -56,6 +59,23 @@ fn check_instance(grid: &Grid, starts: &[Cell], goals: &[Cell], rules: Rules, ta
                 assert_eq!(sol.plan.makespan(), makespan, "{h:?} makespan on {ctx}");
                 assert!(sol.plan.sum_of_costs() >= soc);
             }
+            if rules == Rules::ENV_EXECUTABLE {
+                let sol = OdAstar::default()
+                    .solve(grid, starts, goals, &limits())
+                    .unwrap();
+                validate_with(grid, starts, goals, &sol.plan, rules)
+                    .unwrap_or_else(|e| panic!("od-astar: {e} on {ctx}"));
+                assert_eq!(sol.plan.makespan(), makespan, "od-astar makespan on {ctx}");
+                let soc_plan = OdAstar::sum_of_loss()
+                    .solve(grid, starts, goals, &limits())
+                    .unwrap();
+                validate_with(grid, starts, goals, &soc_plan.plan, rules)
+                    .unwrap_or_else(|e| panic!("od-astar-soc: {e} on {ctx}"));
+                assert!(
+                    soc_plan.plan.makespan() >= makespan,
+                    "od-astar-soc on {ctx}"
+                );
+            }
             // SPEC's inadmissible Σ Manhattan: valid, never better than optimal.
             let sol = astar(Heuristic::SumManhattan)
                 .solve(grid, starts, goals, &limits())
@@ -77,6 +97,16 @@ fn check_instance(grid: &Grid, starts: &[Cell], goals: &[Cell], rules: Rules, ta
                     Err(SolveError::NoSolution),
                     "{ctx}"
                 );
+            }
+            if rules == Rules::ENV_EXECUTABLE {
+                for od in [OdAstar::default(), OdAstar::sum_of_loss()] {
+                    assert_eq!(
+                        od.solve(grid, starts, goals, &limits()),
+                        Err(SolveError::NoSolution),
+                        "{} on {ctx}",
+                        od.name()
+                    );
+                }
             }
             // CBS ends only with a makespan cap (or at a limit).
             let capped = Limits {
