@@ -138,10 +138,11 @@ impl OdAstar {
     }
 }
 
-/// Most entries (cells² per pair of agents, 2 bytes each) the pairwise
-/// tables of [`Objective::Makespan`] may take; beyond it (large maps or
-/// fleets) the search runs on the single-agent distances alone.
-pub const PAIR_TABLE_BUDGET: usize = 1 << 26;
+/// Most entries (cells² per pair of agents, 2 bytes each: 32 MiB) the
+/// pairwise tables of [`Objective::Makespan`] may take; beyond it (large
+/// maps or fleets) the search runs on the single-agent distances alone.
+/// The reference models need 40k entries per pair (rm-2.1b, 200 cells).
+pub const PAIR_TABLE_BUDGET: usize = 1 << 24;
 
 impl Planner for OdAstar {
     fn name(&self) -> &str {
@@ -168,8 +169,12 @@ impl Planner for OdAstar {
         // The key holds the n cells and the next agent's index.
         let bits = usize::BITS - (topo.cells().max(n + 1).max(2) - 1).leading_zeros();
         let makespan = self.objective == Objective::Makespan;
-        let pairs = if makespan && topo.cells().pow(2) * n * (n - 1) / 2 <= PAIR_TABLE_BUDGET {
-            pair_tables(&topo, goals)
+        let entries = topo
+            .cells()
+            .saturating_mul(topo.cells())
+            .saturating_mul(n * n.saturating_sub(1) / 2);
+        let pairs = if makespan && entries <= PAIR_TABLE_BUDGET {
+            pair_tables(&topo, goals, &budget)?
         } else {
             Vec::new()
         };
@@ -270,7 +275,11 @@ impl Search<'_> {
 
     /// Bytes held by the search, from the allocated capacities.
     fn bytes<K: JointKey>(&self, index: &FastMap<K, u32>) -> usize {
-        self.states.capacity() * 4
+        self.pairs
+            .iter()
+            .map(|(_, _, t)| t.len() * 2)
+            .sum::<usize>()
+            + self.states.capacity() * 4
             + self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.open.capacity() * std::mem::size_of::<OpenEntry>()
             + index.capacity() * (std::mem::size_of::<(K, u32)>() + 1) * 8 / 7
@@ -414,13 +423,18 @@ impl Search<'_> {
 /// cells, two agents moving simultaneously without vertex or swap
 /// conflicts. That graph is undirected (a joint move reversed is a joint
 /// move), so distances from the goals are distances to them. Unreachable
-/// pairs get `u16::MAX`.
-fn pair_tables(topo: &Topology, goals: &[Cell]) -> Vec<(usize, usize, Vec<u16>)> {
+/// pairs get `u16::MAX`. The clock is checked after every table.
+fn pair_tables(
+    topo: &Topology,
+    goals: &[Cell],
+    budget: &Budget,
+) -> Result<Vec<(usize, usize, Vec<u16>)>, SolveError> {
     let cells = topo.cells();
     let goal: Vec<u32> = goals.iter().map(|&g| topo.index(g)).collect();
     let mut out = Vec::new();
     for i in 0..goal.len() {
         for j in i + 1..goal.len() {
+            budget.check_time()?;
             let mut dist = vec![u16::MAX; cells * cells];
             let start = goal[i] as usize * cells + goal[j] as usize;
             dist[start] = 0;
@@ -446,5 +460,5 @@ fn pair_tables(topo: &Topology, goals: &[Cell]) -> Vec<(usize, usize, Vec<u16>)>
             out.push((i, j, dist));
         }
     }
-    out
+    Ok(out)
 }

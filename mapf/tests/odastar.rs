@@ -88,3 +88,17 @@ fn the_portfolio_passes_on_what_lacam_does_not_finish() {
     replay_exact(&map, &s, &g, &sol.plan, 100).unwrap();
     assert_eq!(sol.plan.makespan(), 33);
 }
+
+#[test]
+fn empty_and_single_agent_instances_are_planned() {
+    let grid = buridan_env::Grid::from_rows(&["....", ".@..", "...."]).unwrap();
+    let none = OdAstar::default()
+        .solve(&grid, &[], &[], &Limits::default())
+        .unwrap();
+    assert_eq!(none.plan.agents(), 0);
+    let c = buridan_env::Cell::new;
+    let one = OdAstar::default()
+        .solve(&grid, &[c(0, 0)], &[c(2, 3)], &Limits::default())
+        .unwrap();
+    assert_eq!(one.plan.makespan(), 5);
+}
