@@ -20,7 +20,8 @@ for name, group in [("the four reference layouts", ref), ("the four unseen layou
     for act in ["sampled", "greedy", "shielded", "rescued"]:
         per = {}
         for r in policy:
-            if r["actions"] == act and r["layout"] in group:
+            # Cells not evaluated yet (a partial study) have no success rate.
+            if r["actions"] == act and r["layout"] in group and r["success_rate"]:
                 per.setdefault(r["seed"], []).append(100 * float(r["success_rate"]))
         vals = [statistics.mean(v) for v in per.values() if len(v) == len(group)]
         if not vals:
