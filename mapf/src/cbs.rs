@@ -30,7 +30,7 @@ use std::rc::Rc;
 use buridan_env::{Cell, Grid};
 
 use crate::graph::{distance_table, manhattan_table, Topology, NONE};
-use crate::limits::{check_instance, goals_reachable, Budget, Limits, SolveError};
+use crate::limits::{Budget, Limits, SolveError};
 use crate::lowlevel::{space_time_astar, Cat, Constraints, LowResult};
 use crate::plan::Plan;
 use crate::planner::{Planner, Solution, Stats};
@@ -128,11 +128,7 @@ impl Planner for Cbs {
         goals: &[Cell],
         limits: &Limits,
     ) -> Result<Solution, SolveError> {
-        check_instance(grid, starts, goals)?;
-        let mut budget = Budget::new(limits);
-        if !goals_reachable(grid, starts, goals) {
-            return Err(SolveError::NoSolution);
-        }
+        let mut budget = Budget::start(grid, starts, goals, limits)?;
         let topo = Topology::new(grid);
         let h = goals
             .iter()

@@ -2,6 +2,8 @@
 
 use buridan_env::{Cell, Grid};
 
+use crate::plan::Plan;
+
 /// Marks "no such move" (wall or outside the grid) in [`Topology::moves`].
 pub(crate) const NONE: u32 = u32::MAX;
 
@@ -48,6 +50,20 @@ impl Topology {
     pub fn cell(&self, index: u32) -> Cell {
         let i = index as usize;
         Cell::new(i / self.width, i % self.width)
+    }
+
+    /// The plan of `n` agents visiting `configs` (one cell index per agent
+    /// each) in order, trimmed after each agent's arrival.
+    pub fn plan<'a, I>(&self, n: usize, configs: I) -> Plan
+    where
+        I: IntoIterator<Item = &'a [u32]>,
+        I::IntoIter: Clone,
+    {
+        let configs = configs.into_iter();
+        let paths = (0..n)
+            .map(|i| configs.clone().map(|q| self.cell(q[i])).collect())
+            .collect();
+        Plan::new(paths).trimmed()
     }
 
     /// Targets of the 5 actions from `cell` ([`NONE`] where impossible).

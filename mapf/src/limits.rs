@@ -235,6 +235,24 @@ impl Budget {
         }
     }
 
+    /// The checks a search runs before it starts — a well-formed instance
+    /// ([`check_instance`]), every goal reachable on the static grid (else
+    /// [`SolveError::NoSolution`]) — and the budget, started before the
+    /// reachability check so that it counts against the time limit.
+    pub fn start(
+        grid: &Grid,
+        starts: &[Cell],
+        goals: &[Cell],
+        limits: &Limits,
+    ) -> Result<Self, SolveError> {
+        check_instance(grid, starts, goals)?;
+        let budget = Self::new(limits);
+        if !goals_reachable(grid, starts, goals) {
+            return Err(SolveError::NoSolution);
+        }
+        Ok(budget)
+    }
+
     /// Wall-clock time since the start.
     pub fn elapsed(&self) -> Duration {
         self.start.elapsed()

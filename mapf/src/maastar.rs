@@ -24,7 +24,7 @@ use std::hash::Hash;
 use buridan_env::{Cell, Grid};
 
 use crate::graph::{distance_table, manhattan_table, FastMap, Topology, NONE};
-use crate::limits::{check_instance, goals_reachable, Budget, Limits, SolveError};
+use crate::limits::{Budget, Limits, SolveError};
 use crate::plan::Plan;
 use crate::planner::{Planner, Solution, Stats};
 use crate::rules::Rules;
@@ -103,11 +103,7 @@ impl Planner for MaAstar {
         goals: &[Cell],
         limits: &Limits,
     ) -> Result<Solution, SolveError> {
-        check_instance(grid, starts, goals)?;
-        let mut budget = Budget::new(limits);
-        if !goals_reachable(grid, starts, goals) {
-            return Err(SolveError::NoSolution);
-        }
+        let mut budget = Budget::start(grid, starts, goals, limits)?;
         let topo = Topology::new(grid);
         let h: Vec<Vec<u32>> = goals
             .iter()
@@ -346,14 +342,12 @@ impl Search<'_> {
             id = self.nodes[id as usize].parent;
         }
         chain.reverse();
-        let paths = (0..n)
-            .map(|i| {
-                chain
-                    .iter()
-                    .map(|&k| self.topo.cell(self.states[k as usize * n + i]))
-                    .collect()
-            })
-            .collect();
-        Plan::new(paths).trimmed()
+        let states = &self.states;
+        self.topo.plan(
+            n,
+            chain
+                .iter()
+                .map(|&k| &states[k as usize * n..(k as usize + 1) * n]),
+        )
     }
 }

@@ -92,7 +92,7 @@ use buridan_env::{Cell, Grid};
 
 use crate::graph::{distance_table, FastMap, Topology, NONE};
 use crate::lacam::Objective;
-use crate::limits::{check_instance, goals_reachable, Budget, Limits, SolveError};
+use crate::limits::{Budget, Limits, SolveError};
 use crate::maastar::JointKey;
 use crate::plan::Plan;
 use crate::planner::{Planner, Solution, Stats};
@@ -159,11 +159,7 @@ impl Planner for OdAstar {
         goals: &[Cell],
         limits: &Limits,
     ) -> Result<Solution, SolveError> {
-        check_instance(grid, starts, goals)?;
-        let mut budget = Budget::new(limits);
-        if !goals_reachable(grid, starts, goals) {
-            return Err(SolveError::NoSolution);
-        }
+        let mut budget = Budget::start(grid, starts, goals, limits)?;
         let topo = Topology::new(grid);
         let n = starts.len();
         // The key holds the n cells and the next agent's index.
@@ -247,13 +243,14 @@ impl Search<'_> {
     fn entry(&self, p: &[u32], node: &Node, id: u32) -> OpenEntry {
         let (g, k) = (node.g, node.next as usize);
         let depth = node.steps * self.n as u32 + k as u32;
-        let sum: u32 = p.iter().zip(&self.dist).map(|(&c, d)| d[c as usize]).sum();
+        let (mut sum, mut f) = (0, g + u32::from(k > 0));
+        for (i, (&c, d)) in p.iter().zip(&self.dist).enumerate() {
+            let d = d[c as usize];
+            sum += d;
+            f = f.max(g + u32::from(i < k) + d);
+        }
         if !self.makespan {
             return (Reverse(g + sum), Reverse(0), depth, Reverse(id));
-        }
-        let mut f = g + u32::from(k > 0);
-        for (i, (&c, d)) in p.iter().zip(&self.dist).enumerate() {
-            f = f.max(g + u32::from(i < k) + d[c as usize]);
         }
         let cells = self.topo.cells();
         for (i, j, table) in &self.pairs {
@@ -406,15 +403,13 @@ impl Search<'_> {
             id = self.nodes[id as usize].parent;
         }
         chain.reverse();
-        let paths = (0..n)
-            .map(|i| {
-                chain
-                    .iter()
-                    .map(|&k| self.topo.cell(self.states[k as usize * n + i]))
-                    .collect()
-            })
-            .collect();
-        Plan::new(paths).trimmed()
+        let states = &self.states;
+        self.topo.plan(
+            n,
+            chain
+                .iter()
+                .map(|&k| &states[k as usize * n..(k as usize + 1) * n]),
+        )
     }
 }
 

@@ -355,13 +355,8 @@ impl Setup {
 
     /// The plan visiting `configs` in order, trimmed.
     pub fn plan(&self, configs: &[Vec<u32>]) -> Plan {
-        let n = self.starts.len();
-        Plan::new(
-            (0..n)
-                .map(|i| configs.iter().map(|q| self.topo.cell(q[i])).collect())
-                .collect(),
-        )
-        .trimmed()
+        self.topo
+            .plan(self.starts.len(), configs.iter().map(Vec::as_slice))
     }
 }
 
