@@ -209,7 +209,7 @@ pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Ve
             .position(|m| *m == k.2)
             .unwrap_or(usize::MAX);
         let actions = k.3.as_ref().map(|a| {
-            ["sampled", "greedy", "shielded", "rescued"]
+            ["sampled", "greedy", "shielded", "rescued", "lookahead"]
                 .iter()
                 .position(|name| name == a)
         });

@@ -42,7 +42,11 @@ pub struct EvalArgs {
     /// current state whenever an agent is stuck (within --time-limit), by
     /// default LaCAM then OD-A* (`lacam+od-astar`; LaCAM alone beyond 8
     /// agents); `rescue=PLANNER:CONTROLLER`
-    /// names another (e.g. `rescue=lacam:shield:checkpoint:DIR`).
+    /// names another (e.g. `rescue=lacam:shield:checkpoint:DIR`);
+    /// `lookahead:CONTROLLER` (and `lookahead=PLANNER:CONTROLLER`) adds
+    /// foresight: a twin of the (deterministic) controller plays each
+    /// episode ahead in a copy of the env, and if it would get stuck the
+    /// planner plans from the start.
     #[arg(long)]
     pub controller: String,
     /// `random` starts and goals, or `fixed` (the map's `.scen`).
@@ -114,6 +118,26 @@ pub const DEFAULT_RESCUE_PLANNER: &str = "lacam+od-astar";
 /// 53 % success either way, 3 s against 0.14 s of compute per episode).
 pub const RESCUE_OD_ASTAR_MAX_AGENTS: usize = 8;
 
+/// Splits `rescue:INNER`, `rescue=PLANNER:INNER`, `lookahead:INNER` and
+/// `lookahead=PLANNER:INNER` into (kind, planner, inner); the default
+/// planner depends on the fleet size.
+fn rescue_parts(name: &str, agents: usize) -> Option<(&'static str, &str, &str)> {
+    ["rescue", "lookahead"].into_iter().find_map(|kind| {
+        let rest = name.strip_prefix(kind)?;
+        if let Some(inner) = rest.strip_prefix(':') {
+            let planner = if agents > RESCUE_OD_ASTAR_MAX_AGENTS {
+                "lacam"
+            } else {
+                DEFAULT_RESCUE_PLANNER
+            };
+            return Some((kind, planner, inner));
+        }
+        let named = rest.strip_prefix('=')?;
+        let (planner, inner) = named.split_once(':').unwrap_or((named, ""));
+        Some((kind, planner, inner))
+    })
+}
+
 /// A factory of fresh controllers, one per evaluation thread.
 pub type ControllerFactory = Box<dyn Fn() -> Box<dyn Controller> + Sync>;
 
@@ -134,6 +158,8 @@ pub type ControllerFactory = Box<dyn Fn() -> Box<dyn Controller> + Sync>;
 /// assert_eq!(crowd().name(), "random+rescue-lacam");
 /// let by_lacam = controller_factory("rescue=lacam:random", 4, 42, Default::default(), ActMode::Greedy).unwrap();
 /// assert_eq!(by_lacam().name(), "random+rescue-lacam");
+/// let ahead = controller_factory("lookahead=od-astar:random", 4, 42, Default::default(), ActMode::Greedy).unwrap();
+/// assert_eq!(ahead().name(), "random+lookahead-od-astar");
 /// let err = controller_factory("rescue=dijkstra:random", 4, 42, Default::default(), ActMode::Greedy).err().unwrap();
 /// assert!(err.to_string().contains("unknown rescue planner 'dijkstra'"), "{err}");
 /// ```
@@ -144,22 +170,21 @@ pub fn controller_factory(
     limits: Limits,
     act_mode: ActMode,
 ) -> Result<ControllerFactory> {
-    let rescue = match name.strip_prefix("rescue:") {
-        Some(inner) if agents > RESCUE_OD_ASTAR_MAX_AGENTS => Some(("lacam", inner)),
-        Some(inner) => Some((DEFAULT_RESCUE_PLANNER, inner)),
-        None => name
-            .strip_prefix("rescue=")
-            .map(|rest| rest.split_once(':').unwrap_or((rest, ""))),
-    };
-    if let Some((planner, inner)) = rescue {
+    if let Some((kind, planner, inner)) = rescue_parts(name, agents) {
         let planner: Arc<dyn Planner> = planner_by_name(planner)
             .with_context(|| {
                 format!("'{name}': unknown rescue planner '{planner}' (expected pibt, lacam, lacam-star, od-astar, cbs, ma-astar, or several joined by '+')")
             })?
             .into();
         let inner = controller_factory(inner, agents, seed, limits, act_mode)?;
+        let foresight = kind == "lookahead";
         return Ok(Box::new(move || {
-            Box::new(RescueController::new(inner(), planner.clone(), limits))
+            let rescue = RescueController::new(inner(), planner.clone(), limits);
+            Box::new(if foresight {
+                rescue.with_foresight(inner())
+            } else {
+                rescue
+            })
         }));
     }
     for (prefix, ranking) in [("shield:", Ranking::Walls), ("shield-env:", Ranking::Env)] {

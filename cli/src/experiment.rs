@@ -25,7 +25,10 @@
 //! seed = 42
 //! actions = ["sampled", "greedy"]  # and/or "shielded": greedy through the PIBT shield,
 //!                                   # "rescued": shielded, LaCAM/OD-A* planning whenever an agent is stuck
+//!                                   # "lookahead": rescued, with foresight (a twin plays the episode ahead;
+//!                                   #   if it would get stuck, the planner plans from the start)
 //! rescue_time = 1.0                 # seconds per rescue plan
+//! rescue_planner = "od-astar+lacam" # default: as `--controller rescue:…` (LaCAM, then OD-A*)
 //! agents = "4..20"                  # default: the agents each policy trained with
 //! time_limit = 60.0                 # planners, seconds per instance
 //! layouts = ["rm-2.1", "maps/comb.map"]  # evaluate on these (default: the training layout);
@@ -124,6 +127,7 @@ struct EvalToml {
     t_max: u32,
     time_limit: f64,
     rescue_time: f64,
+    rescue_planner: Option<String>,
     memory_limit: usize,
     layouts: Option<Vec<String>>,
 }
@@ -139,6 +143,7 @@ impl Default for EvalToml {
             t_max: 100,
             time_limit: 60.0,
             rescue_time: 1.0,
+            rescue_planner: None,
             memory_limit: 2048,
             layouts: None,
         }
@@ -172,16 +177,21 @@ pub enum Actions {
     /// agent is stuck (`--controller rescue:shield:checkpoint:DIR`, within
     /// `rescue_time` seconds per call).
     Rescued,
+    /// Rescued with foresight (`--controller lookahead:shield:checkpoint:DIR`):
+    /// a twin of the shielded policy plays each episode ahead in a copy of
+    /// the env, and if it would get stuck the planner plans from the start.
+    Lookahead,
 }
 
 impl Actions {
-    /// `sampled`, `greedy`, `shielded` or `rescued`.
+    /// `sampled`, `greedy`, `shielded`, `rescued` or `lookahead`.
     pub fn name(&self) -> &'static str {
         match self {
             Actions::Sampled => "sampled",
             Actions::Greedy => "greedy",
             Actions::Shielded => "shielded",
             Actions::Rescued => "rescued",
+            Actions::Lookahead => "lookahead",
         }
     }
 }
@@ -206,6 +216,11 @@ pub struct EvalProtocol {
     /// Time limit of each rescue plan (`rescued` actions), seconds.
     #[serde(default = "default_rescue_time")]
     pub rescue_time: f64,
+    /// The rescue's planner (`rescued` actions; any `learner eval
+    /// --controller` planner name, `+` joins a portfolio); `None`: the
+    /// default of `--controller rescue:…`.
+    #[serde(default)]
+    pub rescue_planner: Option<String>,
     /// Planner memory cap, MiB.
     pub memory_limit: usize,
     /// Layouts every policy (and planner) is evaluated on; `None`: each
@@ -437,7 +452,7 @@ impl Experiment {
         }
         if e.actions.is_empty() && !parsed.method.is_empty() {
             return Err(bad(
-                "[experiment.eval] actions: name one or more of sampled, greedy, shielded, rescued"
+                "[experiment.eval] actions: name one or more of sampled, greedy, shielded, rescued, lookahead"
                     .into(),
             ));
         }
@@ -445,6 +460,13 @@ impl Experiment {
             return Err(bad(
                 "[experiment.eval] rescue_time must be a positive number of seconds".into(),
             ));
+        }
+        if let Some(planner) = &e.rescue_planner {
+            buridan_mapf::planner_by_name(planner).ok_or_else(|| {
+                bad(format!(
+                    "[experiment.eval] rescue_planner: unknown planner '{planner}' (expected pibt, lacam, lacam-star, od-astar, cbs, ma-astar, or several joined by '+')"
+                ))
+            })?;
         }
         if !(e.time_limit > 0.0 && e.time_limit.is_finite()) {
             return Err(bad(
@@ -495,6 +517,7 @@ impl Experiment {
             t_max: e.t_max,
             time_limit: e.time_limit,
             rescue_time: e.rescue_time,
+            rescue_planner: e.rescue_planner,
             memory_limit: e.memory_limit,
             layouts: e.layouts,
         };
@@ -653,10 +676,13 @@ impl Experiment {
     pub fn controller(&self, cell: &EvalCell, out: &Path) -> String {
         match &cell.evaluated {
             Evaluated::Policy { train, actions } => {
-                let shield = match actions {
-                    Actions::Shielded => "shield:",
-                    Actions::Rescued => "rescue:shield:",
-                    Actions::Sampled | Actions::Greedy => "",
+                let shield = match (actions, &self.eval.rescue_planner) {
+                    (Actions::Shielded, _) => "shield:".to_string(),
+                    (Actions::Rescued, None) => "rescue:shield:".to_string(),
+                    (Actions::Rescued, Some(planner)) => format!("rescue={planner}:shield:"),
+                    (Actions::Lookahead, None) => "lookahead:shield:".to_string(),
+                    (Actions::Lookahead, Some(planner)) => format!("lookahead={planner}:shield:"),
+                    (Actions::Sampled | Actions::Greedy, _) => String::new(),
                 };
                 format!(
                     "{shield}checkpoint:{}",
@@ -672,7 +698,7 @@ impl Experiment {
     pub fn time_limit(&self, cell: &EvalCell) -> f64 {
         match cell.evaluated {
             Evaluated::Policy {
-                actions: Actions::Rescued,
+                actions: Actions::Rescued | Actions::Lookahead,
                 ..
             } => self.eval.rescue_time,
             _ => self.eval.time_limit,
@@ -706,7 +732,7 @@ impl Experiment {
         match &cell.evaluated {
             Evaluated::Policy { actions, .. } => match actions {
                 Actions::Sampled => args.push("--sample".into()),
-                Actions::Rescued => {
+                Actions::Rescued | Actions::Lookahead => {
                     args.extend(["--time-limit".into(), self.time_limit(cell).to_string()])
                 }
                 Actions::Greedy | Actions::Shielded => {}
@@ -949,6 +975,42 @@ mod tests {
         // In-process evaluations use the same limits as the commands.
         assert_eq!(x.time_limit(&x.evals[2]), 0.5);
         assert_eq!(x.time_limit(&x.evals[0]), 60.0);
+    }
+
+    #[test]
+    fn rescued_and_lookahead_cells_use_the_named_rescue_planner() {
+        let dir = tempfile::tempdir().unwrap();
+        write_config(dir.path());
+        let study = |planner: &str| {
+            Experiment::from_str(
+                &format!(
+                    "[experiment]\nname = \"s\"\nlayouts = [\"rm-1.1\"]\nseeds = 1\n\
+                     [experiment.eval]\nactions = [\"rescued\", \"lookahead\"]\nrescue_planner = \"{planner}\"\n\
+                     [[method]]\nname = \"ppo\"\nconfig = \"tiny.toml\"\n"
+                ),
+                &dir.path().join("s.toml"),
+            )
+        };
+        let x = study("od-astar+lacam").unwrap();
+        let cmd = x.eval_command(&x.evals[0], Path::new("out"));
+        assert!(
+            cmd.contains(
+                "--controller rescue=od-astar+lacam:shield:checkpoint:out/runs/rm-1.1/ppo/seed-0"
+            ),
+            "{cmd}"
+        );
+        let ahead = x.eval_command(&x.evals[1], Path::new("out"));
+        assert!(
+            ahead.contains("--controller lookahead=od-astar+lacam:shield:checkpoint:out/runs/rm-1.1/ppo/seed-0")
+                && ahead.contains("--time-limit 1"),
+            "{ahead}"
+        );
+        let err = study("od-astar+dijkstra").err().unwrap().to_string();
+        assert!(
+            err.contains("s.toml")
+                && err.contains("rescue_planner: unknown planner 'od-astar+dijkstra'"),
+            "{err}"
+        );
     }
 
     #[test]

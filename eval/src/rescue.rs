@@ -15,6 +15,16 @@
 //! then after `2k`, `4k`, … (a state the planner cannot solve quickly
 //! costs a few calls per episode, not one every `k` steps).
 //!
+//! **Foresight** ([`RescueController::with_foresight`], `--controller
+//! lookahead:INNER`): a deterministic inner controller (greedy, or greedy
+//! through the shield) will do in the episode exactly what a twin of it does
+//! in a copy of the env. At the start of each episode the twin plays the
+//! episode ahead; if it would get stuck, the planner plans from the start
+//! at once instead of from the jam `k` steps too late, and the episode
+//! runs on the plan (with the makespan-optimal OD-A*, as short as any
+//! planner's); if the twin would finish, the inner controller drives. A
+//! failed start-plan leaves the ordinary rescue in place.
+//!
 //! The count of plans followed per episode is reported as `rescues` in the
 //! evaluation's CSV: how often the learned controller needed the net.
 //! While a plan is followed the inner controller does not act (a recurrent
@@ -48,6 +58,9 @@ use crate::controller::{Controller, GiveUp, PlanNotes};
 /// ```
 pub struct RescueController {
     inner: Box<dyn Controller>,
+    /// A second instance of the inner controller that plays each episode
+    /// ahead in a copy of the env (foresight).
+    twin: Option<Box<dyn Controller>>,
     planner: Arc<dyn Planner>,
     limits: Limits,
     /// The plan followed and its joint actions, step by step.
@@ -66,6 +79,7 @@ impl RescueController {
     pub fn new(inner: Box<dyn Controller>, planner: Arc<dyn Planner>, limits: Limits) -> Self {
         Self {
             inner,
+            twin: None,
             planner,
             limits,
             plan: None,
@@ -73,6 +87,69 @@ impl RescueController {
             retry_at: 0,
             failures: 0,
             rescues: 0,
+        }
+    }
+
+    /// With foresight: `twin`, a second instance of the inner controller,
+    /// plays each episode ahead in a copy of the env; if it gets stuck the
+    /// planner plans from the episode's start (see the [module docs](self)).
+    /// Only a deterministic inner controller's twin foresees what will
+    /// happen.
+    pub fn with_foresight(mut self, twin: Box<dyn Controller>) -> Self {
+        self.twin = Some(twin);
+        self
+    }
+
+    /// Whether the twin, playing the episode ahead from `env`'s state, gets
+    /// stuck (or cannot play it).
+    fn foresees_a_stall(twin: &mut dyn Controller, env: &GridEnv) -> bool {
+        let mut ahead = env.clone();
+        if twin.begin_episode(&ahead).is_err() {
+            return true;
+        }
+        let n = ahead.agents();
+        let (mut actions, mut rewards) = (vec![0u8; n], vec![0.0f32; n]);
+        loop {
+            twin.act(&ahead, &mut actions);
+            let Ok(out) = ahead.step(&actions, &mut rewards) else {
+                return true;
+            };
+            twin.after_step(&rewards);
+            if ahead.monitor().stuck() > 0 || out.truncated {
+                return true;
+            }
+            if out.terminated {
+                return false;
+            }
+        }
+    }
+
+    /// Plans from `env`'s state within the steps left in the episode; on
+    /// success the plan is followed from the next action on.
+    fn plan_from(&mut self, env: &GridEnv) -> bool {
+        // A plan that outlasts the episode is no rescue: planners that
+        // search within a cap (OD-A*, CBS) prune longer ones, a portfolio
+        // passes them on to its next planner.
+        let remaining = env.config().t_max.saturating_sub(env.t()) as usize;
+        let limits = Limits {
+            max_makespan: Some(remaining),
+            ..self.limits
+        };
+        let solved = self
+            .planner
+            .solve(&env.map().grid, &env.positions(), &env.goals(), &limits);
+        let planned = solved.ok().and_then(|solution| {
+            let steps = plan_actions(&solution.plan).ok()?;
+            Some((solution.plan, steps))
+        });
+        match planned {
+            Some(plan) => {
+                self.plan = Some(plan);
+                self.step = 0;
+                self.rescues += 1;
+                true
+            }
+            None => false,
         }
     }
 
@@ -95,7 +172,12 @@ impl RescueController {
 
 impl Controller for RescueController {
     fn name(&self) -> String {
-        format!("{}+rescue-{}", self.inner.name(), self.planner.name())
+        let kind = if self.twin.is_some() {
+            "lookahead"
+        } else {
+            "rescue"
+        };
+        format!("{}+{kind}-{}", self.inner.name(), self.planner.name())
     }
 
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
@@ -104,7 +186,13 @@ impl Controller for RescueController {
         self.retry_at = 0;
         self.failures = 0;
         self.rescues = 0;
-        self.inner.begin_episode(env)
+        self.inner.begin_episode(env)?;
+        if let Some(twin) = self.twin.as_mut() {
+            if Self::foresees_a_stall(twin.as_mut(), env) {
+                self.plan_from(env);
+            }
+        }
+        Ok(())
     }
 
     fn act(&mut self, env: &GridEnv, actions: &mut [u8]) {
@@ -113,34 +201,11 @@ impl Controller for RescueController {
         }
         let monitor = env.monitor();
         if monitor.stuck() > 0 && env.t() >= self.retry_at {
-            // A plan that outlasts the episode is no rescue: planners that
-            // search within a cap (OD-A*, CBS) prune longer ones, a
-            // portfolio passes them on to its next planner.
-            let remaining = env.config().t_max.saturating_sub(env.t()) as usize;
-            let limits = Limits {
-                max_makespan: Some(remaining),
-                ..self.limits
-            };
-            let solved =
-                self.planner
-                    .solve(&env.map().grid, &env.positions(), &env.goals(), &limits);
-            let planned = solved.ok().and_then(|solution| {
-                let steps = plan_actions(&solution.plan).ok()?;
-                Some((solution.plan, steps))
-            });
-            match planned {
-                Some(plan) => {
-                    self.plan = Some(plan);
-                    self.step = 0;
-                    self.rescues += 1;
-                    if self.follow(env, actions) {
-                        return;
-                    }
-                }
-                None => {
-                    self.retry_at = env.t() + (monitor.window() << self.failures.min(8));
-                    self.failures += 1;
-                }
+            if !self.plan_from(env) {
+                self.retry_at = env.t() + (monitor.window() << self.failures.min(8));
+                self.failures += 1;
+            } else if self.follow(env, actions) {
+                return;
             }
         }
         self.inner.act(env, actions);

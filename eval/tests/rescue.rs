@@ -7,7 +7,7 @@ use std::sync::Arc;
 use buridan_env::{EnvConfig, GridEnv, Map};
 use buridan_eval::policy::PolicyController;
 use buridan_eval::rescue::RescueController;
-use buridan_eval::run_episode;
+use buridan_eval::{run_episode, Controller};
 use buridan_mapf::{planner_by_name, Limits};
 use buridan_policy::ActMode;
 
@@ -44,6 +44,65 @@ fn lacam_frees_the_jammed_greedy_ppo_policy_and_stays_out_of_solved_episodes() {
             untouched += 1;
         }
         assert!(r.success || !plain.success, "episode {episode}: {r:?}");
+    }
+    assert!(untouched >= 5, "{untouched}");
+}
+
+#[test]
+fn foresight_plans_jammed_episodes_from_the_start_and_leaves_solved_ones_alone() {
+    // The same committed greedy PPO policy and its jammed episodes. With
+    // foresight a twin of the policy plays each episode ahead; where it
+    // gets stuck, OD-A* plans from the start: the episode takes the optimal
+    // makespan (no steps lost walking into the jam and waiting for the
+    // stall detector), and never more steps than the late rescue needs.
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../docs/results/ppo-ctde-rm-2.1/checkpoint");
+    let map = Arc::new(Map::load("rm-2.1").unwrap());
+    let cfg = EnvConfig {
+        agents: 4,
+        seed: 42,
+        ..EnvConfig::default()
+    };
+    let mut env = GridEnv::new(map.clone(), cfg).unwrap();
+    let policy = || Box::new(PolicyController::load(&dir, 4, ActMode::Greedy, 42).unwrap());
+    let od: Arc<dyn buridan_mapf::Planner> = planner_by_name("od-astar").unwrap().into();
+    let mut late = RescueController::new(policy(), od.clone(), Limits::default());
+    let mut ahead =
+        RescueController::new(policy(), od.clone(), Limits::default()).with_foresight(policy());
+    assert_eq!(ahead.name(), "ctde-policy+lookahead-od-astar");
+    let mut raw = policy();
+    for episode in [15, 17, 24, 43, 45, 51, 73] {
+        let r = run_episode(&mut env, &mut ahead, episode).unwrap();
+        let l = run_episode(&mut env, &mut late, episode).unwrap();
+        env.reset_to(episode).unwrap();
+        let optimal = od
+            .solve(
+                &map.grid,
+                &env.positions(),
+                &env.goals(),
+                &Limits::default(),
+            )
+            .unwrap()
+            .plan
+            .makespan() as u32;
+        assert!(
+            r.success && r.rescues == Some(1),
+            "episode {episode}: {r:?}"
+        );
+        assert_eq!(r.timesteps, optimal, "episode {episode}: {r:?}");
+        assert!(r.timesteps <= l.timesteps, "episode {episode}: {r:?} {l:?}");
+    }
+    // Episodes the policy solves alone are played exactly as without the net.
+    let mut untouched = 0;
+    for episode in 0..15 {
+        let plain = run_episode(&mut env, raw.as_mut(), episode).unwrap();
+        let r = run_episode(&mut env, &mut ahead, episode).unwrap();
+        if r.rescues == Some(0) {
+            assert_eq!((r.success, r.timesteps), (plain.success, plain.timesteps));
+            assert!(plain.success, "episode {episode}: {r:?}");
+            untouched += 1;
+        }
+        assert!(r.success, "episode {episode}: {r:?}");
     }
     assert!(untouched >= 5, "{untouched}");
 }

@@ -82,12 +82,13 @@ pub trait Planner: Send + Sync {
 
 /// The default-configured planner of a name: `"ma-astar"` (also `"maastar"`,
 /// `"ma-a*"`), `"od-astar"` (also `"od-a*"`), `"od-astar-soc"`, `"cbs"`, `"pibt"`, `"lacam"`
-/// or `"lacam-star"` (also `"lacam*"`); names joined by `+` make a
+/// `"lacam-star"` (also `"lacam*"`) or `"lacam-star-makespan"`; names joined by `+` make a
 /// [`Portfolio`] of them, tried in that order.
 ///
 /// ```
 /// assert_eq!(buridan_mapf::planner_by_name("cbs").unwrap().name(), "cbs");
 /// assert_eq!(buridan_mapf::planner_by_name("LaCAM*").unwrap().name(), "lacam-star");
+/// assert_eq!(buridan_mapf::planner_by_name("lacam-star-makespan").unwrap().name(), "lacam-star-makespan");
 /// assert_eq!(buridan_mapf::planner_by_name("lacam+od-astar").unwrap().name(), "lacam+od-astar");
 /// assert!(buridan_mapf::planner_by_name("dijkstra").is_none());
 /// assert!(buridan_mapf::planner_by_name("lacam+dijkstra").is_none());
@@ -110,6 +111,10 @@ pub fn planner_by_name(name: &str) -> Option<Box<dyn Planner>> {
         "lacam-star" | "lacam*" | "lacam_star" | "lacamstar" => {
             Some(Box::new(crate::LacamStar::default()))
         }
+        "lacam-star-makespan" => Some(Box::new(crate::LacamStar {
+            objective: crate::Objective::Makespan,
+            ..crate::LacamStar::default()
+        })),
         _ => None,
     }
 }
