@@ -744,6 +744,7 @@ impl TrainCell {
             out: out.join(&self.run_dir),
             quiet: true,
             stop_when_stdin_closes: false,
+            dashboard: Default::default(),
         }
     }
 
