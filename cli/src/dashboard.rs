@@ -265,10 +265,10 @@ impl EvalJob {
                 self.agents,
                 if r.success { "solved" } else { "failed" },
                 r.timesteps,
-                if r.deadlocked_agents > 0 {
-                    format!(", {} agents deadlocked", r.deadlocked_agents)
-                } else {
-                    String::new()
+                match r.deadlocked_agents {
+                    0 => String::new(),
+                    1 => ", 1 agent deadlocked".into(),
+                    n => format!(", {n} agents deadlocked"),
                 }
             ),
         );

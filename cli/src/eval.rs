@@ -8,8 +8,8 @@ use anyhow::{bail, Context, Result};
 use buridan_env::{Map, Starts};
 use buridan_eval::output::{write_report, write_sweep};
 use buridan_eval::planner::PlannerController;
-use buridan_eval::{evaluate, Controller, EvalSpec, EvalSummary, RandomController};
 use buridan_eval::replay::Warmup;
+use buridan_eval::{evaluate, Controller, EvalSpec, EvalSummary, RandomController};
 use buridan_policy::ActMode;
 
 use crate::replay::write_failed;

@@ -78,7 +78,10 @@ pub fn limits(time_limit: f64, memory_limit_mib: usize) -> Result<Limits> {
 /// Runs `learner replay`: records the episode and writes its GIF.
 pub fn run(args: &ReplayArgs) -> Result<Trace> {
     if !args.out.extension().is_some_and(|e| e == "gif") {
-        bail!("--out {}: the replay is a GIF, name it *.gif", args.out.display());
+        bail!(
+            "--out {}: the replay is a GIF, name it *.gif",
+            args.out.display()
+        );
     }
     if args.agents == 0 {
         bail!("--agents must be at least 1");
@@ -166,7 +169,15 @@ pub fn write_failed(
     let mut files = Vec::new();
     for r in failed.take(max) {
         let path = dir.join(format!("episode-{}.gif", r.episode));
-        let trace = write_replay(map, spec, make, r.episode, warmup, &path, &GifOptions::default())?;
+        let trace = write_replay(
+            map,
+            spec,
+            make,
+            r.episode,
+            warmup,
+            &path,
+            &GifOptions::default(),
+        )?;
         if trace.record.success || trace.record.timesteps != r.timesteps {
             tracing::warn!(
                 episode = r.episode,

@@ -95,9 +95,23 @@ pub fn run(args: &ServeArgs) -> Result<Summary> {
         Some(live) => {
             let mut progress =
                 DashboardProgress::new(&mut terminal, live, args.run.dashboard.dashboard_eval);
-            serve(&cfg, &args.run.out, &opts, listener, Some(ready_tx), &mut progress)?
+            serve(
+                &cfg,
+                &args.run.out,
+                &opts,
+                listener,
+                Some(ready_tx),
+                &mut progress,
+            )?
         }
-        None => serve(&cfg, &args.run.out, &opts, listener, Some(ready_tx), &mut terminal)?,
+        None => serve(
+            &cfg,
+            &args.run.out,
+            &opts,
+            listener,
+            Some(ready_tx),
+            &mut terminal,
+        )?,
     };
     report(&args.run, &cfg, &summary)?;
     if let Some(live) = live {

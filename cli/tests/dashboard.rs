@@ -24,7 +24,11 @@ impl Drop for Guard {
 /// The body of `GET path` (panics unless the status is 200).
 fn get(addr: SocketAddr, path: &str) -> Vec<u8> {
     let mut s = TcpStream::connect(addr).unwrap();
-    write!(s, "GET {path} HTTP/1.1\r\nHost: test\r\nConnection: close\r\n\r\n").unwrap();
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: test\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
     let mut raw = Vec::new();
     s.read_to_end(&mut raw).unwrap();
     let split = raw.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
@@ -105,7 +109,12 @@ fn a_training_run_serves_its_dashboard() {
         let csv = serde_json::to_value(row).unwrap();
         for (k, v) in csv.as_object().unwrap() {
             let x = v.as_f64().unwrap_or(f64::NAN);
-            assert!(same(x, &s[k]), "update {}: {k} is {x} in metrics.csv, {} served", row.update, s[k]);
+            assert!(
+                same(x, &s[k]),
+                "update {}: {k} is {x} in metrics.csv, {} served",
+                row.update,
+                s[k]
+            );
         }
     }
     assert_eq!(state["run"]["steps"], 3000);
@@ -114,7 +123,10 @@ fn a_training_run_serves_its_dashboard() {
     assert!(accepted > 0, "{}", state["status"]);
     assert_eq!(state["eval"]["episodes"], 3);
     assert_eq!(state["eval"]["checkpoint"], "final");
-    assert!(state["replay"]["caption"].as_str().unwrap().starts_with("final: episode"));
+    assert!(state["replay"]["caption"]
+        .as_str()
+        .unwrap()
+        .starts_with("final: episode"));
     assert_eq!(&get(addr, "/api/replay.gif")[..6], b"GIF89a");
 
     // The live stream answers, starting with its greeting.

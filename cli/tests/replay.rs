@@ -57,7 +57,9 @@ fn a_replay_is_the_evaluated_episode() {
     assert_eq!(fields[0], "3");
     assert_eq!(fields[2], trace.record.timesteps.to_string());
     // Random crowds of 8 fail within 30 steps: the first two failures are drawn.
-    let gifs = std::fs::read_dir(dir.path().join("replays")).unwrap().count();
+    let gifs = std::fs::read_dir(dir.path().join("replays"))
+        .unwrap()
+        .count();
     assert_eq!(gifs, 2);
 }
 

@@ -44,7 +44,7 @@ function el(name, attrs, text) {
 function chart(id, f, colour, yFixed) {
   const svg = document.getElementById(id);
   const W = svg.clientWidth || 600, H = svg.clientHeight || 220;
-  const m = { l: 48, r: 12, t: 8, b: 26 };
+  const m = { l: 48, r: 24, t: 8, b: 26 };
   svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
   while (svg.firstChild) svg.removeChild(svg.firstChild);
   const pts = state.rows.map((r) => [r.env_steps, f(r)]).filter((p) => p[1] != null && isFinite(p[1]));
@@ -57,7 +57,7 @@ function chart(id, f, colour, yFixed) {
   if (!yFixed) { const pad = (y1 - y0) * 0.05; y0 -= pad; y1 += pad; }
   const X = (x) => m.l + (x / x1) * (W - m.l - m.r);
   const Y = (y) => H - m.b - ((y - y0) / (y1 - y0)) * (H - m.t - m.b);
-  for (const t of ticks(y0, y1, 4)) {
+  for (const t of ticks(y0, y1, 5)) {
     svg.appendChild(el("line", { x1: m.l, x2: W - m.r, y1: Y(t), y2: Y(t), stroke: "#e3e3e6" }));
     svg.appendChild(el("text", { x: m.l - 6, y: Y(t) + 4, "text-anchor": "end", "font-size": 11, fill: "#6b6b70" }, tick(t)));
   }
@@ -82,7 +82,7 @@ function numbers() {
   const eta = r.steps_per_s > 0 && budget > r.env_steps ? (budget - r.env_steps) / r.steps_per_s : null;
   const clock = (t) => t == null ? "–" : t < 60 ? Math.round(t) + " s" : t < 3600 ? Math.floor(t / 60) + " min " + Math.round(t % 60) + " s" : Math.floor(t / 3600) + " h " + Math.round((t % 3600) / 60) + " min";
   const cells = [
-    ["env steps", num(r.env_steps) + (budget ? " / " + tick(budget) : "")],
+    [budget ? "env steps of " + tick(budget) : "env steps", num(r.env_steps)],
     ["steps/s", num(r.steps_per_s == null ? null : Math.round(r.steps_per_s))],
     ["success", pct(r.success_rate)],
     ["return", r.episode_return_mean == null ? "–" : r.episode_return_mean.toFixed(2)],
@@ -140,7 +140,8 @@ function replay() {
   if (!r) return;
   document.getElementById("replay-caption").textContent = r.caption;
   const img = document.getElementById("replay-img");
-  img.src = "/api/replay.gif?v=" + r.version;
+  const src = "/api/replay.gif?v=" + r.version;
+  if (img.getAttribute("src") !== src) img.setAttribute("src", src);
   img.alt = r.caption;
   img.hidden = false;
 }
@@ -149,7 +150,7 @@ function run() {
   const r = state.run || {};
   if (!r.algo) return;
   document.getElementById("run").textContent =
-    `${r.algo} ${r.mode} on ${r.map}, ${r.agents} agents, seed ${r.seed}, ${tick(r.steps)} env steps → ${r.out}`;
+    `${r.algo} ${r.mode} on ${r.map}, ${r.agents} agents, seed ${r.seed}, ${tick(r.steps)} env steps`;
 }
 
 function redraw() {

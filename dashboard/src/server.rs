@@ -73,7 +73,12 @@ pub fn router(board: Board) -> Router {
         .route("/", get(|| async { Html(INDEX_HTML) }))
         .route(
             "/app.js",
-            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], APP_JS) }),
+            get(|| async {
+                (
+                    [(header::CONTENT_TYPE, "text/javascript; charset=utf-8")],
+                    APP_JS,
+                )
+            }),
         )
         .route("/api/state", get(state))
         .route("/api/events", get(events))
@@ -132,9 +137,7 @@ async fn state(State(board): State<Board>) -> Json<serde_json::Value> {
     Json(board.snapshot())
 }
 
-async fn events(
-    State(board): State<Board>,
-) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
+async fn events(State(board): State<Board>) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
     let stream = BroadcastStream::new(board.subscribe()).map(|u| {
         Ok(match u {
             Ok(u) => Event::default().event(u.kind).data(u.data.to_string()),
@@ -168,7 +171,11 @@ mod tests {
 
     fn get(addr: SocketAddr, path: &str) -> String {
         let mut s = std::net::TcpStream::connect(addr).unwrap();
-        write!(s, "GET {path} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n").unwrap();
+        write!(
+            s,
+            "GET {path} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"
+        )
+        .unwrap();
         let mut out = String::new();
         s.read_to_string(&mut out).unwrap();
         out
@@ -182,7 +189,10 @@ mod tests {
         let page = get(running.addr(), "/");
         assert!(page.starts_with("HTTP/1.1 200"), "{page}");
         assert!(page.contains("<script src=\"/app.js\">"));
-        assert!(!page.contains("http://") && !page.contains("https://"), "no outside links");
+        assert!(
+            !page.contains("http://") && !page.contains("https://"),
+            "no outside links"
+        );
         assert!(get(running.addr(), "/app.js").contains("EventSource"));
         let state = get(running.addr(), "/api/state");
         assert!(state.contains("\"env_steps\":2048"), "{state}");
@@ -217,6 +227,9 @@ mod tests {
     fn a_busy_address_is_an_error() {
         let first = serve("127.0.0.1:0".parse().unwrap(), Board::default()).unwrap();
         let err = serve(first.addr(), Board::default()).err().unwrap();
-        assert!(err.to_string().contains("cannot serve the dashboard"), "{err}");
+        assert!(
+            err.to_string().contains("cannot serve the dashboard"),
+            "{err}"
+        );
     }
 }

@@ -66,8 +66,7 @@ pub fn gif_bytes(trace: &Trace, opts: &GifOptions) -> Result<Vec<u8>, RenderErro
     let mut palette = Palette::new();
     let mut out = Vec::new();
     {
-        let mut encoder =
-            gif::Encoder::new(&mut out, w as u16, h as u16, &palette.table())?;
+        let mut encoder = gif::Encoder::new(&mut out, w as u16, h as u16, &palette.table())?;
         encoder.set_repeat(gif::Repeat::Infinite)?;
         let mut rgb = vec![0u8; w * h * 3];
         let mut previous: Option<Vec<u8>> = None;

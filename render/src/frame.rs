@@ -175,15 +175,13 @@ pub fn draw(
         .map_err(e)?;
         if px >= 16 {
             let label = (i + 1).to_string();
-            let style = ("sans-serif", font_px)
-                .into_font()
-                .color(&WHITE)
-                .pos(plotters::style::text_anchor::Pos::new(
+            let style = ("sans-serif", font_px).into_font().color(&WHITE).pos(
+                plotters::style::text_anchor::Pos::new(
                     plotters::style::text_anchor::HPos::Center,
                     plotters::style::text_anchor::VPos::Center,
-                ));
-            root.draw(&Text::new(label, centre(c), style))
-                .map_err(e)?;
+                ),
+            );
+            root.draw(&Text::new(label, centre(c), style)).map_err(e)?;
         }
     }
     // The headline and the legend.
@@ -218,17 +216,28 @@ pub fn draw(
     };
     text(head, 4, 3, palette::INK, false).map_err(e)?;
     text(status, 4, 21, colour, true).map_err(e)?;
+    // Name and count of each ring, right-aligned on the second line.
     let legend = [
-        ("stuck", count(Mark::Stuck), palette::STUCK),
-        ("deadlocked", count(Mark::Deadlocked), palette::DEADLOCK),
-        ("livelocked", count(Mark::Livelocked), palette::LIVELOCK),
+        ("stuck", count(Mark::Stuck), palette::STUCK, 78),
+        (
+            "deadlocked",
+            count(Mark::Deadlocked),
+            palette::DEADLOCK,
+            112,
+        ),
+        (
+            "livelocked",
+            count(Mark::Livelocked),
+            palette::LIVELOCK,
+            104,
+        ),
     ];
-    let mut x = layout.width as i32 - 3 * 84;
-    for (name, c, colour) in legend {
-        root.draw(&Circle::new((x + 5, 28), 5, rgb(colour).stroke_width(2)))
+    let mut x = layout.width as i32 - legend.iter().map(|l| l.3).sum::<i32>();
+    for (name, c, colour, width) in legend {
+        root.draw(&Circle::new((x + 6, 29), 5, rgb(colour).stroke_width(2)))
             .map_err(e)?;
-        text(format!("{name} {c}"), x + 13, 21, colour, false).map_err(e)?;
-        x += 84;
+        text(format!("{name} {c}"), x + 15, 21, colour, false).map_err(e)?;
+        x += width;
     }
     root.present().map_err(e)?;
     Ok(())
