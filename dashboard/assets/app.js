@@ -194,4 +194,5 @@ function follow() {
 }
 
 window.addEventListener("resize", soon);
+load();
 follow();
