@@ -77,7 +77,7 @@ pub fn limits(time_limit: f64, memory_limit_mib: usize) -> Result<Limits> {
 
 /// Runs `learner replay`: records the episode and writes its GIF.
 pub fn run(args: &ReplayArgs) -> Result<Trace> {
-    if !args.out.extension().is_some_and(|e| e == "gif") {
+    if args.out.extension().is_none_or(|e| e != "gif") {
         bail!(
             "--out {}: the replay is a GIF, name it *.gif",
             args.out.display()
