@@ -139,12 +139,20 @@ function replay() {
   const r = state.replay;
   if (!r) return;
   document.getElementById("replay-caption").textContent = r.caption;
-  const img = document.getElementById("replay-img");
-  const src = "/api/replay.gif?v=" + r.version;
-  if (img.getAttribute("src") !== src) img.setAttribute("src", src);
-  img.alt = r.caption;
-  img.hidden = false;
+  if (shownReplay === r.version) return;
+  shownReplay = r.version;
+  // Fetched, then shown from memory: one request per new replay.
+  fetch("/api/replay.gif?v=" + r.version, { cache: "no-store" })
+    .then((res) => res.blob())
+    .then((blob) => {
+      const img = document.getElementById("replay-img");
+      if (img.src.startsWith("blob:")) URL.revokeObjectURL(img.src);
+      img.src = URL.createObjectURL(blob);
+      img.alt = r.caption;
+      img.hidden = false;
+    });
 }
+let shownReplay = null;
 
 function run() {
   const r = state.run || {};
