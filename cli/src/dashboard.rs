@@ -7,8 +7,10 @@
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use buridan_dashboard::{Board, Running, Status};
@@ -73,15 +75,21 @@ impl Live {
         self.running.addr()
     }
 
-    /// Keeps serving for the linger time, then stops.
-    pub fn finish(self) {
+    /// Keeps serving for the linger time (or until `stop` is set: a
+    /// signal), then stops.
+    pub fn finish(self, stop: Option<&AtomicBool>) {
         if self.linger > 0.0 {
             eprintln!(
                 "dashboard at http://{} for {} s more",
                 self.running.addr(),
                 self.linger
             );
-            std::thread::sleep(std::time::Duration::from_secs_f64(self.linger));
+            let end = Instant::now() + Duration::from_secs_f64(self.linger);
+            while Instant::now() < end && !stop.is_some_and(|s| s.load(Ordering::SeqCst)) {
+                std::thread::sleep(
+                    Duration::from_millis(100).min(end.saturating_duration_since(Instant::now())),
+                );
+            }
         }
     }
 }

@@ -74,7 +74,7 @@ pub fn run(args: &ServeArgs) -> Result<Summary> {
         max_message_bytes: args.max_message_bytes,
         queue_capacity: args.queue,
         linger: Duration::from_secs(1),
-        interrupt: Some(interrupt),
+        interrupt: Some(interrupt.clone()),
         ..ServeOptions::default()
     };
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
@@ -115,7 +115,8 @@ pub fn run(args: &ServeArgs) -> Result<Summary> {
     };
     report(&args.run, &cfg, &summary)?;
     if let Some(live) = live {
-        live.finish();
+        // Ctrl-C or SIGTERM (watch_signals) ends the lingering too.
+        live.finish(Some(&interrupt));
     }
     Ok(summary)
 }

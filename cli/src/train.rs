@@ -310,13 +310,13 @@ pub fn run(args: &TrainArgs) -> Result<Summary> {
         Some(live) => {
             let mut progress =
                 DashboardProgress::new(&mut terminal, live, args.dashboard.dashboard_eval);
-            train_interruptible(&cfg, &args.out, &mut progress, interrupt)?
+            train_interruptible(&cfg, &args.out, &mut progress, interrupt.clone())?
         }
-        None => train_interruptible(&cfg, &args.out, &mut terminal, interrupt)?,
+        None => train_interruptible(&cfg, &args.out, &mut terminal, interrupt.clone())?,
     };
     report(args, &cfg, &summary)?;
     if let Some(live) = live {
-        live.finish();
+        live.finish(Some(&interrupt));
     }
     Ok(summary)
 }
