@@ -3,14 +3,16 @@
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
 use buridan_env::{Map, Starts};
 use buridan_eval::output::{write_report, write_sweep};
 use buridan_eval::planner::PlannerController;
+use buridan_eval::replay::Warmup;
 use buridan_eval::{evaluate, Controller, EvalSpec, EvalSummary, RandomController};
 use buridan_policy::ActMode;
+
+use crate::replay::write_failed;
 
 use buridan_eval::policy::PolicyController;
 use buridan_eval::rescue::RescueController;
@@ -74,6 +76,13 @@ pub struct EvalArgs {
     /// (shielded: the sampled action is the first preference).
     #[arg(long)]
     pub sample: bool,
+    /// Write the replays of failed episodes (animated GIFs) into this
+    /// directory (per agent count in a sweep).
+    #[arg(long, value_name = "DIR")]
+    pub replays: Option<PathBuf>,
+    /// At most this many replays per agent count (--replays).
+    #[arg(long, default_value_t = 20)]
+    pub replays_max: usize,
 }
 
 /// Parses `4`, `4..20`, `4..20:2` or `4,8,12` into agent counts.
@@ -229,14 +238,7 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
     let map =
         Arc::new(Map::load(&args.map).with_context(|| format!("loading map '{}'", args.map))?);
     let counts = parse_agent_counts(&args.agents)?;
-    if !(args.time_limit > 0.0 && args.time_limit.is_finite()) {
-        bail!("--time-limit must be a positive number of seconds");
-    }
-    let limits = Limits {
-        time: Duration::from_secs_f64(args.time_limit),
-        memory_bytes: args.memory_limit << 20,
-        ..Limits::default()
-    };
+    let limits = crate::replay::limits(args.time_limit, args.memory_limit)?;
     let sweep = counts.len() > 1;
     let act_mode = if args.sample {
         ActMode::Sample
@@ -263,6 +265,7 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
             .progress_chars("=> "),
         );
         bar.set_prefix(format!("{} {} agents={agents}", args.controller, map.name));
+        crate::heartbeat::watch(&bar);
         let solved = AtomicUsize::new(0);
         let done = AtomicUsize::new(0);
         let on_episode = |r: &buridan_eval::EpisodeRecord| {
@@ -282,6 +285,26 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
         };
         let files = write_report(&dir, &report, &map.grid)
             .with_context(|| format!("writing results to {}", dir.display()))?;
+        if let Some(replays) = &args.replays {
+            let dir = if sweep {
+                replays.join(format!("agents-{agents}"))
+            } else {
+                replays.clone()
+            };
+            let warmup = if args.sample && spec.jobs == 1 {
+                Warmup::Preceding
+            } else {
+                Warmup::Fresh
+            };
+            let files = write_failed(&map, &spec, &make, &report, warmup, &dir, args.replays_max)?;
+            if !args.json {
+                eprintln!(
+                    "{} replays of failed episodes -> {}",
+                    files.len(),
+                    dir.display()
+                );
+            }
+        }
         let s = &report.summary;
         tracing::info!(
             controller = %s.controller, map = %s.map, agents, success_rate = s.success_rate,

@@ -770,6 +770,7 @@ impl TrainCell {
             out: out.join(&self.run_dir),
             quiet: true,
             stop_when_stdin_closes: false,
+            dashboard: Default::default(),
         }
     }
 

@@ -4,10 +4,13 @@
 //! and `buridan-mapf`; this crate only parses, calls and presents.
 
 pub mod aggregate;
+pub mod dashboard;
 pub mod eval;
 pub mod experiment;
+pub mod heartbeat;
 pub mod metrics_tail;
 pub mod process;
+pub mod replay;
 pub mod serve;
 pub mod study;
 pub mod train;

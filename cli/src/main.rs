@@ -23,6 +23,8 @@ enum Command {
     Serve(cli::serve::ServeArgs),
     /// Evaluate a controller (planner, random or trained policy) on seeded episodes.
     Eval(cli::eval::EvalArgs),
+    /// Draw one evaluation episode as an animated GIF (robots, goals, trails, jams).
+    Replay(cli::replay::ReplayArgs),
     /// Search hyperparameters: a study file's trials, in parallel, resumable (or on a cluster).
     Tune(cli::tune::TuneArgs),
     /// Run a declarative experiment: layouts x methods x seeds, planners, evaluation, report.
@@ -52,8 +54,10 @@ fn main() -> Result<()> {
     };
     tracing_subscriber::fmt()
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| default_level.into()),
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+                // Progress lines stand in for the bars off a terminal.
+                format!("{default_level},{}=info", cli::heartbeat::TARGET).into()
+            }),
         )
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
@@ -62,6 +66,7 @@ fn main() -> Result<()> {
         Command::Train(args) => cli::train::run(&args).map(|_| ()),
         Command::Serve(args) => cli::serve::run(&args).map(|_| ()),
         Command::Eval(args) => cli::eval::run(&args).map(|_| ()),
+        Command::Replay(args) => cli::replay::run(&args).map(|_| ()),
         Command::Tune(args) => cli::tune::run(&args).map(|_| ()),
         Command::Study(args) => cli::study::run(&args).map(|_| ()),
         Command::Curves { out, title } => cli::train::write_curves(&out, &title),

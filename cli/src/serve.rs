@@ -15,6 +15,8 @@ use crate::train::{
 use buridan_learner::serve::{serve, Listener, ServeOptions, DEFAULT_MAX_MESSAGE_BYTES};
 use buridan_learner::train::Summary;
 
+use crate::dashboard::{DashboardProgress, Live};
+
 /// Arguments of `learner serve`: the run options of `learner train` plus
 /// the server's.
 #[derive(Debug, clap::Args)]
@@ -72,7 +74,7 @@ pub fn run(args: &ServeArgs) -> Result<Summary> {
         max_message_bytes: args.max_message_bytes,
         queue_capacity: args.queue,
         linger: Duration::from_secs(1),
-        interrupt: Some(interrupt),
+        interrupt: Some(interrupt.clone()),
         ..ServeOptions::default()
     };
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
@@ -86,16 +88,36 @@ pub fn run(args: &ServeArgs) -> Result<Summary> {
             }
         }
     });
-    let mut progress = TerminalProgress::new(cfg.steps, args.run.quiet);
-    let summary = serve(
-        &cfg,
-        &args.run.out,
-        &opts,
-        Listener::Tcp(args.listen),
-        Some(ready_tx),
-        &mut progress,
-    )?;
+    let live = Live::start(&args.run.dashboard)?;
+    let mut terminal = TerminalProgress::new(cfg.steps, args.run.quiet);
+    let listener = Listener::Tcp(args.listen);
+    let summary = match &live {
+        Some(live) => {
+            let mut progress =
+                DashboardProgress::new(&mut terminal, live, args.run.dashboard.dashboard_eval);
+            serve(
+                &cfg,
+                &args.run.out,
+                &opts,
+                listener,
+                Some(ready_tx),
+                &mut progress,
+            )?
+        }
+        None => serve(
+            &cfg,
+            &args.run.out,
+            &opts,
+            listener,
+            Some(ready_tx),
+            &mut terminal,
+        )?,
+    };
     report(&args.run, &cfg, &summary)?;
+    if let Some(live) = live {
+        // Ctrl-C or SIGTERM (watch_signals) ends the lingering too.
+        live.finish(Some(&interrupt));
+    }
     Ok(summary)
 }
 

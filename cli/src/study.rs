@@ -79,6 +79,7 @@ impl Bars {
                 .progress_chars("=> "),
         );
         bar.set_prefix(prefix);
+        crate::heartbeat::watch(&bar);
         bar
     }
 
@@ -307,6 +308,7 @@ pub fn run(args: &StudyArgs) -> Result<StudyOutcome> {
             .progress_chars("=> "),
     );
     total.set_prefix(x.name.clone());
+    crate::heartbeat::watch(&total);
     let queue = Mutex::new(todo.iter().collect::<VecDeque<_>>());
     let failures = Mutex::new(Vec::new());
     std::thread::scope(|s| {

@@ -8,6 +8,8 @@ use anyhow::{bail, Context, Result};
 use buridan_env::{ObsFeatures, Starts};
 use buridan_eval::plot::{line_chart, Series};
 use buridan_policy::Mode;
+
+use crate::dashboard::{DashboardProgress, Live};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use buridan_learner::train::{
@@ -68,6 +70,9 @@ pub struct TrainArgs {
     /// run notices that its supervisor died.
     #[arg(long)]
     pub stop_when_stdin_closes: bool,
+    /// The live dashboard.
+    #[command(flatten)]
+    pub dashboard: crate::dashboard::DashboardArgs,
 }
 
 /// Sets the dotted `key` of a TOML table to `value` (parsed as TOML, else a string).
@@ -182,6 +187,7 @@ impl TerminalProgress {
             .expect("valid template")
             .progress_chars("=> "),
         );
+        crate::heartbeat::watch(&bar);
         Self { bar }
     }
 }
@@ -294,13 +300,24 @@ pub fn run(args: &TrainArgs) -> Result<Summary> {
     if let Some(addr) = args.metrics {
         install_metrics(addr)?;
     }
-    let mut progress = TerminalProgress::new(cfg.steps, args.quiet);
+    let live = Live::start(&args.dashboard)?;
+    let mut terminal = TerminalProgress::new(cfg.steps, args.quiet);
     let interrupt = Arc::new(AtomicBool::new(false));
     if args.stop_when_stdin_closes {
         stop_when_stdin_closes(interrupt.clone());
     }
-    let summary = train_interruptible(&cfg, &args.out, &mut progress, interrupt)?;
+    let summary = match &live {
+        Some(live) => {
+            let mut progress =
+                DashboardProgress::new(&mut terminal, live, args.dashboard.dashboard_eval);
+            train_interruptible(&cfg, &args.out, &mut progress, interrupt.clone())?
+        }
+        None => train_interruptible(&cfg, &args.out, &mut terminal, interrupt.clone())?,
+    };
     report(args, &cfg, &summary)?;
+    if let Some(live) = live {
+        live.finish(Some(&interrupt));
+    }
     Ok(summary)
 }
 
@@ -352,9 +369,11 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
         cfg.algo,
         format!("{:?}", cfg.mode).to_lowercase(),
         cfg.map_label(),
-        cfg.agents
+        cfg.agents,
     );
-    write_curves(&args.out, &title).context("drawing the learning curves")?;
+    // One run: one seed, named in the figures' titles.
+    write_curves(&args.out, &format!("{title}, seed {}", cfg.seed))
+        .context("drawing the learning curves")?;
     eprintln!(
         "{title}: {} env steps in {:.0} s ({:.0} steps/s); last 100 episodes: return {:.2}, success {:.1}%, length {:.1} -> {}",
         summary.env_steps,

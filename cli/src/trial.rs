@@ -255,6 +255,7 @@ pub fn trial_bar(multi: Option<&MultiProgress>, spec: &TrialSpec) -> Option<Prog
             .progress_chars("=> "),
     );
     bar.set_prefix(format!("trial {:>3}", spec.id));
+    crate::heartbeat::watch(&bar);
     Some(bar)
 }
 

@@ -36,6 +36,7 @@ fn train_args(out: PathBuf) -> TrainArgs {
         out,
         quiet: true,
         stop_when_stdin_closes: false,
+        dashboard: Default::default(),
     }
 }
 
@@ -54,6 +55,8 @@ fn eval_args(controller: String, out: PathBuf) -> EvalArgs {
         out,
         json: false,
         sample: false,
+        replays: None,
+        replays_max: 20,
     }
 }
 

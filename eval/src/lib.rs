@@ -11,12 +11,14 @@
 //! - [`stats`]: quantiles and box-plot statistics.
 //! - [`output`]: CSV, JSON and PNG files of a report; the agent-count sweep.
 //! - [`plot`]: heatmaps, box plots and line charts as PNG.
+//! - [`replay`]: one episode recorded step by step, for drawing.
 
 pub mod controller;
 pub mod output;
 pub mod planner;
 pub mod plot;
 pub mod policy;
+pub mod replay;
 pub mod rescue;
 pub mod runner;
 pub mod shield;

@@ -66,8 +66,8 @@ pub fn write_report(
     std::fs::write(&json_path, json + "\n").map_err(io(&json_path))?;
     let heat_path = dir.join("heatmap.png");
     let title = format!(
-        "{} on {}: cell visits over {} episodes",
-        s.controller, s.map, s.episodes
+        "{} on {}: cell visits over {} episodes (seed {})",
+        s.controller, s.map, s.episodes, s.seed
     );
     plot::heatmap(&heat_path, &title, grid, &report.visits)?;
     let mut paths = vec![csv_path, json_path, heat_path];
@@ -136,7 +136,11 @@ pub fn write_sweep(dir: &Path, summaries: &[EvalSummary]) -> Result<Vec<PathBuf>
     };
     plot::line_chart(
         &png_path,
-        &format!("{name}: success vs agents"),
+        &format!(
+            "{name}: success vs agents ({} episodes each, episode seed {})",
+            summaries.first().map_or(0, |s| s.episodes),
+            summaries.first().map_or(0, |s| s.seed)
+        ),
         "agents",
         "success rate (%)",
         &[series],

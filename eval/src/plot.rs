@@ -7,6 +7,7 @@ use std::path::Path;
 use std::sync::Once;
 
 use buridan_env::Grid;
+use buridan_study::figures::tick;
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
 use plotters::style::FontStyle;
@@ -239,6 +240,9 @@ pub fn line_chart(
         .configure_mesh()
         .x_desc(x_label)
         .y_desc(y_label)
+        // 200k, 2M, 50 (not 200000.0, 50.0).
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
         .draw()
         .map_err(|e| err(path, e))?;
     for (k, s) in series.iter().enumerate() {

@@ -178,19 +178,7 @@ pub fn evaluate(
     on_episode: &(dyn Fn(&EpisodeRecord) + Sync),
 ) -> Result<EvalReport, EnvError> {
     let started = Instant::now();
-    let probe = make();
-    let cfg = EnvConfig {
-        agents: spec.agents,
-        t_max: spec.t_max,
-        starts: spec.starts,
-        seed: spec.seed,
-        // The env writes what the controller reads (a policy's window and
-        // features).
-        sensor_range: probe.obs_sensor_range(),
-        features: probe.obs_features(),
-        ..EnvConfig::default()
-    };
-    drop(probe);
+    let cfg = episode_config(spec, make().as_ref());
     // Fail early, on the caller's thread, for bad configurations.
     GridEnv::new(map.clone(), cfg.clone())?;
     let next = AtomicUsize::new(0);
@@ -240,11 +228,44 @@ pub fn evaluate(
     })
 }
 
+/// The env configuration of [`evaluate`]'s episodes for `spec`: the env
+/// writes what `controller` reads (a policy's window and features).
+///
+/// ```
+/// use buridan_eval::{runner::episode_config, EvalSpec, RandomController};
+/// let spec = EvalSpec { agents: 3, seed: 7, ..EvalSpec::default() };
+/// let cfg = episode_config(&spec, &RandomController::new(7));
+/// assert_eq!((cfg.agents, cfg.seed, cfg.t_max), (3, 7, 100));
+/// ```
+pub fn episode_config(spec: &EvalSpec, controller: &dyn Controller) -> EnvConfig {
+    EnvConfig {
+        agents: spec.agents,
+        t_max: spec.t_max,
+        starts: spec.starts,
+        seed: spec.seed,
+        sensor_range: controller.obs_sensor_range(),
+        features: controller.obs_features(),
+        ..EnvConfig::default()
+    }
+}
+
 /// Plays one episode with `controller`, timing its calls.
 pub fn run_episode(
     env: &mut GridEnv,
     controller: &mut dyn Controller,
     episode: u64,
+) -> Result<EpisodeRecord, EnvError> {
+    run_episode_observed(env, controller, episode, &mut |_| {})
+}
+
+/// Plays one episode as [`run_episode`] does, showing `observe` the env
+/// after the reset (once the controller has prepared) and after every step:
+/// how a replay records what happened.
+pub fn run_episode_observed(
+    env: &mut GridEnv,
+    controller: &mut dyn Controller,
+    episode: u64,
+    observe: &mut dyn FnMut(&GridEnv),
 ) -> Result<EpisodeRecord, EnvError> {
     env.reset_to(episode)?;
     let n = env.agents();
@@ -253,6 +274,7 @@ pub fn run_episode(
     let prepared = controller.begin_episode(env);
     compute += t0.elapsed();
     let notes = controller.episode_notes();
+    observe(env);
     if let Err(why) = prepared {
         return Ok(EpisodeRecord {
             episode,
@@ -285,6 +307,7 @@ pub fn run_episode(
         compute += t0.elapsed();
         let out = env.step(&actions, &mut rewards)?;
         controller.after_step(&rewards);
+        observe(env);
         for (i, a) in arrival.iter_mut().enumerate() {
             if !env.at_goal(i) {
                 // Still off its goal after step t: it arrives at t + 1 at the earliest.

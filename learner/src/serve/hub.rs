@@ -353,6 +353,20 @@ impl Exchange for RemoteExchange {
         self.hub.connected()
     }
 
+    fn fragment_outcomes(&self) -> Vec<(&'static str, u64)> {
+        let c = &self.hub.counters;
+        [
+            (Outcome::Accepted, &c.accepted),
+            (Outcome::Stale, &c.stale),
+            (Outcome::Surplus, &c.surplus),
+            (Outcome::Invalid, &c.invalid),
+            (Outcome::Duplicate, &c.duplicate),
+        ]
+        .into_iter()
+        .map(|(o, n)| (o.label(), n.load(Ordering::Relaxed)))
+        .collect()
+    }
+
     fn finish(&mut self, complete: bool) -> Result<(), ExchangeError> {
         if complete {
             self.hub.finish();

@@ -70,6 +70,9 @@ pub enum TrainError {
     /// `metrics.csv` cannot be written.
     #[error(transparent)]
     Metrics(#[from] MetricsError),
+    /// The TensorBoard event file cannot be written.
+    #[error(transparent)]
+    Events(#[from] crate::train::tensorboard::EventsError),
     /// The actors or the transport to them failed.
     #[error(transparent)]
     Exchange(#[from] ExchangeError),

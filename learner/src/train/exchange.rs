@@ -36,6 +36,11 @@ pub trait Exchange {
     fn queue_depth(&self) -> usize;
     /// Actors currently connected.
     fn connected_actors(&self) -> usize;
+    /// Fragments so far by what became of them at the exchange
+    /// (`accepted`, `stale`, …); none if it does not count them.
+    fn fragment_outcomes(&self) -> Vec<(&'static str, u64)> {
+        Vec::new()
+    }
     /// Ends the learner's side. `complete`: the run reached its goal and
     /// actors are told to stop; otherwise (interrupted) remote actors are
     /// left to reconnect to a restarted learner. Returns the first actor
@@ -116,6 +121,7 @@ pub struct InProcess {
     rx: Option<Receiver<Fragment>>,
     actors: Vec<(u32, JoinHandle<Result<(), CollectError>>)>,
     depth: Arc<AtomicUsize>,
+    received: u64,
 }
 
 impl InProcess {
@@ -158,6 +164,7 @@ impl InProcess {
             rx: Some(rx),
             actors,
             depth,
+            received: 0,
         })
     }
 
@@ -208,6 +215,7 @@ impl Exchange for InProcess {
         match rx.recv_timeout(timeout) {
             Ok(f) => {
                 self.depth.fetch_sub(1, Ordering::SeqCst);
+                self.received += 1;
                 Ok(Some(f))
             }
             Err(RecvTimeoutError::Timeout) => {
@@ -233,6 +241,10 @@ impl Exchange for InProcess {
 
     fn connected_actors(&self) -> usize {
         self.actors.iter().filter(|(_, h)| !h.is_finished()).count()
+    }
+
+    fn fragment_outcomes(&self) -> Vec<(&'static str, u64)> {
+        vec![("accepted", self.received)]
     }
 
     fn finish(&mut self, _complete: bool) -> Result<(), ExchangeError> {

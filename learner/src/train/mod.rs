@@ -17,7 +17,8 @@
 //! fragments more than `max_policy_lag` versions old are dropped and
 //! counted.
 //!
-//! Outputs in `out`: `metrics.csv` (one row per update), `config.toml`,
+//! Outputs in `out`: `metrics.csv` (one row per update), the same scalars
+//! as TensorBoard events (`events.out.tfevents.*`), `config.toml`,
 //! `summary.json`, and checkpoints laid out as
 //! [`buridan_policy::checkpoint`] describes.
 
@@ -27,6 +28,7 @@ pub mod exchange;
 pub mod gate;
 pub mod metrics;
 pub mod rollout;
+pub mod tensorboard;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -64,10 +66,24 @@ pub trait Progress {
     fn on_start(&mut self, _cfg: &TrainConfig, _total_steps: u64, _env_steps: u64) {}
     /// One learner update finished.
     fn on_update(&mut self, _row: &MetricsRow) {}
+    /// The exchange after an update: actors, queue, fragment outcomes.
+    fn on_exchange(&mut self, _status: &ExchangeStatus) {}
     /// A checkpoint was written.
     fn on_checkpoint(&mut self, _dir: &Path) {}
     /// Training finished.
     fn on_finish(&mut self, _summary: &Summary) {}
+}
+
+/// The exchange between actors and learner after an update.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct ExchangeStatus {
+    /// Actors connected (threads in process, or gRPC actors).
+    pub connected_actors: usize,
+    /// Fragments waiting for the learner.
+    pub queue_depth: usize,
+    /// Fragments so far by outcome: the exchange's counts, and
+    /// `stale_at_learner` (dropped by the learner as too old).
+    pub fragments: Vec<(String, u64)>,
 }
 
 /// A [`Progress`] that ignores everything.
@@ -489,6 +505,7 @@ impl Run {
         progress: &mut dyn Progress,
     ) -> Result<bool, TrainError> {
         let mut metrics = MetricsWriter::open(&self.out.join(METRICS_FILE))?;
+        let mut events = tensorboard::EventWriter::create(&self.out)?;
         let shuffle_seed = seed::learner_shuffle(self.cfg.seed, self.state.updates);
         let mut rng = ChaCha8Rng::seed_from_u64(shuffle_seed);
         progress.on_start(&self.cfg, self.cfg.steps, self.state.env_steps);
@@ -505,9 +522,11 @@ impl Run {
             self.publish(exchange)?;
             let row = self.record_update(&stats, learn_seconds, &mut since);
             metrics.write(&row)?;
+            events.row(&row)?;
             export_metrics(&row, exchange);
             tracing::debug!(?row, "update");
             progress.on_update(&row);
+            progress.on_exchange(&self.exchange_status(exchange));
             let every = self.cfg.checkpoint_every;
             if every > 0 && self.state.updates % every == 0 {
                 let dir = checkpoint::update_dir(&self.out, self.state.updates);
@@ -519,6 +538,20 @@ impl Run {
             }
         }
         Ok(false)
+    }
+
+    fn exchange_status(&self, exchange: &dyn Exchange) -> ExchangeStatus {
+        let mut fragments: Vec<(String, u64)> = exchange
+            .fragment_outcomes()
+            .into_iter()
+            .map(|(k, n)| (k.to_string(), n))
+            .collect();
+        fragments.push(("stale_at_learner".into(), self.state.stale_fragments));
+        ExchangeStatus {
+            connected_actors: exchange.connected_actors(),
+            queue_depth: exchange.queue_depth(),
+            fragments,
+        }
     }
 
     /// Publishes the current weights; on-policy runs ask for one train batch.

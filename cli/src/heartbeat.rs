@@ -1,0 +1,112 @@
+//! Progress off a terminal: the progress bars hide themselves when stderr
+//! is not a terminal (a log file, a pipe, a cluster's log collector), so a
+//! watcher logs each bar's state through `tracing` every few seconds
+//! instead: steps, rate, the bar's message (return, success) and the ETA.
+
+use std::io::IsTerminal;
+use std::time::Duration;
+
+use indicatif::ProgressBar;
+
+/// The `tracing` target of progress lines; `main` shows it at `info`.
+pub const TARGET: &str = "progress";
+
+/// Seconds between progress lines unless `BURIDAN_PROGRESS_SECS` says otherwise.
+pub const DEFAULT_SECS: f64 = 5.0;
+
+/// The time between two progress lines: `BURIDAN_PROGRESS_SECS` if it is a
+/// positive number, else [`DEFAULT_SECS`].
+pub fn interval() -> Duration {
+    let secs = std::env::var("BURIDAN_PROGRESS_SECS")
+        .ok()
+        .and_then(|s| s.trim().parse::<f64>().ok())
+        .filter(|s| *s > 0.0 && s.is_finite())
+        .unwrap_or(DEFAULT_SECS);
+    Duration::from_secs_f64(secs)
+}
+
+/// Logs `bar`'s state every [`interval`] while stderr is not a terminal,
+/// until the bar finishes or is dropped (on a terminal the bar shows it).
+pub fn watch(bar: &ProgressBar) {
+    if std::io::stderr().is_terminal() {
+        return;
+    }
+    let weak = bar.downgrade();
+    let every = interval();
+    std::thread::spawn(move || loop {
+        std::thread::sleep(every);
+        let Some(bar) = weak.upgrade() else { break };
+        if bar.is_finished() {
+            break;
+        }
+        tracing::info!(target: TARGET, "{}", line(&bar));
+    });
+}
+
+/// One progress line: prefix, position of length (percent), rate, the
+/// bar's message, elapsed time and ETA.
+///
+/// ```
+/// let bar = indicatif::ProgressBar::hidden();
+/// bar.set_length(200_000);
+/// bar.set_position(50_000);
+/// bar.set_prefix("impala ctde rm-2.1 n=4");
+/// bar.set_message("success 12.5%");
+/// let line = buridan_cli::heartbeat::line(&bar);
+/// assert!(line.starts_with("impala ctde rm-2.1 n=4: 50k/200k (25%)"), "{line}");
+/// assert!(line.contains("success 12.5%") && line.contains("eta"), "{line}");
+/// ```
+pub fn line(bar: &ProgressBar) -> String {
+    let pos = bar.position();
+    let len = bar.length().unwrap_or(0);
+    let pct = if len > 0 {
+        format!(" ({:.0}%)", 100.0 * pos as f64 / len as f64)
+    } else {
+        String::new()
+    };
+    let elapsed = bar.elapsed().as_secs_f64();
+    // indicatif's estimates: over recent steps, so a resumed run's earlier
+    // steps do not count.
+    let rate = bar.per_sec();
+    let eta = if pos > 0 && len > pos && rate > 0.0 {
+        clock(bar.eta().as_secs_f64())
+    } else {
+        "-".into()
+    };
+    let prefix = bar.prefix();
+    let message = bar.message();
+    format!(
+        "{}{}/{}{pct}, {}/s, {} elapsed, eta {eta}{}",
+        if prefix.is_empty() {
+            String::new()
+        } else {
+            format!("{}: ", prefix.trim())
+        },
+        buridan_study::figures::tick(pos as f64),
+        buridan_study::figures::tick(len as f64),
+        buridan_study::figures::tick(rate.round()),
+        clock(elapsed),
+        if message.is_empty() {
+            String::new()
+        } else {
+            format!("; {}", message.trim())
+        }
+    )
+}
+
+/// Seconds as `1h02m`, `3m07s` or `12s`.
+///
+/// ```
+/// use buridan_cli::heartbeat::clock;
+/// assert_eq!(clock(12.4), "12s");
+/// assert_eq!(clock(187.0), "3m07s");
+/// assert_eq!(clock(3720.0), "1h02m");
+/// ```
+pub fn clock(seconds: f64) -> String {
+    let s = seconds.max(0.0).round() as u64;
+    match s {
+        0..60 => format!("{s}s"),
+        60..3600 => format!("{}m{:02}s", s / 60, s % 60),
+        _ => format!("{}h{:02}m", s / 3600, s % 3600 / 60),
+    }
+}

@@ -1,0 +1,190 @@
+//! `learner replay`: one episode of an evaluation drawn as an animated GIF,
+//! and the failed episodes' replays of `learner eval --replays`.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::{bail, Context, Result};
+use buridan_env::{Map, Starts};
+use buridan_eval::replay::{record_episode, Trace, Warmup};
+use buridan_eval::{EvalReport, EvalSpec};
+use buridan_mapf::Limits;
+use buridan_policy::ActMode;
+use buridan_render::{write_gif, GifOptions};
+
+use crate::eval::{controller_factory, ControllerFactory};
+
+/// Arguments of `learner replay`.
+#[derive(Debug, clap::Args)]
+pub struct ReplayArgs {
+    /// Reference model id (`rm-2.1`) or path to a MovingAI `.map` file.
+    #[arg(long)]
+    pub map: String,
+    /// Agents.
+    #[arg(long, default_value_t = 4)]
+    pub agents: usize,
+    /// Seed of the episode generator (as `learner eval --seed`).
+    #[arg(long, default_value_t = 42)]
+    pub seed: u64,
+    /// The episode: `learner eval --seed S` plays it as its K-th (from 0).
+    #[arg(long)]
+    pub episode: u64,
+    /// Episodes of the evaluation the episode belongs to (`learner eval --episodes`).
+    #[arg(long, default_value_t = 100)]
+    pub episodes: usize,
+    /// Any controller `learner eval --controller` accepts.
+    #[arg(long)]
+    pub controller: String,
+    /// `random` starts and goals, or `fixed` (the map's `.scen`).
+    #[arg(long, default_value = "random")]
+    pub starts: Starts,
+    /// Truncation step count T_max.
+    #[arg(long, default_value_t = 100)]
+    pub t_max: u32,
+    /// Per-instance planning time limit in seconds (planners).
+    #[arg(long, default_value_t = 60.0)]
+    pub time_limit: f64,
+    /// Per-instance memory cap of a planner's search, in MiB.
+    #[arg(long, default_value_t = 2048)]
+    pub memory_limit: usize,
+    /// Trained policies: sample actions (the episodes before K are played
+    /// first, as the evaluation plays them).
+    #[arg(long)]
+    pub sample: bool,
+    /// Side of a cell in pixels (0: chosen from the layout's size).
+    #[arg(long, default_value_t = 0)]
+    pub cell_px: u32,
+    /// Time per step in hundredths of a second.
+    #[arg(long, default_value_t = 15)]
+    pub delay: u16,
+    /// The GIF to write.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Planner limits from the command line's seconds and MiB.
+pub fn limits(time_limit: f64, memory_limit_mib: usize) -> Result<Limits> {
+    if !(time_limit > 0.0 && time_limit.is_finite()) {
+        bail!("--time-limit must be a positive number of seconds");
+    }
+    Ok(Limits {
+        time: Duration::from_secs_f64(time_limit),
+        memory_bytes: memory_limit_mib << 20,
+        ..Limits::default()
+    })
+}
+
+/// Runs `learner replay`: records the episode and writes its GIF.
+pub fn run(args: &ReplayArgs) -> Result<Trace> {
+    if args.out.extension().is_none_or(|e| e != "gif") {
+        bail!(
+            "--out {}: the replay is a GIF, name it *.gif",
+            args.out.display()
+        );
+    }
+    if args.agents == 0 {
+        bail!("--agents must be at least 1");
+    }
+    let map =
+        Arc::new(Map::load(&args.map).with_context(|| format!("loading map '{}'", args.map))?);
+    let act_mode = if args.sample {
+        ActMode::Sample
+    } else {
+        ActMode::Greedy
+    };
+    let limits = limits(args.time_limit, args.memory_limit)?;
+    let make = controller_factory(&args.controller, args.agents, args.seed, limits, act_mode)?;
+    let spec = EvalSpec {
+        agents: args.agents,
+        episodes: args.episodes,
+        seed: args.seed,
+        starts: args.starts,
+        t_max: args.t_max,
+        jobs: 1,
+    };
+    let opts = GifOptions {
+        cell_px: args.cell_px,
+        delay_cs: args.delay,
+        ..GifOptions::default()
+    };
+    let warmup = if args.sample {
+        Warmup::Preceding
+    } else {
+        Warmup::Fresh
+    };
+    let trace = write_replay(&map, &spec, &make, args.episode, warmup, &args.out, &opts)?;
+    let r = &trace.record;
+    eprintln!(
+        "{} on {} with {} agents, seed {}, episode {}: {} after {} steps ({} deadlocked agents, {} stuck at the end) -> {}",
+        trace.controller,
+        trace.map,
+        args.agents,
+        args.seed,
+        args.episode,
+        if r.success { "solved" } else { "failed" },
+        r.timesteps,
+        r.deadlocked_agents,
+        r.stuck_at_end,
+        args.out.display()
+    );
+    Ok(trace)
+}
+
+/// Records episode `episode` of `spec` and writes its GIF to `path`.
+pub fn write_replay(
+    map: &Arc<Map>,
+    spec: &EvalSpec,
+    make: &ControllerFactory,
+    episode: u64,
+    warmup: Warmup,
+    path: &Path,
+    opts: &GifOptions,
+) -> Result<Trace> {
+    let trace = record_episode(map, spec, &**make, episode, warmup)
+        .with_context(|| format!("recording episode {episode} on {}", map.name))?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    write_gif(path, &trace, opts).with_context(|| format!("drawing {}", path.display()))?;
+    Ok(trace)
+}
+
+/// Writes the replays of `report`'s failed episodes (those the controller
+/// played to `T_max`; at most `max`) into `dir` as `episode-K.gif`;
+/// returns the files.
+pub fn write_failed(
+    map: &Arc<Map>,
+    spec: &EvalSpec,
+    make: &ControllerFactory,
+    report: &EvalReport,
+    warmup: Warmup,
+    dir: &Path,
+    max: usize,
+) -> Result<Vec<PathBuf>> {
+    let failed = report
+        .records
+        .iter()
+        .filter(|r| !r.success && r.gave_up.is_none());
+    let mut files = Vec::new();
+    for r in failed.take(max) {
+        let path = dir.join(format!("episode-{}.gif", r.episode));
+        let trace = write_replay(
+            map,
+            spec,
+            make,
+            r.episode,
+            warmup,
+            &path,
+            &GifOptions::default(),
+        )?;
+        if trace.record.success || trace.record.timesteps != r.timesteps {
+            tracing::warn!(
+                episode = r.episode,
+                "the replay differs from the evaluated episode (a controller that is not deterministic per episode, or --jobs > 1 with --sample)"
+            );
+        }
+        files.push(path);
+    }
+    Ok(files)
+}
