@@ -24,7 +24,14 @@ pub struct PlotError {
     pub message: String,
 }
 
-fn register_fonts() {
+/// Registers the embedded DejaVu fonts as plotters' `sans-serif`, once per
+/// process: text renders the same on machines without system fonts.
+///
+/// ```
+/// buridan_eval::plot::register_fonts();
+/// buridan_eval::plot::register_fonts(); // the second call does nothing
+/// ```
+pub fn register_fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // Registering a valid embedded TTF cannot fail; ignore the unit result.

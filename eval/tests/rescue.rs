@@ -1,10 +1,10 @@
 //! The planner rescue: a jammed policy is freed by LaCAM's plan from the
 //! jammed state, an unjammed one never calls the planner.
 
-use std::path::PathBuf;
+mod common;
+
 use std::sync::Arc;
 
-use buridan_env::{EnvConfig, GridEnv, Map};
 use buridan_eval::policy::PolicyController;
 use buridan_eval::rescue::RescueController;
 use buridan_eval::{run_episode, Controller};
@@ -15,20 +15,13 @@ use buridan_policy::ActMode;
 fn lacam_frees_the_jammed_greedy_ppo_policy_and_stays_out_of_solved_episodes() {
     // The committed PPO checkpoint (rm-2.1, 4 agents): its greedy actions
     // end these seed-42 episodes in a jam (tests/shield.rs) ...
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../docs/results/ppo-ctde-rm-2.1/checkpoint");
-    let map = Arc::new(Map::load("rm-2.1").unwrap());
-    let cfg = EnvConfig {
-        agents: 4,
-        seed: 42,
-        ..EnvConfig::default()
-    };
-    let mut env = GridEnv::new(map, cfg).unwrap();
+    let dir = common::committed_ppo_checkpoint();
+    let mut env = common::committed_ppo_env();
     let policy = || Box::new(PolicyController::load(&dir, 4, ActMode::Greedy, 42).unwrap());
     let lacam: Arc<dyn buridan_mapf::Planner> = planner_by_name("lacam").unwrap().into();
     let mut rescued = RescueController::new(policy(), lacam, Limits::default());
     let mut raw = policy();
-    for episode in [15, 17, 24, 43, 45, 51, 73] {
+    for episode in common::JAMMED_EPISODES {
         let r = run_episode(&mut env, &mut rescued, episode).unwrap();
         assert!(r.success, "episode {episode}: {r:?}");
         assert!(r.rescues.unwrap() >= 1, "episode {episode}: {r:?}");
@@ -55,15 +48,8 @@ fn foresight_plans_jammed_episodes_from_the_start_and_leaves_solved_ones_alone()
     // gets stuck, OD-A* plans from the start: the episode takes the optimal
     // makespan (no steps lost walking into the jam and waiting for the
     // stall detector), and never more steps than the late rescue needs.
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../docs/results/ppo-ctde-rm-2.1/checkpoint");
-    let map = Arc::new(Map::load("rm-2.1").unwrap());
-    let cfg = EnvConfig {
-        agents: 4,
-        seed: 42,
-        ..EnvConfig::default()
-    };
-    let mut env = GridEnv::new(map.clone(), cfg).unwrap();
+    let dir = common::committed_ppo_checkpoint();
+    let mut env = common::committed_ppo_env();
     let policy = || Box::new(PolicyController::load(&dir, 4, ActMode::Greedy, 42).unwrap());
     let od: Arc<dyn buridan_mapf::Planner> = planner_by_name("od-astar").unwrap().into();
     let mut late = RescueController::new(policy(), od.clone(), Limits::default());
@@ -71,13 +57,13 @@ fn foresight_plans_jammed_episodes_from_the_start_and_leaves_solved_ones_alone()
         RescueController::new(policy(), od.clone(), Limits::default()).with_foresight(policy());
     assert_eq!(ahead.name(), "ctde-policy+lookahead-od-astar");
     let mut raw = policy();
-    for episode in [15, 17, 24, 43, 45, 51, 73] {
+    for episode in common::JAMMED_EPISODES {
         let r = run_episode(&mut env, &mut ahead, episode).unwrap();
         let l = run_episode(&mut env, &mut late, episode).unwrap();
         env.reset_to(episode).unwrap();
         let optimal = od
             .solve(
-                &map.grid,
+                &env.map().grid,
                 &env.positions(),
                 &env.goals(),
                 &Limits::default(),

@@ -3,6 +3,8 @@
 //! or sampled, either ranking), greedy shielded evaluation is
 //! deterministic, and it frees a trained policy from its greedy jams.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -114,19 +116,12 @@ fn the_shield_unjams_the_trained_ppo_policy() {
     // The committed PPO checkpoint (rm-2.1, 4 agents; README "Learning"):
     // in these seed-42 episodes its greedy actions end in a jam (agents
     // waiting on each other until T_max); shielded greedy solves them.
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../docs/results/ppo-ctde-rm-2.1/checkpoint");
-    let map = Arc::new(Map::load("rm-2.1").unwrap());
-    let cfg = EnvConfig {
-        agents: 4,
-        seed: 42,
-        ..EnvConfig::default()
-    };
-    let mut env = buridan_env::GridEnv::new(map, cfg).unwrap();
+    let dir = common::committed_ppo_checkpoint();
+    let mut env = common::committed_ppo_env();
     let mut raw = PolicyController::load(&dir, 4, ActMode::Greedy, 42).unwrap();
     let mut shielded =
         ShieldController::load(&dir, 4, ActMode::Greedy, 42, Ranking::Walls).unwrap();
-    for episode in [15, 17, 24, 43, 45, 51, 73] {
+    for episode in common::JAMMED_EPISODES {
         let r = run_episode(&mut env, &mut raw, episode).unwrap();
         assert!(
             !r.success && r.jammed_at_end > 0,

@@ -3,9 +3,8 @@
 //! each robot's colour), trails, the robots (numbered discs) and rings
 //! around blocked, deadlocked and livelocked robots.
 
-use std::sync::Once;
-
 use buridan_env::Cell;
+use buridan_eval::plot::register_fonts;
 use buridan_eval::replay::{Mark, Trace};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -54,19 +53,6 @@ impl Layout {
 #[derive(Debug, thiserror::Error)]
 #[error("drawing a frame: {0}")]
 pub struct DrawError(pub String);
-
-fn register_fonts() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        // Registering a valid embedded TTF cannot fail; ignore the unit result.
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            FontStyle::Normal,
-            dejavu::sans::regular(),
-        );
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold());
-    });
-}
 
 fn rgb(c: Rgb) -> RGBColor {
     RGBColor(c.0, c.1, c.2)
