@@ -65,18 +65,13 @@ pub fn line(bar: &ProgressBar) -> String {
         String::new()
     };
     let elapsed = bar.elapsed().as_secs_f64();
-    // indicatif's estimates: over recent steps, so a resumed run's earlier
+    // indicatif's estimate: over recent steps, so a resumed run's earlier
     // steps do not count.
-    let rate = bar.per_sec();
-    let eta = if pos > 0 && len > pos && rate > 0.0 {
-        clock(bar.eta().as_secs_f64())
-    } else {
-        "-".into()
-    };
+    let (speed, eta) = speed_and_eta(pos, len, elapsed, bar.per_sec(), bar.eta().as_secs_f64());
     let prefix = bar.prefix();
     let message = bar.message();
     format!(
-        "{}{}/{}{pct}, {}/s, {} elapsed, eta {eta}{}",
+        "{}{}/{}{pct}, {speed}, {} elapsed, eta {eta}{}",
         if prefix.is_empty() {
             String::new()
         } else {
@@ -84,7 +79,6 @@ pub fn line(bar: &ProgressBar) -> String {
         },
         buridan_study::figures::tick(pos as f64),
         buridan_study::figures::tick(len as f64),
-        buridan_study::figures::tick(rate.round()),
         clock(elapsed),
         if message.is_empty() {
             String::new()
@@ -92,6 +86,43 @@ pub fn line(bar: &ProgressBar) -> String {
             format!("; {}", message.trim())
         }
     )
+}
+
+/// The speed and ETA of a line: `pos` of `len` units after `elapsed`
+/// seconds, at indicatif's recent `rate` (units/s) and `eta` (s).
+///
+/// Units of a second or more (env steps, episodes) use indicatif's
+/// estimates over recent steps. Slow units (a study's jobs, minutes each)
+/// use the average since the bar started: between two units the recent
+/// rate decays towards zero and its ETA grows without bound.
+///
+/// ```
+/// use buridan_cli::heartbeat::speed_and_eta;
+/// assert_eq!(speed_and_eta(50_000, 200_000, 20.0, 25_000.0, 6.0), ("25k/s".into(), "6s".into()));
+/// // One study job of two done after 30 s: the other takes about as long.
+/// assert_eq!(speed_and_eta(1, 2, 30.0, 0.001, 500.0), ("30s each".into(), "30s".into()));
+/// assert_eq!(speed_and_eta(0, 2, 30.0, 0.0, 0.0), ("0/s".into(), "-".into()));
+/// ```
+pub fn speed_and_eta(pos: u64, len: u64, elapsed: f64, rate: f64, eta: f64) -> (String, String) {
+    let left = len.saturating_sub(pos);
+    if rate >= 1.0 || pos == 0 {
+        let eta = if pos > 0 && left > 0 && rate > 0.0 {
+            clock(eta)
+        } else {
+            "-".into()
+        };
+        return (
+            format!("{}/s", buridan_study::figures::tick(rate.round())),
+            eta,
+        );
+    }
+    let each = elapsed / pos as f64;
+    let eta = if left > 0 {
+        clock(each * left as f64)
+    } else {
+        "-".into()
+    };
+    (format!("{} each", clock(each)), eta)
 }
 
 /// Seconds as `1h02m`, `3m07s` or `12s`.
