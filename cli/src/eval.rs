@@ -147,6 +147,25 @@ fn rescue_parts(name: &str, agents: usize) -> Option<(&'static str, &str, &str)>
     })
 }
 
+/// Planner limits from a time limit in seconds and a memory cap in MiB
+/// (`--time-limit`, `--memory-limit`, a study's `time_limit`).
+///
+/// ```
+/// let l = buridan_cli::eval::planner_limits(1.5, 64).unwrap();
+/// assert_eq!((l.time.as_millis(), l.memory_bytes), (1500, 64 << 20));
+/// assert!(buridan_cli::eval::planner_limits(0.0, 64).is_err());
+/// ```
+pub fn planner_limits(time_limit: f64, memory_limit_mib: usize) -> Result<Limits> {
+    if !(time_limit > 0.0 && time_limit.is_finite()) {
+        bail!("--time-limit must be a positive number of seconds");
+    }
+    Ok(Limits {
+        time: std::time::Duration::from_secs_f64(time_limit),
+        memory_bytes: memory_limit_mib << 20,
+        ..Limits::default()
+    })
+}
+
 /// A factory of fresh controllers, one per evaluation thread.
 pub type ControllerFactory = Box<dyn Fn() -> Box<dyn Controller> + Sync>;
 
@@ -238,7 +257,7 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
     let map =
         Arc::new(Map::load(&args.map).with_context(|| format!("loading map '{}'", args.map))?);
     let counts = parse_agent_counts(&args.agents)?;
-    let limits = crate::replay::limits(args.time_limit, args.memory_limit)?;
+    let limits = planner_limits(args.time_limit, args.memory_limit)?;
     let sweep = counts.len() > 1;
     let act_mode = if args.sample {
         ActMode::Sample

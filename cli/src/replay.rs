@@ -3,17 +3,15 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
 use buridan_env::{Map, Starts};
 use buridan_eval::replay::{record_episode, Trace, Warmup};
 use buridan_eval::{EvalReport, EvalSpec};
-use buridan_mapf::Limits;
 use buridan_policy::ActMode;
 use buridan_render::{write_gif, GifOptions};
 
-use crate::eval::{controller_factory, ControllerFactory};
+use crate::eval::{controller_factory, planner_limits, ControllerFactory};
 
 /// Arguments of `learner replay`.
 #[derive(Debug, clap::Args)]
@@ -63,18 +61,6 @@ pub struct ReplayArgs {
     pub out: PathBuf,
 }
 
-/// Planner limits from the command line's seconds and MiB.
-pub fn limits(time_limit: f64, memory_limit_mib: usize) -> Result<Limits> {
-    if !(time_limit > 0.0 && time_limit.is_finite()) {
-        bail!("--time-limit must be a positive number of seconds");
-    }
-    Ok(Limits {
-        time: Duration::from_secs_f64(time_limit),
-        memory_bytes: memory_limit_mib << 20,
-        ..Limits::default()
-    })
-}
-
 /// Runs `learner replay`: records the episode and writes its GIF.
 pub fn run(args: &ReplayArgs) -> Result<Trace> {
     if args.out.extension().is_none_or(|e| e != "gif") {
@@ -93,7 +79,7 @@ pub fn run(args: &ReplayArgs) -> Result<Trace> {
     } else {
         ActMode::Greedy
     };
-    let limits = limits(args.time_limit, args.memory_limit)?;
+    let limits = planner_limits(args.time_limit, args.memory_limit)?;
     let make = controller_factory(&args.controller, args.agents, args.seed, limits, act_mode)?;
     let spec = EvalSpec {
         agents: args.agents,

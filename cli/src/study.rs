@@ -7,14 +7,13 @@ use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use buridan_env::Map;
 use buridan_eval::output::write_report;
 use buridan_eval::{evaluate, EvalSpec};
 use buridan_learner::train::{train, MetricsRow, Progress, TrainConfig, SUMMARY_FILE};
-use buridan_mapf::Limits;
 use buridan_policy::ActMode;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
@@ -162,11 +161,8 @@ fn run_eval(x: &Experiment, out: &Path, index: usize, bars: &Bars) -> Result<()>
         } => ActMode::Sample,
         _ => ActMode::Greedy,
     };
-    let limits = Limits {
-        time: Duration::from_secs_f64(x.time_limit(cell)),
-        memory_bytes: e.memory_limit << 20,
-        ..Limits::default()
-    };
+    // Time limits were checked positive when the study file was read.
+    let limits = crate::eval::planner_limits(x.time_limit(cell), e.memory_limit)?;
     let map = Arc::new(Map::load(&cell.layout)?);
     let controller = x.controller(cell, out);
     let make = crate::eval::controller_factory(&controller, cell.agents, e.seed, limits, act_mode)?;
