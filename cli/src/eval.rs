@@ -35,8 +35,8 @@ pub struct EvalArgs {
     /// Seed of the episode generator (42 as in the dissertation).
     #[arg(long, default_value_t = 42)]
     pub seed: u64,
-    /// `ma-astar`, `od-astar`, `cbs`, `pibt`, `lacam`, `lacam-star`
-    /// (planners joined by `+` are tried in turn), `random`,
+    /// `ma-astar`, `od-astar`, `cbs`, `pibt`, `lacam`, `lacam-star`, `pp`
+    /// (prioritized planning; planners joined by `+` are tried in turn), `random`,
     /// `checkpoint:DIR`, or a checkpoint through the PIBT collision shield:
     /// `shield:checkpoint:DIR` (preferences over every move but walls) or
     /// `shield-env:checkpoint:DIR` (moves into occupied cells ranked last);

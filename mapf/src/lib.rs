@@ -13,6 +13,8 @@
 //!   configuration generator LaCAM builds on.
 //! - [`lacam`]: [`Lacam`] (complete) and [`LacamStar`] (anytime, eventually
 //!   optimal), search over configurations.
+//! - [`prioritized`]: [`Prioritized`], one agent at a time around the
+//!   earlier ones' paths, with randomized restarts.
 //! - [`lifelong`]: [`LifelongPibt`], PIBT for goals that change on arrival.
 //! - [`shield`]: [`Shield`], PIBT over a learned policy's action preferences
 //!   (a collision shield whose joint moves the env executes exactly).
@@ -98,6 +100,7 @@ pub mod odastar;
 pub mod pibt;
 pub mod plan;
 pub mod planner;
+pub mod prioritized;
 pub mod replay;
 pub mod rules;
 pub mod shield;
@@ -112,6 +115,7 @@ pub use odastar::OdAstar;
 pub use pibt::Pibt;
 pub use plan::Plan;
 pub use planner::{planner_by_name, Planner, Portfolio, Solution, Stats};
+pub use prioritized::Prioritized;
 pub use replay::{replay, replay_exact, BlockedFollowing, Divergence, ReplayError, ReplayResult};
 pub use rules::Rules;
 pub use shield::{ActionOrder, Shield, ShieldError};

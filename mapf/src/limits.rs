@@ -159,6 +159,13 @@ pub enum SolveError {
         /// Steps simulated.
         steps: usize,
     },
+    /// An incomplete planner (prioritized planning) tried every priority
+    /// order of the agents without a plan; the instance may still be solvable.
+    #[error("every one of the {orders} priority orders failed (incomplete planner)")]
+    OrdersExhausted {
+        /// Distinct orders tried (`n!`).
+        orders: u64,
+    },
     /// The instance itself is malformed.
     #[error("invalid instance: {0}")]
     Instance(#[from] InstanceError),

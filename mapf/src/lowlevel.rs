@@ -23,6 +23,9 @@ pub(crate) struct Constraints {
     vertex: FastSet<(u32, u32)>,
     /// `(from, to, t)`: not moving `from → to` in step `t → t + 1`.
     edge: FastSet<(u32, u32, u32)>,
+    /// `cell → t0`: not at `cell` at any time `t ≥ t0` (a cell another
+    /// agent rests on for good; prioritized planning).
+    blocked_from: FastMap<u32, u32>,
     /// Latest time any constraint mentions (vertex `t`, edge `t + 1`).
     last_t: u32,
     /// Latest vertex constraint time on the goal cell.
@@ -49,6 +52,26 @@ impl Constraints {
     pub fn add_edge(&mut self, from: u32, to: u32, t: u32) {
         self.edge.insert((from, to, t));
         self.last_t = self.last_t.max(t + 1);
+    }
+
+    /// Not at `cell` at `t0` or any later time. On the agent's own goal it
+    /// makes arriving impossible (the agent could not rest there).
+    pub fn add_blocked_from(&mut self, cell: u32, t0: u32) {
+        let from = self.blocked_from.entry(cell).or_insert(t0);
+        *from = (*from).min(t0);
+        self.last_t = self.last_t.max(t0);
+    }
+
+    /// Whether the agent may stand on `cell` at `t`.
+    #[inline]
+    fn allows(&self, cell: u32, t: u32) -> bool {
+        !self.vertex.contains(&(cell, t)) && self.blocked_from.get(&cell).is_none_or(|&t0| t < t0)
+    }
+
+    /// Whether the agent may arrive on its goal at `t` and rest there.
+    #[inline]
+    fn may_rest_on_goal_from(&self, t: u32) -> bool {
+        self.goal_last.is_none_or(|g| t > g) && !self.blocked_from.contains_key(&self.goal)
     }
 }
 
@@ -130,7 +153,7 @@ pub(crate) fn space_time_astar(
     budget: &mut Budget,
     base_bytes: usize,
 ) -> Result<LowResult, SolveError> {
-    if cons.vertex.contains(&(start, 0)) {
+    if !cons.allows(start, 0) {
         return Ok(LowResult::NoPath { capped: false });
     }
     let merge_after = cons.last_t + 1;
@@ -157,7 +180,7 @@ pub(crate) fn space_time_astar(
             budget.check_time()?;
             budget.check_memory(base_bytes + nodes.len() * LOW_NODE_BYTES)?;
         }
-        if node.cell == goal && cons.goal_last.is_none_or(|g| t > g) {
+        if node.cell == goal && cons.may_rest_on_goal_from(t) {
             let mut path = Vec::with_capacity(t as usize + 1);
             let mut k = id;
             while k != NONE {
@@ -174,7 +197,7 @@ pub(crate) fn space_time_astar(
         }
         for &to in topo.moves(node.cell) {
             if to == NONE
-                || cons.vertex.contains(&(to, nt))
+                || !cons.allows(to, nt)
                 || (to != node.cell && cons.edge.contains(&(node.cell, to, t)))
             {
                 continue;

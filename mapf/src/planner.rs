@@ -82,7 +82,8 @@ pub trait Planner: Send + Sync {
 
 /// The default-configured planner of a name: `"ma-astar"` (also `"maastar"`,
 /// `"ma-a*"`), `"od-astar"` (also `"od-a*"`), `"od-astar-soc"`, `"cbs"`, `"pibt"`, `"lacam"`
-/// `"lacam-star"` (also `"lacam*"`) or `"lacam-star-makespan"`; names joined by `+` make a
+/// `"lacam-star"` (also `"lacam*"`), `"lacam-star-makespan"` or `"pp"` (also
+/// `"prioritized"`); names joined by `+` make a
 /// [`Portfolio`] of them, tried in that order.
 ///
 /// ```
@@ -90,6 +91,7 @@ pub trait Planner: Send + Sync {
 /// assert_eq!(buridan_mapf::planner_by_name("LaCAM*").unwrap().name(), "lacam-star");
 /// assert_eq!(buridan_mapf::planner_by_name("lacam-star-makespan").unwrap().name(), "lacam-star-makespan");
 /// assert_eq!(buridan_mapf::planner_by_name("lacam+od-astar").unwrap().name(), "lacam+od-astar");
+/// assert_eq!(buridan_mapf::planner_by_name("prioritized").unwrap().name(), "pp");
 /// assert!(buridan_mapf::planner_by_name("dijkstra").is_none());
 /// assert!(buridan_mapf::planner_by_name("lacam+dijkstra").is_none());
 /// ```
@@ -107,6 +109,7 @@ pub fn planner_by_name(name: &str) -> Option<Box<dyn Planner>> {
         "od-astar-soc" => Some(Box::new(crate::OdAstar::sum_of_loss())),
         "cbs" => Some(Box::new(crate::Cbs::default())),
         "pibt" => Some(Box::new(crate::Pibt::default())),
+        "pp" | "prioritized" => Some(Box::new(crate::Prioritized::default())),
         "lacam" => Some(Box::new(crate::Lacam::default())),
         "lacam-star" | "lacam*" | "lacam_star" | "lacamstar" => {
             Some(Box::new(crate::LacamStar::default()))
