@@ -42,8 +42,8 @@ pub struct EvalArgs {
     /// `shield-env:checkpoint:DIR` (moves into occupied cells ranked last);
     /// `rescue:CONTROLLER` adds a planner as a safety net: it plans from the
     /// current state whenever an agent is stuck (within --time-limit), by
-    /// default LaCAM then OD-A* (`lacam+od-astar`; LaCAM alone beyond 8
-    /// agents); `rescue=PLANNER:CONTROLLER`
+    /// default LaCAM then OD-A* (`lacam+od-astar`; beyond 8 agents
+    /// prioritized planning then LaCAM, `pp+lacam`); `rescue=PLANNER:CONTROLLER`
     /// names another (e.g. `rescue=lacam:shield:checkpoint:DIR`);
     /// `lookahead:CONTROLLER` (and `lookahead=PLANNER:CONTROLLER`) adds
     /// foresight: a twin of the (deterministic) controller plays each
@@ -121,11 +121,19 @@ pub fn parse_agent_counts(text: &str) -> Result<Vec<usize>> {
 /// orderings LaCAM does not finish (README, "Planners").
 pub const DEFAULT_RESCUE_PLANNER: &str = "lacam+od-astar";
 
-/// Fleets larger than this are rescued by LaCAM alone: OD-A*'s state space
-/// grows as cellsⁿ, and at 16 agents it spends its whole share of every
-/// call without a plan (measured: rm-3.1, 16 agents, 30 episodes: the same
-/// 53 % success either way, 3 s against 0.14 s of compute per episode).
+/// Fleets larger than this are rescued by [`CROWD_RESCUE_PLANNER`]: OD-A*'s
+/// state space grows as cellsⁿ, and at 16 agents it spends its whole share
+/// of every call without a plan (measured: rm-3.1, 16 agents, 30 episodes:
+/// the same 53 % success with LaCAM alone, 3 s against 0.14 s of compute per
+/// episode).
 pub const RESCUE_OD_ASTAR_MAX_AGENTS: usize = 8;
+
+/// The planner of `rescue:CONTROLLER` beyond [`RESCUE_OD_ASTAR_MAX_AGENTS`]
+/// agents: prioritized planning answers crowds in milliseconds (seed-42,
+/// 16 agents, 1 s: rm-3.1 100 % and rm-2.1 100 % planned, where LaCAM plans
+/// 32 % and 50 % within T_max); LaCAM, complete, takes the instances where
+/// every order PP tries fails.
+pub const CROWD_RESCUE_PLANNER: &str = "pp+lacam";
 
 /// Splits `rescue:INNER`, `rescue=PLANNER:INNER`, `lookahead:INNER` and
 /// `lookahead=PLANNER:INNER` into (kind, planner, inner); the default
@@ -135,7 +143,7 @@ fn rescue_parts(name: &str, agents: usize) -> Option<(&'static str, &str, &str)>
         let rest = name.strip_prefix(kind)?;
         if let Some(inner) = rest.strip_prefix(':') {
             let planner = if agents > RESCUE_OD_ASTAR_MAX_AGENTS {
-                "lacam"
+                CROWD_RESCUE_PLANNER
             } else {
                 DEFAULT_RESCUE_PLANNER
             };
@@ -183,7 +191,7 @@ pub type ControllerFactory = Box<dyn Fn() -> Box<dyn Controller> + Sync>;
 /// let rescued = controller_factory("rescue:random", 4, 42, Default::default(), ActMode::Greedy).unwrap();
 /// assert_eq!(rescued().name(), "random+rescue-lacam+od-astar");
 /// let crowd = controller_factory("rescue:random", 16, 42, Default::default(), ActMode::Greedy).unwrap();
-/// assert_eq!(crowd().name(), "random+rescue-lacam");
+/// assert_eq!(crowd().name(), "random+rescue-pp+lacam");
 /// let by_lacam = controller_factory("rescue=lacam:random", 4, 42, Default::default(), ActMode::Greedy).unwrap();
 /// assert_eq!(by_lacam().name(), "random+rescue-lacam");
 /// let ahead = controller_factory("lookahead=od-astar:random", 4, 42, Default::default(), ActMode::Greedy).unwrap();
@@ -201,7 +209,7 @@ pub fn controller_factory(
     if let Some((kind, planner, inner)) = rescue_parts(name, agents) {
         let planner: Arc<dyn Planner> = planner_by_name(planner)
             .with_context(|| {
-                format!("'{name}': unknown rescue planner '{planner}' (expected pibt, lacam, lacam-star, od-astar, cbs, ma-astar, or several joined by '+')")
+                format!("'{name}': unknown rescue planner '{planner}' (expected pibt, lacam, lacam-star, od-astar, pp, cbs, ma-astar, or several joined by '+')")
             })?
             .into();
         let inner = controller_factory(inner, agents, seed, limits, act_mode)?;
@@ -244,7 +252,7 @@ pub fn controller_factory(
     }
     let planner: Arc<dyn Planner> = planner_by_name(name)
         .with_context(|| {
-            format!("unknown controller '{name}': expected ma-astar, od-astar, cbs, pibt, lacam, lacam-star, random, checkpoint:DIR, shield:checkpoint:DIR or rescue:CONTROLLER")
+            format!("unknown controller '{name}': expected ma-astar, od-astar, cbs, pibt, lacam, lacam-star, pp, random, checkpoint:DIR, shield:checkpoint:DIR or rescue:CONTROLLER")
         })?
         .into();
     Ok(Box::new(move || {

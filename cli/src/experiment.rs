@@ -24,11 +24,12 @@
 //! episodes = 100                    # 1000 for generalization
 //! seed = 42
 //! actions = ["sampled", "greedy"]  # and/or "shielded": greedy through the PIBT shield,
-//!                                   # "rescued": shielded, LaCAM/OD-A* planning whenever an agent is stuck
+//!                                   # "rescued": shielded, a planner plans whenever an agent is stuck
 //!                                   # "lookahead": rescued, with foresight (a twin plays the episode ahead;
 //!                                   #   if it would get stuck, the planner plans from the start)
 //! rescue_time = 1.0                 # seconds per rescue plan
-//! rescue_planner = "od-astar+lacam" # default: as `--controller rescue:…` (LaCAM, then OD-A*)
+//! rescue_planner = "od-astar+lacam" # default: as `--controller rescue:…` (LaCAM, then OD-A*;
+//!                                   #   beyond 8 agents prioritized planning, then LaCAM)
 //! agents = "4..20"                  # default: the agents each policy trained with
 //! time_limit = 60.0                 # planners, seconds per instance
 //! layouts = ["rm-2.1", "maps/comb.map"]  # evaluate on these (default: the training layout);
@@ -464,7 +465,7 @@ impl Experiment {
         if let Some(planner) = &e.rescue_planner {
             buridan_mapf::planner_by_name(planner).ok_or_else(|| {
                 bad(format!(
-                    "[experiment.eval] rescue_planner: unknown planner '{planner}' (expected pibt, lacam, lacam-star, od-astar, cbs, ma-astar, or several joined by '+')"
+                    "[experiment.eval] rescue_planner: unknown planner '{planner}' (expected pibt, lacam, lacam-star, od-astar, pp, cbs, ma-astar, or several joined by '+')"
                 ))
             })?;
         }
