@@ -8,12 +8,12 @@ mod common;
 use std::sync::Arc;
 use std::time::Duration;
 
-use buridan_env::{episode_instance, Cell, Grid, Map, Scenario, Starts, REFERENCE_MODELS};
+use buridan_env::{episode_instance, Cell, Grid, Map, Starts, REFERENCE_MODELS};
 use buridan_mapf::{
-    replay_exact, validate_with, Cbs, InstanceError, Lacam, LacamStar, Limits, Objective, Pibt,
-    Plan, Planner, Rules, SolveError,
+    validate_with, Cbs, InstanceError, Lacam, LacamStar, Limits, Objective, Pibt, Planner, Rules,
+    SolveError,
 };
-use common::{optimal_makespan, optimal_soc, random_instance, Rng};
+use common::{check, optimal_makespan, optimal_soc, random_instance, Rng};
 
 fn limits(secs: u64) -> Limits {
     Limits::with_time(Duration::from_secs(secs))
@@ -31,27 +31,6 @@ fn star(objective: Objective, rules: Rules) -> LacamStar {
 
 /// Validates under `rules` (and under both rule sets when env-executable)
 /// and, for env-executable plans, replays exactly in the env.
-fn check(grid: &Grid, s: &[Cell], g: &[Cell], plan: &Plan, rules: Rules, ctx: &str) {
-    validate_with(grid, s, g, plan, rules).unwrap_or_else(|e| panic!("{ctx}: {e}"));
-    validate_with(grid, s, g, plan, Rules::SIMULTANEOUS).unwrap_or_else(|e| panic!("{ctx}: {e}"));
-    if rules.forbid_following {
-        let map = Arc::new(Map {
-            name: "test".into(),
-            grid: grid.clone(),
-            scenario: Some(Scenario {
-                starts: s.to_vec(),
-                goals: g.to_vec(),
-            }),
-        });
-        let r = replay_exact(&map, s, g, plan, 100_000).unwrap_or_else(|e| panic!("{ctx}: {e}"));
-        assert_eq!(r.terminated_at, Some(plan.makespan().max(1)), "{ctx}");
-        assert!(
-            r.blocked_moves == 0 && r.blocked_following.is_empty(),
-            "{ctx}"
-        );
-    }
-}
-
 #[test]
 fn lacam_and_lacam_star_solve_every_fixed_scenario() {
     for model in REFERENCE_MODELS {

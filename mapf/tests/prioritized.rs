@@ -7,27 +7,9 @@ mod common;
 use std::sync::Arc;
 use std::time::Duration;
 
-use buridan_env::{episode_instance, Cell, Grid, Map, Scenario, Starts, REFERENCE_MODELS};
-use buridan_mapf::{
-    replay_exact, validate_with, Limits, Plan, Planner, Prioritized, Rules, SolveError,
-};
-use common::{optimal_makespan, random_instance, Rng};
-
-fn check(grid: &Grid, s: &[Cell], g: &[Cell], plan: &Plan, rules: Rules, ctx: &str) {
-    validate_with(grid, s, g, plan, rules).unwrap_or_else(|e| panic!("{ctx}: {e}"));
-    if rules.forbid_following {
-        let map = Arc::new(Map {
-            name: "test".into(),
-            grid: grid.clone(),
-            scenario: Some(Scenario {
-                starts: s.to_vec(),
-                goals: g.to_vec(),
-            }),
-        });
-        let r = replay_exact(&map, s, g, plan, 100_000).unwrap_or_else(|e| panic!("{ctx}: {e}"));
-        assert_eq!(r.terminated_at, Some(plan.makespan().max(1)), "{ctx}");
-    }
-}
+use buridan_env::{episode_instance, Map, Starts, REFERENCE_MODELS};
+use buridan_mapf::{Limits, Planner, Prioritized, Rules, SolveError};
+use common::{check, optimal_makespan, random_instance, Rng};
 
 fn limits(millis: u64) -> Limits {
     Limits::with_time(Duration::from_millis(millis))

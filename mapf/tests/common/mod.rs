@@ -7,7 +7,10 @@
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap, HashSet, VecDeque};
 
-use buridan_env::{Cell, Grid};
+use std::sync::Arc;
+
+use buridan_env::{Cell, Grid, Map, Scenario};
+use buridan_mapf::{replay_exact, validate_with, Plan, Rules};
 
 /// All conflict-free joint successors of `cur`. Agents with `frozen[i]`
 /// stay where they are. `follow_forbidden`: agent `i` may not enter a cell
@@ -172,4 +175,28 @@ pub fn random_instance(
     let starts = pick(n);
     let goals = pick(n);
     Some((grid, starts, goals))
+}
+
+/// Checks a plan: valid under `rules` and under pure SPEC §5 rules, and,
+/// for env rules, replayed exactly in the env (success after `makespan`
+/// steps, no blocked move).
+pub fn check(grid: &Grid, s: &[Cell], g: &[Cell], plan: &Plan, rules: Rules, ctx: &str) {
+    validate_with(grid, s, g, plan, rules).unwrap_or_else(|e| panic!("{ctx}: {e}"));
+    validate_with(grid, s, g, plan, Rules::SIMULTANEOUS).unwrap_or_else(|e| panic!("{ctx}: {e}"));
+    if rules.forbid_following {
+        let map = Arc::new(Map {
+            name: "test".into(),
+            grid: grid.clone(),
+            scenario: Some(Scenario {
+                starts: s.to_vec(),
+                goals: g.to_vec(),
+            }),
+        });
+        let r = replay_exact(&map, s, g, plan, 100_000).unwrap_or_else(|e| panic!("{ctx}: {e}"));
+        assert_eq!(r.terminated_at, Some(plan.makespan().max(1)), "{ctx}");
+        assert!(
+            r.blocked_moves == 0 && r.blocked_following.is_empty(),
+            "{ctx}"
+        );
+    }
 }
