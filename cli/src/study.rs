@@ -115,10 +115,32 @@ fn eval_done(out: &Path, dir: &Path) -> bool {
     out.join(dir).join("summary.json").is_file()
 }
 
+/// The evaluations of training cell `train` not finished yet.
+fn pending_evals(x: &Experiment, out: &Path, train: usize) -> Vec<usize> {
+    x.evals
+        .iter()
+        .enumerate()
+        .filter(|(_, e)| matches!(e.evaluated, Evaluated::Policy { train: t, .. } if t == train))
+        .filter(|(_, e)| !eval_done(out, &e.dir))
+        .map(|(k, _)| k)
+        .collect()
+}
+
+/// Whether training cell `train` must (re)train: it has no summary, or it
+/// has one but no checkpoint while some of its evaluations still need the
+/// policy (finished cells copied from another machine keep their results,
+/// not their checkpoints).
+fn needs_training(x: &Experiment, out: &Path, train: usize) -> bool {
+    let run_dir = out.join(&x.train[train].run_dir);
+    !run_dir.join(SUMMARY_FILE).is_file()
+        || (buridan_policy::checkpoint::resolve(&run_dir).is_err()
+            && !pending_evals(x, out, train).is_empty())
+}
+
 fn run_train(x: &Experiment, out: &Path, index: usize, bars: &Bars) -> Result<()> {
     let cell = &x.train[index];
     let run_dir = out.join(&cell.run_dir);
-    if run_dir.join(SUMMARY_FILE).is_file() {
+    if !needs_training(x, out, index) {
         return Ok(());
     }
     let args = cell.train_args(out);
@@ -221,16 +243,9 @@ fn run_job(x: &Experiment, out: &Path, job: &Job, bars: &Bars) -> Result<()> {
 /// planner evaluations not finished.
 fn jobs(x: &Experiment, out: &Path) -> Vec<Job> {
     let mut jobs = Vec::new();
-    for (i, t) in x.train.iter().enumerate() {
-        let evals: Vec<usize> = x
-            .evals
-            .iter()
-            .enumerate()
-            .filter(|(_, e)| matches!(e.evaluated, Evaluated::Policy { train, .. } if train == i))
-            .filter(|(_, e)| !eval_done(out, &e.dir))
-            .map(|(k, _)| k)
-            .collect();
-        if !evals.is_empty() || !out.join(&t.run_dir).join(SUMMARY_FILE).is_file() {
+    for i in 0..x.train.len() {
+        let evals = pending_evals(x, out, i);
+        if !evals.is_empty() || needs_training(x, out, i) {
             jobs.push(Job::Train { train: i, evals });
         }
     }

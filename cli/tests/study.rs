@@ -240,6 +240,18 @@ config = "tiny.toml"
     .unwrap();
     assert!(report.files.iter().any(|f| f.ends_with("table.csv")));
     assert_eq!(std::fs::read_to_string(out.join("table.csv")).unwrap(), csv);
+
+    // Finished cells copied without checkpoints (as results are kept from
+    // another machine) are skipped while their evaluations are complete...
+    let run = out.join("runs/rm-1.1/ppo/seed-0");
+    std::fs::remove_dir_all(run.join("checkpoints")).unwrap();
+    assert_eq!(study::run(&args).unwrap().jobs_run, 0);
+    // ...and trained again when one still needs the policy.
+    let greedy = out.join("evals/rm-1.1/ppo/seed-0/greedy");
+    assert!(greedy.is_dir(), "{}", greedy.display());
+    std::fs::remove_dir_all(&greedy).unwrap();
+    assert_eq!(study::run(&args).unwrap().jobs_run, 1);
+    assert!(run.join("checkpoints").is_dir() && greedy.is_dir());
 }
 
 #[test]
