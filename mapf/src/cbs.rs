@@ -33,7 +33,7 @@ use crate::graph::{distance_table, manhattan_table, Topology, NONE};
 use crate::limits::{Budget, Limits, SolveError};
 use crate::lowlevel::{space_time_astar, Cat, Constraints, LowResult};
 use crate::plan::Plan;
-use crate::planner::{Planner, Solution, Stats};
+use crate::planner::{Planner, Solution};
 use crate::rules::Rules;
 
 /// The heuristic of CBS's low-level space-time A*.
@@ -153,12 +153,7 @@ impl Planner for Cbs {
         let plan = search.run()?;
         Ok(Solution {
             plan,
-            stats: Stats {
-                expanded: budget.expanded,
-                generated: budget.generated,
-                low_level_expanded: budget.low_expanded,
-                wall_time: budget.elapsed(),
-            },
+            stats: budget.stats(),
         })
     }
 }

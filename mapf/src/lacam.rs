@@ -554,10 +554,8 @@ impl<'a> Search<'a> {
             solution: Solution {
                 plan: self.setup.plan(&configs),
                 stats: Stats {
-                    expanded: self.budget.expanded,
-                    generated: self.budget.generated,
                     low_level_expanded: self.low.len() as u64 - 1,
-                    wall_time: self.budget.elapsed(),
+                    ..self.budget.stats()
                 },
             },
             proven_optimal,

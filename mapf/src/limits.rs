@@ -5,6 +5,8 @@ use std::time::{Duration, Instant};
 
 use buridan_env::{Cell, Grid};
 
+use crate::planner::Stats;
+
 /// How much a solver may spend. Checked regularly (the clock every 256
 /// expansions and every 4096 generated joint moves or low-level nodes), so a
 /// solver overshoots a limit by milliseconds at most.
@@ -226,7 +228,7 @@ pub(crate) struct Budget {
     pub expanded: u64,
     /// Generated nodes (CBS: high level).
     pub generated: u64,
-    /// Low-level expansions (CBS only).
+    /// Low-level space-time A* expansions (CBS, prioritized planning).
     pub low_expanded: u64,
 }
 
@@ -263,6 +265,16 @@ impl Budget {
     /// Wall-clock time since the start.
     pub fn elapsed(&self) -> Duration {
         self.start.elapsed()
+    }
+
+    /// The search effort so far, as a solve call reports it.
+    pub fn stats(&self) -> Stats {
+        Stats {
+            expanded: self.expanded,
+            generated: self.generated,
+            low_level_expanded: self.low_expanded,
+            wall_time: self.elapsed(),
+        }
     }
 
     /// CPU time of this thread since the start (wall time where the platform

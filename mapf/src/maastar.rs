@@ -26,7 +26,7 @@ use buridan_env::{Cell, Grid};
 use crate::graph::{distance_table, manhattan_table, FastMap, Topology, NONE};
 use crate::limits::{Budget, Limits, SolveError};
 use crate::plan::Plan;
-use crate::planner::{Planner, Solution, Stats};
+use crate::planner::{Planner, Solution};
 use crate::rules::Rules;
 
 /// The heuristic of [`MaAstar`].
@@ -135,12 +135,7 @@ impl Planner for MaAstar {
         }?;
         Ok(Solution {
             plan,
-            stats: Stats {
-                expanded: budget.expanded,
-                generated: budget.generated,
-                low_level_expanded: 0,
-                wall_time: budget.elapsed(),
-            },
+            stats: budget.stats(),
         })
     }
 }

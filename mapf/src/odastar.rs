@@ -95,7 +95,7 @@ use crate::lacam::Objective;
 use crate::limits::{Budget, Limits, SolveError};
 use crate::maastar::JointKey;
 use crate::plan::Plan;
-use crate::planner::{Planner, Solution, Stats};
+use crate::planner::{Planner, Solution};
 
 /// OD-A*: makespan-optimal A* over the env's sequential step (see the
 /// [module docs](self)).
@@ -195,12 +195,7 @@ impl Planner for OdAstar {
         }?;
         Ok(Solution {
             plan,
-            stats: Stats {
-                expanded: budget.expanded,
-                generated: budget.generated,
-                low_level_expanded: 0,
-                wall_time: budget.elapsed(),
-            },
+            stats: budget.stats(),
         })
     }
 }

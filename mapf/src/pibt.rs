@@ -64,7 +64,7 @@ use buridan_env::{Cell, Grid};
 use crate::graph::{distance_table, Topology, NONE};
 use crate::limits::{check_instance, goals_reachable, Budget, Limits, SolveError};
 use crate::plan::Plan;
-use crate::planner::{Planner, Solution, Stats};
+use crate::planner::{Planner, Solution};
 use crate::rules::Rules;
 
 /// A small deterministic random number generator (xorshift64*) for PIBT's
@@ -490,12 +490,7 @@ impl Planner for Pibt {
         }
         Ok(Solution {
             plan: setup.plan(&configs),
-            stats: Stats {
-                expanded: budget.expanded,
-                generated: budget.generated,
-                low_level_expanded: 0,
-                wall_time: budget.elapsed(),
-            },
+            stats: budget.stats(),
         })
     }
 }

@@ -16,14 +16,16 @@ use crate::plan::Plan;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Stats {
     /// Expanded nodes: joint states (MA-A*), constraint-tree nodes (CBS),
-    /// steps (PIBT) or search iterations, one constraint set each (LaCAM).
+    /// steps (PIBT), search iterations, one constraint set each (LaCAM), or
+    /// priority orders tried (prioritized planning).
     pub expanded: u64,
     /// Generated nodes: joint successor states (MA-A*, before duplicate
-    /// detection), constraint-tree children with a low-level path (CBS) or
-    /// configurations produced by PIBT (PIBT, LaCAM).
+    /// detection), constraint-tree children with a low-level path (CBS),
+    /// configurations produced by PIBT (PIBT, LaCAM) or single-agent paths
+    /// planned (prioritized planning).
     pub generated: u64,
-    /// Low-level space-time A* expansions (CBS), constraint sets created
-    /// (LaCAM); 0 for MA-A* and PIBT.
+    /// Low-level space-time A* expansions (CBS, prioritized planning),
+    /// constraint sets created (LaCAM); 0 for MA-A*, OD-A* and PIBT.
     pub low_level_expanded: u64,
     /// Wall-clock time of the call.
     pub wall_time: Duration,

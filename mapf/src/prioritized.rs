@@ -46,7 +46,7 @@ use crate::limits::{Budget, Limits, SolveError};
 use crate::lowlevel::{space_time_astar, Constraints, LowResult};
 use crate::pibt::TieBreaker;
 use crate::plan::Plan;
-use crate::planner::{Planner, Solution, Stats};
+use crate::planner::{Planner, Solution};
 use crate::rules::Rules;
 
 /// Prioritized planning with randomized restarts (see the
@@ -133,12 +133,7 @@ impl Planner for Prioritized {
                 .trimmed();
                 return Ok(Solution {
                     plan,
-                    stats: Stats {
-                        expanded: budget.expanded,
-                        generated: budget.generated,
-                        low_level_expanded: budget.low_expanded,
-                        wall_time: budget.elapsed(),
-                    },
+                    stats: budget.stats(),
                 });
             }
             if all_orders.is_some_and(|all| tried.len() as u64 >= all) {
