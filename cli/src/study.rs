@@ -126,21 +126,25 @@ fn pending_evals(x: &Experiment, out: &Path, train: usize) -> Vec<usize> {
         .collect()
 }
 
-/// Whether training cell `train` must (re)train: it has no summary, or it
+/// Whether the run in `run_dir` must (re)train: it has no summary, or it
 /// has one but no checkpoint while some of its evaluations still need the
-/// policy (finished cells copied from another machine keep their results,
-/// not their checkpoints).
-fn needs_training(x: &Experiment, out: &Path, train: usize) -> bool {
-    let run_dir = out.join(&x.train[train].run_dir);
+/// policy (`evals_pending`; finished cells copied from another machine keep
+/// their results, not their checkpoints).
+fn needs_training(run_dir: &Path, evals_pending: bool) -> bool {
     !run_dir.join(SUMMARY_FILE).is_file()
-        || (buridan_policy::checkpoint::resolve(&run_dir).is_err()
-            && !pending_evals(x, out, train).is_empty())
+        || (evals_pending && buridan_policy::checkpoint::resolve(run_dir).is_err())
 }
 
-fn run_train(x: &Experiment, out: &Path, index: usize, bars: &Bars) -> Result<()> {
+fn run_train(
+    x: &Experiment,
+    out: &Path,
+    index: usize,
+    evals_pending: bool,
+    bars: &Bars,
+) -> Result<()> {
     let cell = &x.train[index];
     let run_dir = out.join(&cell.run_dir);
-    if !needs_training(x, out, index) {
+    if !needs_training(&run_dir, evals_pending) {
         return Ok(());
     }
     let args = cell.train_args(out);
@@ -229,7 +233,7 @@ fn run_eval(x: &Experiment, out: &Path, index: usize, bars: &Bars) -> Result<()>
 fn run_job(x: &Experiment, out: &Path, job: &Job, bars: &Bars) -> Result<()> {
     match job {
         Job::Train { train, evals } => {
-            run_train(x, out, *train, bars)?;
+            run_train(x, out, *train, !evals.is_empty(), bars)?;
             for &e in evals {
                 run_eval(x, out, e, bars)?;
             }
@@ -243,9 +247,9 @@ fn run_job(x: &Experiment, out: &Path, job: &Job, bars: &Bars) -> Result<()> {
 /// planner evaluations not finished.
 fn jobs(x: &Experiment, out: &Path) -> Vec<Job> {
     let mut jobs = Vec::new();
-    for i in 0..x.train.len() {
+    for (i, t) in x.train.iter().enumerate() {
         let evals = pending_evals(x, out, i);
-        if !evals.is_empty() || needs_training(x, out, i) {
+        if !evals.is_empty() || needs_training(&out.join(&t.run_dir), false) {
             jobs.push(Job::Train { train: i, evals });
         }
     }
