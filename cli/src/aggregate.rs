@@ -4,16 +4,21 @@
 //! `cells.csv/json` (one row per cell, with its directories and the
 //! equivalent `learner train` / `learner eval` commands) and figures:
 //! `success.png` (success per layout and method, CI whiskers),
+//! `timesteps.png` (box plots of the timesteps of solved episodes, pooled
+//! over seeds), `heatmap.png` (mean success of each method on each layout),
 //! `learning-<layout>.png` (mean training success against env steps over
-//! seeds, CI bands) and, for agent sweeps, `scalability-<layout>.png`.
+//! seeds, CI bands) and, for agent sweeps, `scalability-<layout>.png` and
+//! `heatmap-<layout>.png` (mean success against agent count).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use buridan_learner::train::{MetricsRow, METRICS_FILE, SUMMARY_FILE};
-use buridan_study::figures::{banded_lines, grouped_bars, Band, Bar};
+use buridan_study::figures::{
+    banded_lines, grouped_bars, grouped_boxes, heatmap, Band, Bar, BoxData,
+};
 use buridan_study::report::{Cell, Table};
-use buridan_study::stats::{Aggregate, Bootstrap};
+use buridan_study::stats::{Aggregate, Bootstrap, BoxStats};
 use serde::Serialize;
 
 use crate::experiment::{Evaluated, Experiment, PLAN_FILE};
@@ -133,10 +138,25 @@ pub struct Row {
 impl Row {
     /// `ppo-ctde sampled`, or the planner's name.
     pub fn label(&self) -> String {
-        match self.actions {
-            Some(a) => format!("{} {a}", self.method),
-            None => self.method.clone(),
-        }
+        series_label(&self.method, self.actions, None, false)
+    }
+}
+
+/// A figure's name for a series: `ppo-ctde sampled` or a planner's name,
+/// followed by the training layout when the experiment trains on `several`.
+fn series_label(
+    method: &str,
+    actions: Option<&str>,
+    trained_on: Option<&str>,
+    several: bool,
+) -> String {
+    let base = match actions {
+        Some(a) => format!("{method} {a}"),
+        None => method.to_string(),
+    };
+    match trained_on {
+        Some(t) if several => format!("{base} ({t})"),
+        _ => base,
     }
 }
 
@@ -334,6 +354,27 @@ pub fn table(rows: &[Row]) -> Table {
     t
 }
 
+/// The columns of an evaluation's `episodes.csv` the report reads.
+#[derive(serde::Deserialize)]
+struct EpisodeOutcome {
+    success: bool,
+    timesteps: f64,
+}
+
+/// Timesteps of the solved episodes of one evaluation (its `episodes.csv`;
+/// none if the file is missing, as in result folders kept without it).
+fn solved_timesteps(eval_dir: &Path) -> Vec<f64> {
+    let Ok(mut reader) = csv::Reader::from_path(eval_dir.join("episodes.csv")) else {
+        return Vec::new();
+    };
+    reader
+        .deserialize::<EpisodeOutcome>()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.success)
+        .map(|e| e.timesteps)
+        .collect()
+}
+
 /// Training success (%) of one run's `metrics.csv` as a step function of env steps.
 fn success_curve(run_dir: &Path) -> Vec<(u64, f64)> {
     let Ok(mut reader) = csv::Reader::from_path(run_dir.join(METRICS_FILE)) else {
@@ -406,10 +447,8 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
     files.extend(["cells.json", "cells.csv"].map(|f| out.join(f)));
 
     // Success per layout and method at each method's smallest agent count.
-    let label = |r: &Row| match &r.trained_on {
-        Some(t) if x.layouts.len() > 1 => format!("{} ({t})", r.label()),
-        _ => r.label(),
-    };
+    let several = x.layouts.len() > 1;
+    let label = |r: &Row| series_label(&r.method, r.actions, r.trained_on.as_deref(), several);
     let labels: Vec<String> = {
         let mut v: Vec<String> = Vec::new();
         for r in &rows {
@@ -453,6 +492,80 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
         &bars,
     )?;
     files.push(path);
+
+    // Timesteps of solved episodes at each series' smallest agent count, pooled over seeds.
+    let record_label =
+        |r: &CellRecord| series_label(&r.method, r.actions, r.trained_on.as_deref(), several);
+    let mut boxes = Vec::new();
+    for (g, layout) in x.eval_layouts().iter().enumerate() {
+        for (s, name) in labels.iter().enumerate() {
+            let Some(agents) = rows
+                .iter()
+                .filter(|r| r.layout == *layout && label(r) == *name)
+                .map(|r| r.agents)
+                .min()
+            else {
+                continue;
+            };
+            let values: Vec<f64> = records
+                .iter()
+                .filter(|r| r.layout == *layout && r.agents == agents && record_label(r) == *name)
+                .flat_map(|r| solved_timesteps(&r.eval_dir))
+                .collect();
+            if let Some(stats) = BoxStats::of(&values) {
+                boxes.push(BoxData {
+                    group: g,
+                    series: s,
+                    stats,
+                });
+            }
+        }
+    }
+    if !boxes.is_empty() {
+        let path = out.join("timesteps.png");
+        grouped_boxes(
+            &path,
+            &format!(
+                "{}: timesteps of solved episodes (all seeds pooled)",
+                x.name
+            ),
+            "timesteps",
+            x.eval_layouts(),
+            &labels,
+            &boxes,
+        )?;
+        files.push(path);
+    }
+
+    // Mean success of each series on each layout (smallest agent count).
+    if groups.len() > 1 {
+        let values: Vec<Vec<Option<f64>>> = labels
+            .iter()
+            .map(|name| {
+                groups
+                    .iter()
+                    .map(|layout| {
+                        rows.iter()
+                            .filter(|r| r.layout == *layout && label(r) == *name)
+                            .min_by_key(|r| r.agents)
+                            .and_then(|r| r.success)
+                            .map(|a| 100.0 * a.mean)
+                    })
+                    .collect()
+            })
+            .collect();
+        let path = out.join("heatmap.png");
+        heatmap(
+            &path,
+            &format!("{}: success % (mean over seeds)", x.name),
+            "layout",
+            &groups,
+            &labels,
+            &values,
+            (0.0, 100.0),
+        )?;
+        files.push(path);
+    }
 
     for layout in &x.layouts {
         let bands: Vec<Band> = x
@@ -519,6 +632,42 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
                 "agents",
                 "success (%)",
                 &sweep,
+            )?;
+            files.push(path);
+            let mut counts: Vec<usize> = rows
+                .iter()
+                .filter(|r| r.layout == *layout)
+                .map(|r| r.agents)
+                .collect();
+            counts.sort_unstable();
+            counts.dedup();
+            let names: Vec<String> = sweep.iter().map(|b| b.label.clone()).collect();
+            let values: Vec<Vec<Option<f64>>> = names
+                .iter()
+                .map(|name| {
+                    counts
+                        .iter()
+                        .map(|&n| {
+                            rows.iter()
+                                .find(|r| r.layout == *layout && r.agents == n && label(r) == *name)
+                                .and_then(|r| r.success)
+                                .map(|a| 100.0 * a.mean)
+                        })
+                        .collect()
+                })
+                .collect();
+            let path = out.join(format!(
+                "heatmap-{}.png",
+                crate::experiment::layout_dir(layout)
+            ));
+            heatmap(
+                &path,
+                &format!("{layout}: success % against agents (mean over seeds)"),
+                "agents",
+                &counts.iter().map(|n| n.to_string()).collect::<Vec<_>>(),
+                &names,
+                &values,
+                (0.0, 100.0),
             )?;
             files.push(path);
         }

@@ -185,10 +185,13 @@ config = "tiny.toml"
         "cells.csv",
         "plan.json",
         "success.png",
+        "timesteps.png",
         "learning-rm-1.1.png",
     ] {
         assert!(out.join(f).is_file(), "missing {f}");
     }
+    // One layout, no agent sweep: no heatmaps.
+    assert!(!out.join("heatmap.png").exists() && !out.join("heatmap-rm-1.1.png").exists());
     let csv = std::fs::read_to_string(out.join("table.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert!(
@@ -327,6 +330,62 @@ set = ["starts=\"random\""]
         "{mean:.1} in {mean_row}"
     );
     assert!(out.join("success.png").is_file());
+    // Layouts side by side: the success heatmap.
+    assert!(out.join("heatmap.png").is_file());
+}
+
+#[test]
+fn an_agent_sweep_writes_scalability_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    tiny_config(dir.path());
+    let file = dir.path().join("experiment.toml");
+    std::fs::write(
+        &file,
+        r#"
+[experiment]
+name = "sweep"
+layouts = ["rm-2.1"]
+seeds = 1
+steps = 2000
+planners = ["cbs"]
+[experiment.eval]
+episodes = 3
+actions = ["greedy"]
+agents = [2, 3]
+time_limit = 5.0
+[[method]]
+name = "ppo"
+config = "tiny.toml"
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let outcome = study::run(&StudyArgs {
+        command: None,
+        experiment: Some(file),
+        out: Some(out.clone()),
+        parallel: Some(1),
+        quiet: true,
+    })
+    .unwrap();
+    assert!(outcome.failures.is_empty(), "{:?}", outcome.failures);
+    for f in [
+        "scalability-rm-2.1.png",
+        "heatmap-rm-2.1.png",
+        "timesteps.png",
+    ] {
+        let png = std::fs::read(out.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+        assert_eq!(&png[..4], b"\x89PNG", "{f}");
+    }
+    // CBS solves these small instances: its timesteps are in the box plot's data.
+    let cells: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("cells.json")).unwrap()).unwrap();
+    let cbs_solved = cells
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|c| c["method"] == "cbs" && c["success_rate"].as_f64().unwrap() > 0.0);
+    assert!(cbs_solved, "{cells}");
 }
 
 #[test]

@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use buridan_env::Grid;
+use buridan_study::figures::{grouped_boxes, BoxData};
 
 use crate::plot::{self, Series};
 use crate::runner::{EvalReport, EvalSummary};
@@ -77,7 +78,13 @@ pub fn write_report(
             "{} on {}, {} agents: timesteps of solved episodes",
             s.controller, s.map, s.agents
         );
-        plot::boxplot(&box_path, &title, "timesteps", &[(s.controller.clone(), b)])?;
+        let boxes = [BoxData {
+            group: 0,
+            series: 0,
+            stats: b,
+        }];
+        let (group, series) = ([s.map.clone()], [s.controller.clone()]);
+        grouped_boxes(&box_path, &title, "timesteps", &group, &series, &boxes)?;
         paths.push(box_path);
     }
     Ok(paths)

@@ -1,55 +1,17 @@
-//! PNG charts: visit heatmaps on the layout, box plots, line charts.
+//! PNG charts: visit heatmaps on the layout, line charts (box plots are
+//! the study crate's `figures::grouped_boxes`).
 //!
 //! Text uses the DejaVu Sans font embedded through the `dejavu` crate, so
 //! drawing needs no system fonts.
 
 use std::path::Path;
-use std::sync::Once;
 
 use buridan_env::Grid;
 use buridan_study::figures::tick;
+use buridan_study::plot::err;
+pub use buridan_study::plot::{register_fonts, PlotError};
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
-use plotters::style::FontStyle;
-
-use crate::stats::BoxStats;
-
-/// Drawing failed (file not writable, or a backend error), in words.
-#[derive(Debug, thiserror::Error)]
-#[error("cannot draw {path}: {message}")]
-pub struct PlotError {
-    /// The file being drawn.
-    pub path: String,
-    /// What went wrong.
-    pub message: String,
-}
-
-/// Registers the embedded DejaVu fonts as plotters' `sans-serif`, once per
-/// process: text renders the same on machines without system fonts.
-///
-/// ```
-/// buridan_eval::plot::register_fonts();
-/// buridan_eval::plot::register_fonts(); // the second call does nothing
-/// ```
-pub fn register_fonts() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        // Registering a valid embedded TTF cannot fail; ignore the unit result.
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            FontStyle::Normal,
-            dejavu::sans::regular(),
-        );
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold());
-    });
-}
-
-fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
-    PlotError {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    }
-}
 
 /// Draws per-cell visit counts over the layout: walls black, free cells
 /// coloured by visits (viridis, square-root scaled), with a title.
@@ -115,89 +77,6 @@ pub fn heatmap(path: &Path, title: &str, grid: &Grid, visits: &[u64]) -> Result<
     legend
         .draw(&Text::new("visits", (5, 25), style))
         .map_err(|e| err(path, e))?;
-    root.present().map_err(|e| err(path, e))
-}
-
-/// Draws box plots (median, quartiles, Tukey whiskers) side by side.
-///
-/// ```no_run
-/// let b = buridan_eval::stats::BoxStats::of(&[20.0, 22.0, 25.0, 31.0]).unwrap();
-/// buridan_eval::plot::boxplot(std::path::Path::new("b.png"), "timesteps", "timesteps", &[("cbs".into(), b)]).unwrap();
-/// ```
-pub fn boxplot(
-    path: &Path,
-    title: &str,
-    y_label: &str,
-    boxes: &[(String, BoxStats)],
-) -> Result<(), PlotError> {
-    register_fonts();
-    let width = 560.max(160 + 160 * boxes.len() as u32);
-    let root = BitMapBackend::new(path, (width, 480)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
-    let hi = boxes
-        .iter()
-        .map(|(_, b)| b.whisker_high)
-        .fold(1.0, f64::max)
-        * 1.15;
-    let lo = boxes
-        .iter()
-        .map(|(_, b)| b.whisker_low)
-        .fold(hi, f64::min)
-        .min(0.0);
-    let n = boxes.len().max(1);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 16))
-        .margin(15)
-        .x_label_area_size(10)
-        .y_label_area_size(50)
-        .build_cartesian_2d(0f64..n as f64, lo..hi)
-        .map_err(|e| err(path, e))?;
-    chart
-        .configure_mesh()
-        .disable_x_mesh()
-        .x_labels(0)
-        .y_desc(y_label)
-        .draw()
-        .map_err(|e| err(path, e))?;
-    // Labels inside the plot, above each box: the x axis is categorical.
-    let label_style = ("sans-serif", 14).into_font();
-    chart
-        .draw_series(boxes.iter().enumerate().map(|(k, (label, b))| {
-            let text = format!("{label} (n={})", b.count);
-            Text::new(text, (k as f64 + 0.2, hi * 0.97), label_style.clone())
-        }))
-        .map_err(|e| err(path, e))?;
-    for (k, (_, b)) in boxes.iter().enumerate() {
-        let x = k as f64 + 0.5;
-        let (l, r) = (x - 0.25, x + 0.25);
-        let color = Palette99::pick(k);
-        let series: Vec<PathElement<(f64, f64)>> = vec![
-            PathElement::new(vec![(x, b.whisker_low), (x, b.q1)], BLACK),
-            PathElement::new(vec![(x, b.q3), (x, b.whisker_high)], BLACK),
-            PathElement::new(
-                vec![(x - 0.1, b.whisker_low), (x + 0.1, b.whisker_low)],
-                BLACK,
-            ),
-            PathElement::new(
-                vec![(x - 0.1, b.whisker_high), (x + 0.1, b.whisker_high)],
-                BLACK,
-            ),
-            PathElement::new(vec![(l, b.median), (r, b.median)], BLACK.stroke_width(3)),
-        ];
-        chart
-            .draw_series(std::iter::once(Rectangle::new(
-                [(l, b.q1), (r, b.q3)],
-                color.mix(0.4).filled(),
-            )))
-            .map_err(|e| err(path, e))?;
-        chart
-            .draw_series(std::iter::once(Rectangle::new(
-                [(l, b.q1), (r, b.q3)],
-                BLACK,
-            )))
-            .map_err(|e| err(path, e))?;
-        chart.draw_series(series).map_err(|e| err(path, e))?;
-    }
     root.present().map_err(|e| err(path, e))
 }
 

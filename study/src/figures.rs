@@ -1,13 +1,16 @@
 //! Figures of a multi-seed experiment: grouped bars with confidence-interval
-//! whiskers (success per layout and method), and lines with confidence
-//! bands (learning curves over env steps, success against agent count).
+//! whiskers (success per layout and method), grouped box plots (timesteps
+//! of solved episodes), lines with confidence bands (learning curves over
+//! env steps, success against agent count) and annotated heatmaps (success
+//! of each method against agent count or layout).
 
 use std::path::Path;
 
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::plot::{err, register_fonts, PlotError};
-use crate::stats::Interval;
+use crate::stats::{BoxStats, Interval};
 
 /// One bar: the value of `series` in `group`, with its interval if any.
 #[derive(Debug, Clone, PartialEq)]
@@ -257,6 +260,238 @@ pub fn banded_lines(
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .draw()
+        .map_err(|e| err(path, e))?;
+    root.present().map_err(|e| err(path, e))
+}
+
+/// One box of a box plot: the statistics of `series` in `group`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoxData {
+    /// Index into the groups (x positions).
+    pub group: usize,
+    /// Index into the series (colours, legend).
+    pub series: usize,
+    /// Quartiles and whiskers.
+    pub stats: BoxStats,
+}
+
+/// Grouped box plots: one cluster per group (e.g. layout), one colour per
+/// series (e.g. method), Tukey whiskers ([`BoxStats`]); each box's sample
+/// size is printed above it.
+///
+/// ```
+/// use buridan_study::figures::{grouped_boxes, BoxData};
+/// use buridan_study::stats::BoxStats;
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("boxes.png");
+/// let stats = BoxStats::of(&[18.0, 20.0, 22.0, 40.0]).unwrap();
+/// let boxes = [BoxData { group: 0, series: 0, stats }];
+/// grouped_boxes(&path, "timesteps", "timesteps", &["rm-2.1".into()], &["ppo".into()], &boxes).unwrap();
+/// assert!(path.is_file());
+/// ```
+pub fn grouped_boxes(
+    path: &Path,
+    title: &str,
+    y_label: &str,
+    groups: &[String],
+    series: &[String],
+    boxes: &[BoxData],
+) -> Result<(), PlotError> {
+    register_fonts();
+    let root = BitMapBackend::new(path, (1000, 560)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let stats: Vec<(&BoxData, [f64; 5])> = boxes
+        .iter()
+        .map(|b| {
+            let s = b.stats;
+            (b, [s.whisker_low, s.q1, s.median, s.q3, s.whisker_high])
+        })
+        .filter(|(_, q)| q.iter().all(|v| v.is_finite()))
+        .collect();
+    let top = stats.iter().map(|s| s.1[4]).fold(0.0f64, f64::max);
+    let top = if top > 0.0 { top * 1.15 } else { 1.0 };
+    let n = groups.len().max(1) as f64;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(-0.5..(n - 0.5), 0.0..top)
+        .map_err(|e| err(path, e))?;
+    let names = groups.to_vec();
+    let label = move |x: &f64| {
+        let i = x.round();
+        if (x - i).abs() < 1e-6 && i >= 0.0 {
+            names.get(i as usize).cloned().unwrap_or_default()
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(groups.len() * 4 + 1)
+        .x_label_formatter(&label)
+        .y_desc(y_label)
+        .y_label_formatter(&|v| tick(*v))
+        .draw()
+        .map_err(|e| err(path, e))?;
+    let width = 0.8 / series.len().max(1) as f64;
+    for (s, name) in series.iter().enumerate() {
+        let color = Palette99::pick(s).to_rgba();
+        let mine: Vec<_> = stats.iter().filter(|(b, _)| b.series == s).collect();
+        let frame = |(b, q): &&(&BoxData, [f64; 5])| {
+            let x0 = b.group as f64 - 0.4 + b.series as f64 * width;
+            (x0 + 0.15 * width, x0 + 0.5 * width, x0 + 0.85 * width, *q)
+        };
+        chart
+            .draw_series(mine.iter().map(|b| {
+                let (l, _, r, q) = frame(b);
+                Rectangle::new([(l, q[1]), (r, q[3])], color.mix(0.35).filled())
+            }))
+            .map_err(|e| err(path, e))?
+            .label(name.clone())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 15, y + 5)], color.filled()));
+        chart
+            .draw_series(mine.iter().flat_map(|b| {
+                let (l, mid, r, q) = frame(b);
+                let cap = 0.5 * (r - l) * 0.6;
+                [
+                    PathElement::new(
+                        vec![(l, q[1]), (r, q[1]), (r, q[3]), (l, q[3]), (l, q[1])],
+                        color.stroke_width(2),
+                    ),
+                    PathElement::new(vec![(l, q[2]), (r, q[2])], BLACK.stroke_width(3)),
+                    PathElement::new(
+                        vec![
+                            (mid, q[3]),
+                            (mid, q[4]),
+                            (mid - cap, q[4]),
+                            (mid + cap, q[4]),
+                        ],
+                        color.stroke_width(2),
+                    ),
+                    PathElement::new(
+                        vec![
+                            (mid, q[1]),
+                            (mid, q[0]),
+                            (mid - cap, q[0]),
+                            (mid + cap, q[0]),
+                        ],
+                        color.stroke_width(2),
+                    ),
+                ]
+            }))
+            .map_err(|e| err(path, e))?;
+        let above = Pos::new(HPos::Center, VPos::Bottom);
+        chart
+            .draw_series(mine.iter().map(|b| {
+                let (_, mid, _, q) = frame(b);
+                Text::new(
+                    format!("n={}", b.0.stats.count),
+                    (mid, q[4] + 0.025 * top),
+                    TextStyle::from(("sans-serif", 11).into_font()).pos(above),
+                )
+            }))
+            .map_err(|e| err(path, e))?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(path, e))?;
+    root.present().map_err(|e| err(path, e))
+}
+
+/// An annotated heatmap: `values[row][column]` coloured on viridis over
+/// `range` and printed in each cell; `None` cells stay blank.
+///
+/// ```
+/// use buridan_study::figures::heatmap;
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("heat.png");
+/// let values = vec![vec![Some(95.0), Some(40.0)], vec![Some(99.0), None]];
+/// heatmap(&path, "success (%)", "agents", &["4".into(), "8".into()], &["ppo".into(), "cbs".into()], &values, (0.0, 100.0)).unwrap();
+/// assert!(path.is_file());
+/// ```
+pub fn heatmap(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    columns: &[String],
+    rows: &[String],
+    values: &[Vec<Option<f64>>],
+    range: (f64, f64),
+) -> Result<(), PlotError> {
+    register_fonts();
+    let (w, h) = (
+        (260 + 60 * columns.len()).clamp(600, 1600) as u32,
+        (140 + 34 * rows.len()).clamp(300, 1400) as u32,
+    );
+    let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let (nc, nr) = (columns.len().max(1) as f64, rows.len().max(1) as f64);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(220)
+        .build_cartesian_2d(0.0..nc, 0.0..nr)
+        .map_err(|e| err(path, e))?;
+    // Row 0 at the top, as a table reads.
+    let name = |names: &[String], i: f64| -> String {
+        let k = i.floor();
+        if (i - k - 0.5).abs() < 1e-6 && k >= 0.0 {
+            names.get(k as usize).cloned().unwrap_or_default()
+        } else {
+            String::new()
+        }
+    };
+    let row_names: Vec<String> = rows.iter().rev().cloned().collect();
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_labels(2 * columns.len() + 1)
+        .y_labels(2 * rows.len() + 1)
+        .x_label_formatter(&|x| name(columns, *x))
+        .y_label_formatter(&|y| name(&row_names, *y))
+        .x_desc(x_label)
+        .draw()
+        .map_err(|e| err(path, e))?;
+    let (lo, hi) = range;
+    let cells: Vec<(f64, f64, f64)> = values
+        .iter()
+        .enumerate()
+        .flat_map(|(r, row)| {
+            row.iter()
+                .enumerate()
+                .filter_map(move |(c, v)| Some((c as f64, nr - 1.0 - r as f64, (*v)?)))
+        })
+        .filter(|c| c.2.is_finite())
+        .collect();
+    chart
+        .draw_series(cells.iter().map(|&(x, y, v)| {
+            let color = ViridisRGB.get_color_normalized(v.clamp(lo, hi), lo, hi);
+            Rectangle::new([(x, y), (x + 1.0, y + 1.0)], color.filled())
+        }))
+        .map_err(|e| err(path, e))?;
+    let centred = Pos::new(HPos::Center, VPos::Center);
+    chart
+        .draw_series(cells.iter().map(|&(x, y, v)| {
+            // Dark text on the light (high) end of viridis, light on the dark end.
+            let ink = if (v - lo) / (hi - lo).max(f64::EPSILON) > 0.6 {
+                BLACK
+            } else {
+                WHITE
+            };
+            Text::new(
+                format!("{v:.0}"),
+                (x + 0.5, y + 0.5),
+                ("sans-serif", 14).into_font().color(&ink).pos(centred),
+            )
+        }))
         .map_err(|e| err(path, e))?;
     root.present().map_err(|e| err(path, e))
 }

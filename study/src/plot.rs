@@ -27,8 +27,14 @@ pub struct PlotError {
     pub message: String,
 }
 
-/// Registers the embedded DejaVu fonts as `sans-serif`, once per process.
-pub(crate) fn register_fonts() {
+/// Registers the embedded DejaVu fonts as plotters' `sans-serif`, once per
+/// process: text renders the same on machines without system fonts.
+///
+/// ```
+/// buridan_study::plot::register_fonts();
+/// buridan_study::plot::register_fonts(); // the second call does nothing
+/// ```
+pub fn register_fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // Registering a valid embedded TTF cannot fail; ignore the unit result.
@@ -42,7 +48,12 @@ pub(crate) fn register_fonts() {
 }
 
 /// A [`PlotError`] for `path`.
-pub(crate) fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
+///
+/// ```
+/// let e = buridan_study::plot::err(std::path::Path::new("a.png"), "denied");
+/// assert_eq!(e.to_string(), "cannot draw a.png: denied");
+/// ```
+pub fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
     PlotError {
         path: path.display().to_string(),
         message: e.to_string(),

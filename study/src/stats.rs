@@ -34,6 +34,60 @@ pub fn quantile(sorted: &[f64], q: f64) -> Option<f64> {
     Some(sorted[lo] + (sorted[hi] - sorted[lo]) * (pos - lo as f64))
 }
 
+/// Median, quartiles and whiskers of a sample (Tukey: the most extreme data
+/// within 1.5 × IQR of the quartiles), as in the dissertation's box plots.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct BoxStats {
+    /// Lower whisker.
+    pub whisker_low: f64,
+    /// First quartile.
+    pub q1: f64,
+    /// Median.
+    pub median: f64,
+    /// Third quartile.
+    pub q3: f64,
+    /// Upper whisker.
+    pub whisker_high: f64,
+    /// Sample size.
+    pub count: usize,
+}
+
+impl BoxStats {
+    /// Box-plot statistics of `values` (any order; non-finite values are
+    /// ignored), `None` if empty.
+    ///
+    /// ```
+    /// let b = buridan_study::stats::BoxStats::of(&[1.0, 2.0, 3.0, 4.0, 100.0]).unwrap();
+    /// assert_eq!((b.q1, b.median, b.q3), (2.0, 3.0, 4.0));
+    /// assert_eq!((b.whisker_low, b.whisker_high), (1.0, 4.0)); // 100 is an outlier
+    /// ```
+    pub fn of(values: &[f64]) -> Option<BoxStats> {
+        let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        v.sort_by(f64::total_cmp);
+        let (q1, median, q3) = (quantile(&v, 0.25)?, quantile(&v, 0.5)?, quantile(&v, 0.75)?);
+        let iqr = q3 - q1;
+        let whisker_low = v
+            .iter()
+            .copied()
+            .find(|&x| x >= q1 - 1.5 * iqr)
+            .unwrap_or(q1);
+        let whisker_high = v
+            .iter()
+            .rev()
+            .copied()
+            .find(|&x| x <= q3 + 1.5 * iqr)
+            .unwrap_or(q3);
+        Some(BoxStats {
+            whisker_low,
+            q1,
+            median,
+            q3,
+            whisker_high,
+            count: v.len(),
+        })
+    }
+}
+
 /// Interquartile mean: the mean of the middle half, dropping ⌊n/4⌋ values
 /// from each end (SciPy's `trim_mean(x, 0.25)`, which rliable uses), `None`
 /// if empty.

@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# The dissertation's whole evaluation program (issue 9, SPEC §6) in one
+# command, on the study files in learner/studies/:
+#   1. the phase-1 searches: model 1.1 in all modes, 2.1 and 3.1 (PPO, IMPALA);
+#   2. the comparison table: rm-2.1, 2.1b, 2.2, 3.1 x PPO, IMPALA, 10 seeds;
+#   3. scalability on rm-2.1 and rm-3.1 (the comparison's policies with 4..20
+#      agents: their run directories are copied, so only evaluations run);
+#   4. generalization (trained on rm-3.1 + rm-2.2, evaluated on all four).
+# Every step is resumable: rerun with the same OUT after an interruption and
+# finished trials, runs and evaluations are skipped. Each step's wall time
+# is appended to OUT/wall-times.csv; the total is printed at the end.
+#
+# Usage: scripts/dissertation-study.sh OUT [--skip-search] [--parallel N]
+#   (needs target/release/learner: cargo build --release -p buridan-cli)
+set -euo pipefail
+ROOT="$(cd "$(dirname "$0")/.." && pwd)"
+LEARNER="${LEARNER:-$ROOT/target/release/learner}"
+OUT="${1:?usage: $0 OUT [--skip-search] [--parallel N]}"
+shift
+SEARCH=1
+PARALLEL=2
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --skip-search) SEARCH=0 ;;
+    --parallel) PARALLEL="${2:?--parallel needs a number}"; shift ;;
+    *) echo "unknown option $1" >&2; exit 2 ;;
+  esac
+  shift
+done
+[ -x "$LEARNER" ] || { echo "no learner binary at $LEARNER (cargo build --release -p buridan-cli)" >&2; exit 1; }
+mkdir -p "$OUT"
+OUT="$(cd "$OUT" && pwd)"
+cd "$ROOT"
+TIMES="$OUT/wall-times.csv"
+[ -f "$TIMES" ] || echo "step,seconds,finished" > "$TIMES"
+
+# step NAME COMMAND...: runs COMMAND, logs it and records its wall time.
+step() {
+  local name="$1"; shift
+  echo "== $name: $*" >&2
+  local start=$SECONDS
+  "$@"
+  echo "$name,$((SECONDS - start)),$(date -u +%FT%TZ)" >> "$TIMES"
+}
+
+# tune FILE: a phase-1 search into OUT/tune/<name>, resumed if it exists.
+tune() {
+  local name; name="$(basename "$1" .toml)"
+  local dir="$OUT/tune/$name" resume=()
+  [ -f "$dir/study.json" ] && resume=(--resume)
+  step "$name" "$LEARNER" tune "$1" --out "$dir" --parallel "$PARALLEL" "${resume[@]}"
+}
+
+# study FILE DIR: a declarative experiment into OUT/DIR.
+study() {
+  step "$2" "$LEARNER" study "$1" --out "$OUT/$2" --parallel "$PARALLEL" --quiet
+}
+
+# reuse LAYOUT DIR: the comparison's runs on LAYOUT, copied into OUT/DIR
+# (same configs, seeds, steps and run-directory names), unless already there.
+reuse() {
+  mkdir -p "$OUT/$2/runs"
+  [ -d "$OUT/$2/runs/$1" ] || cp -r "$OUT/comparison/runs/$1" "$OUT/$2/runs/$1"
+}
+
+S=learner/studies
+if [ "$SEARCH" = 1 ]; then
+  for f in $S/tune-ppo-ctde-rm-1.1.toml $S/tune-ppo-cte-rm-1.1.toml $S/tune-ppo-dte-rm-1.1.toml \
+           $S/tune-impala-ctde-rm-1.1.toml $S/tune-ppo-ctde-rm-2.1.toml $S/tune-impala-ctde-rm-2.1.toml \
+           $S/tune-ppo-ctde-rm-3.1.toml $S/tune-impala-ctde-rm-3.1.toml; do
+    tune "$f"
+  done
+fi
+study $S/comparison.toml comparison
+reuse rm-2.1 scalability-rm-2.1
+study $S/scalability-rm-2.1.toml scalability-rm-2.1
+reuse rm-3.1 scalability-rm-3.1
+study $S/scalability-rm-3.1.toml scalability-rm-3.1
+study $S/generalization.toml generalization
+
+python3 - "$TIMES" <<'PY'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+total = sum(int(r["seconds"]) for r in rows)
+for r in rows:
+    print(f"{r['step']:40} {int(r['seconds']):>8} s")
+print(f"{'total (every invocation recorded)':40} {total:>8} s = {total / 3600:.1f} h")
+PY
