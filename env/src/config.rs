@@ -6,6 +6,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::error::EnvError;
 use crate::map::{Map, Scenario};
+use crate::rules::Rules;
 
 /// Where agents start and where their goals are.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -32,13 +33,27 @@ impl std::str::FromStr for Starts {
 }
 
 /// Settings of one grid environment; `Default` is the dissertation's setup.
+///
+/// Deserialised with every field optional; a missing `t_max` is the rule
+/// set's own ([`Rules::default_t_max`]: 100 for thesis, 128 for pogema), so
+/// files written before rule sets existed load unchanged as thesis.
+///
+/// ```
+/// use buridan_env::{EnvConfig, Rules};
+/// let cfg: EnvConfig = serde_json::from_str(r#"{"rules": "pogema", "agents": 64}"#).unwrap();
+/// assert_eq!((cfg.rules, cfg.t_max, cfg.agents), (Rules::Pogema, 128, 64));
+/// let old: EnvConfig = serde_json::from_str(r#"{"agents": 4}"#).unwrap();
+/// assert_eq!(old, EnvConfig::default());
+/// ```
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(from = "EnvConfigFile")]
 pub struct EnvConfig {
     /// Number of agents.
     pub agents: usize,
     /// Truncation step count `T_max`.
     pub t_max: u32,
+    /// The rule set that moves the agents (thesis by default).
+    pub rules: Rules,
     /// Fixed or random starts and goals.
     pub starts: Starts,
     /// Seed of the episode generator.
@@ -63,7 +78,8 @@ impl Default for EnvConfig {
     fn default() -> Self {
         Self {
             agents: 4,
-            t_max: 100,
+            t_max: Rules::Thesis.default_t_max(),
+            rules: Rules::Thesis,
             starts: Starts::Random,
             seed: 0,
             sensor_range: 2,
@@ -75,7 +91,74 @@ impl Default for EnvConfig {
     }
 }
 
+/// [`EnvConfig`] as read from a file: the same fields, `t_max` optional so
+/// that its default can follow `rules`.
+#[derive(serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct EnvConfigFile {
+    agents: usize,
+    t_max: Option<u32>,
+    rules: Rules,
+    starts: Starts,
+    seed: u64,
+    sensor_range: usize,
+    lifelong: bool,
+    stall_window: u32,
+    features: crate::ObsFeatures,
+    shaping: Option<crate::Shaping>,
+}
+
+impl Default for EnvConfigFile {
+    fn default() -> Self {
+        let d = EnvConfig::default();
+        Self {
+            agents: d.agents,
+            t_max: None,
+            rules: d.rules,
+            starts: d.starts,
+            seed: d.seed,
+            sensor_range: d.sensor_range,
+            lifelong: d.lifelong,
+            stall_window: d.stall_window,
+            features: d.features,
+            shaping: d.shaping,
+        }
+    }
+}
+
+impl From<EnvConfigFile> for EnvConfig {
+    fn from(f: EnvConfigFile) -> Self {
+        Self {
+            agents: f.agents,
+            t_max: f.t_max.unwrap_or(f.rules.default_t_max()),
+            rules: f.rules,
+            starts: f.starts,
+            seed: f.seed,
+            sensor_range: f.sensor_range,
+            lifelong: f.lifelong,
+            stall_window: f.stall_window,
+            features: f.features,
+            shaping: f.shaping,
+        }
+    }
+}
+
 impl EnvConfig {
+    /// The default configuration under `rules`, with that rule set's `T_max`.
+    ///
+    /// ```
+    /// use buridan_env::{EnvConfig, Rules};
+    /// let cfg = EnvConfig::for_rules(Rules::Pogema);
+    /// assert_eq!((cfg.rules, cfg.t_max), (Rules::Pogema, 128));
+    /// ```
+    pub fn for_rules(rules: Rules) -> Self {
+        Self {
+            rules,
+            t_max: rules.default_t_max(),
+            ..Self::default()
+        }
+    }
+
     /// Checks ranges that do not depend on the map.
     pub fn validate(&self) -> Result<(), EnvError> {
         if self.agents == 0 || self.agents > u16::MAX as usize - 1 {

@@ -2,7 +2,9 @@
 //! dissertation as a fast multi-agent simulator.
 //!
 //! - [`map`]: MovingAI `.map`/`.scen` loading, the 17 bundled reference models.
-//! - [`world`]: [`GridEnv`], one env under the `thesis` ruleset.
+//! - [`world`]: [`GridEnv`], one env under either rule set.
+//! - [`rules`]: the rule sets, [`Rules::Thesis`] (sequential moves, the
+//!   default) and [`Rules::Pogema`] (POGEMA 1.4.0's simultaneous moves).
 //! - [`obs`]: CTDE/DTE local and CTE central observations, action masks.
 //! - [`vec_env`]: [`VecEnv`], a batch of envs with auto-reset.
 //! - [`mixture`]: [`LayoutMixture`], one env over several layouts with weights.
@@ -28,6 +30,7 @@ pub mod mixture;
 pub mod monitor;
 pub mod obs;
 pub mod recipe;
+pub mod rules;
 pub mod seed;
 pub mod stats;
 pub mod vec_env;
@@ -42,6 +45,7 @@ pub use obs::{central_obs_dim, local_obs_dim, ObsKind};
 pub use recipe::{
     priority_feature_dim, ObsFeatures, Shaping, PATH_FEATURE_DIM, PRESSURE_FEATURE_DIM,
 };
+pub use rules::{Rules, UnknownRules, POGEMA_T_MAX, THESIS_T_MAX};
 pub use stats::EpisodeStats;
 pub use vec_env::{EnvSlot, VecEnv};
 pub use world::{GridEnv, StepOutcome, NUM_ACTIONS};

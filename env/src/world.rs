@@ -1,10 +1,13 @@
-//! The multi-agent grid world under the `thesis` ruleset (SPEC §2).
+//! The multi-agent grid world under either rule set ([`crate::rules`]).
 //!
-//! One step moves agents **sequentially in index order**: agent `i`'s move
-//! succeeds iff the target is inside the grid, not a wall and not occupied at
-//! that moment — a lower-index agent may already have moved in or out, so an
-//! agent may enter a cell vacated earlier in the same step, and no two agents
-//! can swap. Rewards per agent: +0.5 the first time it stands on its goal;
+//! Under `thesis` (SPEC §2, the default) one step moves agents
+//! **sequentially in index order**: agent `i`'s move succeeds iff the target
+//! is inside the grid, not a wall and not occupied at that moment — a
+//! lower-index agent may already have moved in or out, so an agent may enter
+//! a cell vacated earlier in the same step, and no two agents can swap.
+//! Under `pogema` all agents move at once after POGEMA's soft-collision
+//! repair ([`crate::rules::resolve_simultaneous`]). Rewards per agent, under
+//! both: +0.5 the first time it stands on its goal;
 //! +1 to every agent when all stand on their goals after a step (the episode
 //! terminates); at truncation (`t == T_max`) −1 to every agent off its goal;
 //! −1 to an agent sharing a cell (impossible under these rules; checked).
@@ -25,6 +28,7 @@ use crate::error::EnvError;
 use crate::map::{Cell, Map, UNREACHABLE};
 use crate::monitor::StallMonitor;
 use crate::obs::code;
+use crate::rules::{resolve_simultaneous, Rules, SimultaneousScratch};
 use crate::stats::EpisodeStats;
 
 /// Reward for first standing on one's goal.
@@ -133,6 +137,13 @@ pub struct GridEnv {
     scratch_distance: Vec<u16>,
     /// Lifelong mode: agents that reached a goal this step (and got a new one).
     arrived: Vec<bool>,
+    /// Per agent, the step (1-based) that began its current stay on its
+    /// goal, 0 while off it: its POGEMA cost.
+    arrival: Vec<u32>,
+    /// Pogema rules: each agent's padded cell after the repair.
+    scratch_target: Vec<usize>,
+    /// Pogema rules: the repair's buffers (empty under thesis rules).
+    simultaneous: SimultaneousScratch,
 }
 
 impl GridEnv {
@@ -186,6 +197,12 @@ impl GridEnv {
             scratch_at_goal: vec![false; n],
             scratch_distance: vec![0; n],
             arrived: vec![false; n],
+            arrival: vec![0; n],
+            scratch_target: vec![0; n],
+            simultaneous: match cfg.rules {
+                Rules::Thesis => SimultaneousScratch::default(),
+                Rules::Pogema => SimultaneousScratch::new(padded_cells),
+            },
             map,
             cfg,
         };
@@ -295,6 +312,7 @@ impl GridEnv {
         let grid = &self.map.grid;
         self.reached.iter_mut().for_each(|r| *r = false);
         self.off_goal.iter_mut().for_each(|k| *k = 0);
+        self.arrival.fill(0);
         self.t = 0;
         self.episode = episode;
         self.over = false;
@@ -346,31 +364,27 @@ impl GridEnv {
                 self.scratch_distance[i] = self.goal_distance(i);
             }
         }
-        for (i, &action) in actions.iter().enumerate() {
-            if action == 0 {
-                continue;
+        match self.cfg.rules {
+            Rules::Thesis => {
+                for (i, &action) in actions.iter().enumerate() {
+                    if action == 0 {
+                        continue;
+                    }
+                    let from = self.pos[i];
+                    let to = from.wrapping_add_signed(self.step_offsets[action as usize]);
+                    if self.blocked[to] == 0 && self.occupant[to] == NOBODY {
+                        self.occupant[from] = NOBODY;
+                        self.occupant[to] = i as u16 + 1;
+                        self.vacate_code(from);
+                        self.shared_code[to] = code::AGENT;
+                        self.pos[i] = to;
+                        self.shift_cell(i, action);
+                    } else {
+                        outcome.blocked_moves += 1;
+                    }
+                }
             }
-            let from = self.pos[i];
-            let to = from.wrapping_add_signed(self.step_offsets[action as usize]);
-            if self.blocked[to] == 0 && self.occupant[to] == NOBODY {
-                self.occupant[from] = NOBODY;
-                self.occupant[to] = i as u16 + 1;
-                self.shared_code[from] = if self.goal_owner[from] != NOBODY {
-                    code::GOAL
-                } else {
-                    code::EMPTY
-                };
-                self.shared_code[to] = code::AGENT;
-                self.pos[i] = to;
-                // The target is inside the grid (not blocked), so no wrap.
-                let (dr, dc) = MOVE_DELTAS[action as usize];
-                let cell = &mut self.cells[i];
-                cell.row = cell.row.wrapping_add_signed(dr);
-                cell.col = cell.col.wrapping_add_signed(dc);
-                self.scratch_cell[i] = (cell.row, cell.col);
-            } else {
-                outcome.blocked_moves += 1;
-            }
+            Rules::Pogema => outcome.blocked_moves = self.move_simultaneously(actions),
         }
         self.t += 1;
         rewards.fill(0.0);
@@ -386,6 +400,15 @@ impl GridEnv {
                 *reward += REWARD_COLLISION;
             }
             let home = p == self.goal[i];
+            if !home {
+                // POGEMA's metric never resets an arrival at the truncating
+                // step: leaving the goal in the last step still costs the arrival.
+                if self.t < self.cfg.t_max {
+                    self.arrival[i] = 0;
+                }
+            } else if self.arrival[i] == 0 {
+                self.arrival[i] = self.t;
+            }
             self.scratch_at_goal[i] = home;
             self.off_goal[i] = if home { 0 } else { self.off_goal[i] + 1 };
             if home {
@@ -437,6 +460,60 @@ impl GridEnv {
         self.arrived.fill(false);
         self.over = outcome.done();
         Ok(outcome)
+    }
+
+    /// Moves all agents at once under the pogema rules; returns the
+    /// requested moves that became waits.
+    fn move_simultaneously(&mut self, actions: &[u8]) -> u32 {
+        let blocked_moves = resolve_simultaneous(
+            &self.pos,
+            actions,
+            &self.step_offsets,
+            &self.blocked,
+            &self.occupant,
+            &mut self.scratch_target,
+            &mut self.simultaneous,
+        );
+        // Vacate every source before filling any target: a follower's target
+        // is its leader's source.
+        for i in 0..self.cfg.agents {
+            let from = self.pos[i];
+            if self.scratch_target[i] != from {
+                self.occupant[from] = NOBODY;
+                self.vacate_code(from);
+            }
+        }
+        for (i, &action) in actions.iter().enumerate() {
+            let to = self.scratch_target[i];
+            if to != self.pos[i] {
+                self.occupant[to] = i as u16 + 1;
+                self.shared_code[to] = code::AGENT;
+                self.pos[i] = to;
+                self.shift_cell(i, action);
+            }
+        }
+        blocked_moves
+    }
+
+    /// The shared code of padded cell `p` once its agent has left.
+    #[inline(always)]
+    fn vacate_code(&mut self, p: usize) {
+        self.shared_code[p] = if self.goal_owner[p] != NOBODY {
+            code::GOAL
+        } else {
+            code::EMPTY
+        };
+    }
+
+    /// Moves agent `i`'s unpadded cell by `action` (a move that succeeded,
+    /// so its target is inside the grid and nothing wraps).
+    #[inline(always)]
+    fn shift_cell(&mut self, i: usize, action: u8) {
+        let (dr, dc) = MOVE_DELTAS[action as usize];
+        let cell = &mut self.cells[i];
+        cell.row = cell.row.wrapping_add_signed(dr);
+        cell.col = cell.col.wrapping_add_signed(dc);
+        self.scratch_cell[i] = (cell.row, cell.col);
     }
 
     /// Adds the shaping bonus (after the episode return took the unshaped
@@ -553,6 +630,51 @@ impl GridEnv {
     /// Whether agent `i` stands on its goal.
     pub fn at_goal(&self, agent: usize) -> bool {
         self.pos[agent] == self.goal[agent]
+    }
+
+    /// Agent `i`'s cost in POGEMA's sense (its `SumOfCostsAndMakespanMetric`),
+    /// as if the episode ended now: the step (1-based) at which it last
+    /// arrived on its goal and has stayed since, or the steps taken so far if
+    /// it is off its goal (`T_max` at truncation). An agent that starts on
+    /// its goal and stays costs 1. Like POGEMA, an agent that leaves its goal
+    /// in the truncating step `T_max` itself keeps the cost of its last
+    /// arrival. Meaningful for one-shot episodes (not lifelong mode, where
+    /// goals move).
+    ///
+    /// ```
+    /// use std::sync::Arc;
+    /// use buridan_env::{Cell, EnvConfig, GridEnv, Map, Rules};
+    /// let map = Arc::new(Map::load("rm-1.1").unwrap());
+    /// let mut env = GridEnv::new(map, EnvConfig { agents: 1, ..EnvConfig::for_rules(Rules::Pogema) }).unwrap();
+    /// env.reset_with(0, &[Cell::new(1, 1)], &[Cell::new(1, 2)]).unwrap();
+    /// env.step(&[0], &mut [0.0]).unwrap();
+    /// assert_eq!(env.cost(0), 1); // off its goal after 1 step
+    /// env.step(&[2], &mut [0.0]).unwrap(); // right, onto its goal: success
+    /// assert_eq!((env.cost(0), env.sum_of_costs(), env.makespan()), (2, 2, 2));
+    /// ```
+    pub fn cost(&self, agent: usize) -> u32 {
+        match self.arrival[agent] {
+            0 => self.t,
+            step => step,
+        }
+    }
+
+    /// Sum of [`Self::cost`] over the agents (POGEMA's SoC).
+    pub fn sum_of_costs(&self) -> u64 {
+        (0..self.cfg.agents).map(|i| u64::from(self.cost(i))).sum()
+    }
+
+    /// Maximum of [`Self::cost`] over the agents (POGEMA's makespan).
+    pub fn makespan(&self) -> u32 {
+        (0..self.cfg.agents)
+            .map(|i| self.cost(i))
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// The rule set this env moves agents by.
+    pub fn rules(&self) -> Rules {
+        self.cfg.rules
     }
 
     /// Per-cell visit counts since the env was created (row-major): each

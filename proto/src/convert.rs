@@ -410,6 +410,8 @@ pub fn env_from_message(m: &v1::EnvSettings, seed: u64) -> Result<EnvConfig, Con
     Ok(EnvConfig {
         agents: m.agents as usize,
         t_max: m.t_max,
+        // The wire carries no rule set yet (issue 18 adds it): thesis, as before.
+        rules: buridan_env::Rules::Thesis,
         starts,
         seed,
         sensor_range: m.sensor_range as usize,
