@@ -8,12 +8,17 @@
 //! `ENVS × agents` agent-steps per iteration. The actions are uniform over
 //! 0..5 and drawn before the timed loop (about a fifth are stays, most of
 //! the rest legal moves). `grid_env_step` times the bare rule step of one
-//! env, without observations, for comparison.
+//! env, without observations, for comparison. `grid_env_step_warehouse`
+//! times the same bare step on the POGEMA benchmark's warehouse
+//! (`benches/data/warehouse.map`, and `warehouse.scen` =
+//! `../shared/pogema/warehouse-192-0.scen`: its first 64 or all 192 agents)
+//! under both rule sets, `T_max` 128, reset to the same instance when an
+//! episode ends.
 
 use std::hint::black_box;
 use std::sync::Arc;
 
-use buridan_env::{EnvConfig, GridEnv, Map, ObsKind, VecEnv};
+use buridan_env::{EnvConfig, GridEnv, Map, ObsKind, Rules, Starts, VecEnv};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -94,5 +99,40 @@ fn grid_env(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, vec_env, grid_env);
+fn warehouse(c: &mut Criterion) {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/data/warehouse.map");
+    let map = Arc::new(Map::load(path).unwrap());
+    let mut group = c.benchmark_group("grid_env_step_warehouse");
+    for rules in Rules::ALL {
+        for agents in [64, 192] {
+            let cfg = EnvConfig {
+                agents,
+                starts: Starts::Fixed,
+                t_max: Rules::Pogema.default_t_max(),
+                ..EnvConfig::for_rules(rules)
+            };
+            let mut env = GridEnv::new(map.clone(), cfg).unwrap();
+            let batches = action_batches(agents, 200 + agents as u64);
+            let mut rewards = vec![0.0; agents];
+            group.throughput(Throughput::Elements(agents as u64));
+            let mut k = 0;
+            group.bench_function(
+                BenchmarkId::new(rules.name(), format!("{agents}_agents")),
+                |b| {
+                    b.iter(|| {
+                        let out = env.step(&batches[k % BATCHES], &mut rewards).unwrap();
+                        k += 1;
+                        if out.done() {
+                            env.reset_to(0).unwrap();
+                        }
+                        black_box(&rewards);
+                    })
+                },
+            );
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, vec_env, grid_env, warehouse);
 criterion_main!(benches);

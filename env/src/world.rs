@@ -137,8 +137,8 @@ pub struct GridEnv {
     scratch_distance: Vec<u16>,
     /// Lifelong mode: agents that reached a goal this step (and got a new one).
     arrived: Vec<bool>,
-    /// Per agent, the step (1-based) that began its current stay on its
-    /// goal, 0 while off it: its POGEMA cost.
+    /// Per agent, the step (1-based) at which its latest stay on its goal
+    /// began, 0 before any: its POGEMA cost while it stays.
     arrival: Vec<u32>,
     /// Pogema rules: each agent's padded cell after the repair.
     scratch_target: Vec<usize>,
@@ -400,13 +400,10 @@ impl GridEnv {
                 *reward += REWARD_COLLISION;
             }
             let home = p == self.goal[i];
-            if !home {
-                // POGEMA's metric never resets an arrival at the truncating
-                // step: leaving the goal in the last step still costs the arrival.
-                if self.t < self.cfg.t_max {
-                    self.arrival[i] = 0;
-                }
-            } else if self.arrival[i] == 0 {
+            // An arrival: on the goal now, off it before (or at the start).
+            // Only arrivals are written, which keeps this loop as cheap as
+            // before costs existed.
+            if home && (self.off_goal[i] != 0 || self.t == 1) {
                 self.arrival[i] = self.t;
             }
             self.scratch_at_goal[i] = home;
@@ -653,9 +650,12 @@ impl GridEnv {
     /// assert_eq!((env.cost(0), env.sum_of_costs(), env.makespan()), (2, 2, 2));
     /// ```
     pub fn cost(&self, agent: usize) -> u32 {
+        // POGEMA's metric skips its "left the goal" reset in the truncating
+        // step, so an agent that left exactly then keeps its arrival.
+        let left_in_last_step = self.t >= self.cfg.t_max && self.off_goal[agent] == 1;
         match self.arrival[agent] {
-            0 => self.t,
-            step => step,
+            step if step != 0 && (self.at_goal(agent) || left_in_last_step) => step,
+            _ => self.t,
         }
     }
 
