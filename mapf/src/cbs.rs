@@ -104,6 +104,10 @@ impl Cbs {
 }
 
 impl Planner for Cbs {
+    fn rules(&self) -> Rules {
+        self.rules
+    }
+
     fn name(&self) -> &str {
         let plain = !self.conflict_avoidance && !self.bypass;
         let improved = self.conflict_avoidance

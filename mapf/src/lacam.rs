@@ -167,6 +167,10 @@ pub struct Outcome {
 }
 
 impl Planner for Lacam {
+    fn rules(&self) -> Rules {
+        self.rules
+    }
+
     fn name(&self) -> &str {
         if self.rules.forbid_following {
             "lacam"
@@ -218,6 +222,10 @@ impl LacamStar {
 }
 
 impl Planner for LacamStar {
+    fn rules(&self) -> Rules {
+        self.rules
+    }
+
     fn name(&self) -> &str {
         match (self.rules.forbid_following, self.objective) {
             (true, Objective::SumOfLoss) => "lacam-star",

@@ -21,7 +21,20 @@
 //! - [`planner`]: the [`Planner`] trait (`Send + Sync`), [`Solution`], [`Stats`],
 //!   and [`Portfolio`] (several planners in turn, `"lacam+od-astar"`).
 //! - [`limits`]: [`Limits`] (time, memory, nodes, makespan cap), [`SolveError`].
-//! - [`rules`]: [`Rules`], the conflict model.
+//! - [`rules`]: [`Rules`], the conflict model, and how the env's two rule
+//!   sets ([`buridan_env::Rules`]: thesis, pogema) map onto it.
+//!
+//! # The env's rule sets
+//!
+//! Under the env's **thesis** rules planners use [`Rules::ENV_EXECUTABLE`]
+//! (below); under **pogema** rules (simultaneous moves, POGEMA's soft
+//! collisions) [`Rules::SIMULTANEOUS`], standard MAPF as PIBT and LaCAM
+//! define it: vertex and swap conflicts forbidden, following and rotations
+//! allowed. [`planner_for_rules`] makes a planner for a rule set (OD-A*,
+//! which searches the thesis step itself, is refused with
+//! [`PlannerLookupError::UnsupportedRules`]); [`validate_with`] checks a plan
+//! under `Rules::from(rule_set)`; [`replay_with`] / [`replay_exact_with`]
+//! step it through a [`buridan_env::GridEnv`] under that rule set.
 //!
 //! # Simultaneous plans and the sequential environment: following moves
 //!
@@ -114,9 +127,14 @@ pub use maastar::{Heuristic, MaAstar};
 pub use odastar::OdAstar;
 pub use pibt::Pibt;
 pub use plan::Plan;
-pub use planner::{planner_by_name, Planner, Portfolio, Solution, Stats};
+pub use planner::{
+    planner_by_name, planner_for_rules, Planner, PlannerLookupError, Portfolio, Solution, Stats,
+};
 pub use prioritized::Prioritized;
-pub use replay::{replay, replay_exact, BlockedFollowing, Divergence, ReplayError, ReplayResult};
+pub use replay::{
+    replay, replay_exact, replay_exact_with, replay_with, BlockedFollowing, Divergence,
+    ReplayError, ReplayResult,
+};
 pub use rules::Rules;
 pub use shield::{ActionOrder, Shield, ShieldError};
 pub use validate::{validate, validate_with, PlanError};

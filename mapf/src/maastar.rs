@@ -85,6 +85,10 @@ impl MaAstar {
 }
 
 impl Planner for MaAstar {
+    fn rules(&self) -> Rules {
+        self.rules
+    }
+
     fn name(&self) -> &str {
         match (self.heuristic, self.rules.forbid_following) {
             (Heuristic::SumManhattan, true) => "ma-astar",

@@ -445,6 +445,10 @@ impl Default for Pibt {
 }
 
 impl Planner for Pibt {
+    fn rules(&self) -> Rules {
+        self.rules
+    }
+
     fn name(&self) -> &str {
         if self.rules.forbid_following {
             "pibt"

@@ -6,6 +6,7 @@ use buridan_env::{Cell, Grid};
 
 use crate::limits::{Limits, SolveError};
 use crate::plan::Plan;
+use crate::rules::Rules;
 
 /// Search effort of one solve call.
 ///
@@ -80,6 +81,42 @@ pub trait Planner: Send + Sync {
         goals: &[Cell],
         limits: &Limits,
     ) -> Result<Solution, SolveError>;
+
+    /// The conflict model its plans satisfy; [`Rules::rule_set`] names the
+    /// env rule set that executes them exactly. The default is the thesis
+    /// env's ([`Rules::ENV_EXECUTABLE`]), which planners without a rules
+    /// option (OD-A*, searching the sequential step itself) plan for.
+    ///
+    /// ```
+    /// use buridan_mapf::{planner_for_rules, Planner, Rules};
+    /// let lacam = planner_for_rules("lacam", buridan_env::Rules::Pogema).unwrap();
+    /// assert_eq!(lacam.rules(), Rules::SIMULTANEOUS);
+    /// assert_eq!(buridan_mapf::OdAstar::default().rules(), Rules::ENV_EXECUTABLE);
+    /// ```
+    fn rules(&self) -> Rules {
+        Rules::ENV_EXECUTABLE
+    }
+}
+
+/// Why [`planner_for_rules`] cannot make a planner.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PlannerLookupError {
+    /// No planner has this name.
+    #[error("unknown planner '{name}' (expected pibt, lacam, lacam-star, lacam-star-makespan, cbs, ma-astar, pp, od-astar, od-astar-soc, or several joined by '+')")]
+    Unknown {
+        /// The name asked for (one part of a portfolio).
+        name: String,
+    },
+    /// The planner exists but cannot plan under the env's rule set.
+    #[error("planner '{planner}' cannot plan under {rules} rules: {why}")]
+    UnsupportedRules {
+        /// The planner's name.
+        planner: String,
+        /// The rule set asked for.
+        rules: buridan_env::Rules,
+        /// Why not, in words.
+        why: &'static str,
+    },
 }
 
 /// The default-configured planner of a name: `"ma-astar"` (also `"maastar"`,
@@ -98,30 +135,96 @@ pub trait Planner: Send + Sync {
 /// assert!(buridan_mapf::planner_by_name("lacam+dijkstra").is_none());
 /// ```
 pub fn planner_by_name(name: &str) -> Option<Box<dyn Planner>> {
+    build(name, Rules::ENV_EXECUTABLE).ok()
+}
+
+/// The planner of a name (as [`planner_by_name`]) configured to plan for
+/// the env's rule set `rules`: under [`buridan_env::Rules::Thesis`] exactly
+/// [`planner_by_name`]'s planner; under [`buridan_env::Rules::Pogema`] with
+/// [`Rules::SIMULTANEOUS`] (vertex and swap conflicts forbidden, following
+/// and rotations allowed), whose plans POGEMA's rules execute exactly.
+/// OD-A* (`od-astar`, `od-astar-soc`) searches the thesis env's sequential
+/// step itself, so it cannot plan under pogema rules and says so, as does a
+/// portfolio containing it.
+///
+/// ```
+/// use buridan_env::Rules as RuleSet;
+/// use buridan_mapf::{planner_for_rules, PlannerLookupError, Rules};
+/// let lacam = planner_for_rules("lacam", RuleSet::Pogema).unwrap();
+/// assert_eq!((lacam.name(), lacam.rules()), ("lacam-simultaneous", Rules::SIMULTANEOUS));
+/// assert_eq!(planner_for_rules("lacam", RuleSet::Thesis).unwrap().name(), "lacam");
+/// let err = planner_for_rules("lacam+od-astar", RuleSet::Pogema).err().unwrap();
+/// assert!(matches!(err, PlannerLookupError::UnsupportedRules { rules: RuleSet::Pogema, .. }));
+/// let err = planner_for_rules("dijkstra", RuleSet::Thesis).err().unwrap();
+/// assert_eq!(err, PlannerLookupError::Unknown { name: "dijkstra".into() });
+/// ```
+pub fn planner_for_rules(
+    name: &str,
+    rules: buridan_env::Rules,
+) -> Result<Box<dyn Planner>, PlannerLookupError> {
+    build(name, Rules::from(rules))
+}
+
+/// The name table of [`planner_by_name`] and [`planner_for_rules`].
+fn build(name: &str, rules: Rules) -> Result<Box<dyn Planner>, PlannerLookupError> {
     if name.contains('+') {
         let planners = name
             .split('+')
-            .map(|part| planner_by_name(part.trim()))
-            .collect::<Option<Vec<_>>>()?;
-        return Some(Box::new(Portfolio::new(planners)));
+            .map(|part| build(part.trim(), rules))
+            .collect::<Result<Vec<_>, _>>()?;
+        return Ok(Box::new(Portfolio::new(planners)));
     }
-    match name.to_ascii_lowercase().as_str() {
-        "ma-astar" | "maastar" | "ma-a*" | "ma_astar" => Some(Box::new(crate::MaAstar::default())),
-        "od-astar" | "odastar" | "od-a*" | "od_astar" => Some(Box::new(crate::OdAstar::default())),
-        "od-astar-soc" => Some(Box::new(crate::OdAstar::sum_of_loss())),
-        "cbs" => Some(Box::new(crate::Cbs::default())),
-        "pibt" => Some(Box::new(crate::Pibt::default())),
-        "pp" | "prioritized" => Some(Box::new(crate::Prioritized::default())),
-        "lacam" => Some(Box::new(crate::Lacam::default())),
-        "lacam-star" | "lacam*" | "lacam_star" | "lacamstar" => {
-            Some(Box::new(crate::LacamStar::default()))
+    let lower = name.to_ascii_lowercase();
+    Ok(match lower.as_str() {
+        "ma-astar" | "maastar" | "ma-a*" | "ma_astar" => Box::new(crate::MaAstar {
+            rules,
+            ..crate::MaAstar::default()
+        }),
+        "od-astar" | "odastar" | "od-a*" | "od_astar" | "od-astar-soc" => {
+            if !rules.forbid_following {
+                return Err(PlannerLookupError::UnsupportedRules {
+                    planner: lower,
+                    rules: rules.rule_set(),
+                    why: "OD-A* searches the thesis env's sequential step in index order, so its plans, optimality and unsolvability proofs hold under thesis rules only",
+                });
+            }
+            if lower == "od-astar-soc" {
+                Box::new(crate::OdAstar::sum_of_loss())
+            } else {
+                Box::new(crate::OdAstar::default())
+            }
         }
-        "lacam-star-makespan" => Some(Box::new(crate::LacamStar {
+        "cbs" => Box::new(crate::Cbs {
+            rules,
+            ..crate::Cbs::default()
+        }),
+        "pibt" => Box::new(crate::Pibt {
+            rules,
+            ..crate::Pibt::default()
+        }),
+        "pp" | "prioritized" => Box::new(crate::Prioritized {
+            rules,
+            ..crate::Prioritized::default()
+        }),
+        "lacam" => Box::new(crate::Lacam {
+            rules,
+            ..crate::Lacam::default()
+        }),
+        "lacam-star" | "lacam*" | "lacam_star" | "lacamstar" => Box::new(crate::LacamStar {
+            rules,
+            ..crate::LacamStar::default()
+        }),
+        "lacam-star-makespan" => Box::new(crate::LacamStar {
+            rules,
             objective: crate::Objective::Makespan,
             ..crate::LacamStar::default()
-        })),
-        _ => None,
-    }
+        }),
+        _ => {
+            return Err(PlannerLookupError::Unknown {
+                name: name.to_string(),
+            })
+        }
+    })
 }
 
 /// Several planners in turn: the first plan any of them finds.
@@ -181,6 +284,15 @@ impl Portfolio {
 impl Planner for Portfolio {
     fn name(&self) -> &str {
         &self.name
+    }
+
+    /// The weakest guarantee of its planners: simultaneous if any plans so.
+    fn rules(&self) -> Rules {
+        if self.planners.iter().all(|p| p.rules().forbid_following) {
+            Rules::ENV_EXECUTABLE
+        } else {
+            Rules::SIMULTANEOUS
+        }
     }
 
     fn solve(

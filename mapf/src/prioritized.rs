@@ -74,6 +74,10 @@ impl Default for Prioritized {
 }
 
 impl Planner for Prioritized {
+    fn rules(&self) -> Rules {
+        self.rules
+    }
+
     fn name(&self) -> &str {
         if self.rules.forbid_following {
             "pp"

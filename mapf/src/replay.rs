@@ -12,7 +12,7 @@
 
 use std::sync::Arc;
 
-use buridan_env::{Cell, EnvConfig, EnvError, GridEnv, Map, Starts};
+use buridan_env::{Cell, EnvConfig, EnvError, GridEnv, Map, Rules as RuleSet, Starts};
 
 use crate::plan::Plan;
 
@@ -135,7 +135,8 @@ pub struct ReplayResult {
     pub divergence: Option<Divergence>,
     /// Following moves in the plan that the env's index order blocks
     /// (computed from the plan alone; empty for plans under
-    /// [`Rules::ENV_EXECUTABLE`](crate::Rules::ENV_EXECUTABLE)).
+    /// [`Rules::ENV_EXECUTABLE`](crate::Rules::ENV_EXECUTABLE), and always
+    /// empty under pogema rules, which allow following).
     pub blocked_following: Vec<BlockedFollowing>,
     /// Agents' cells when the replay stopped.
     pub final_positions: Vec<Cell>,
@@ -270,6 +271,35 @@ pub fn replay(
     plan: &Plan,
     t_max: u32,
 ) -> Result<ReplayResult, ReplayError> {
+    replay_with(map, starts, goals, plan, t_max, RuleSet::Thesis)
+}
+
+/// [`replay`] in an env under the rule set `rules`: under pogema rules
+/// plans valid under [`Rules::SIMULTANEOUS`](crate::Rules::SIMULTANEOUS)
+/// (following, rotations) replay exactly, and nothing counts as a blocked
+/// following move.
+///
+/// ```
+/// use buridan_env::{Cell, Map, Rules as RuleSet};
+/// use buridan_mapf::{replay_with, Plan};
+/// let map = std::sync::Arc::new(Map::load("rm-1.1").unwrap());
+/// let c = |col| Cell::new(1, col);
+/// // Agent 0 follows agent 1 to the right.
+/// let plan = Plan::new(vec![vec![c(0), c(1)], vec![c(1), c(2)]]);
+/// let (s, g) = ([c(0), c(1)], [c(1), c(2)]);
+/// let thesis = replay_with(&map, &s, &g, &plan, 100, RuleSet::Thesis).unwrap();
+/// assert!(!thesis.is_exact(1) && thesis.blocked_following.len() == 1);
+/// let pogema = replay_with(&map, &s, &g, &plan, 128, RuleSet::Pogema).unwrap();
+/// assert!(pogema.is_exact(1) && pogema.blocked_following.is_empty());
+/// ```
+pub fn replay_with(
+    map: &Arc<Map>,
+    starts: &[Cell],
+    goals: &[Cell],
+    plan: &Plan,
+    t_max: u32,
+    rules: RuleSet,
+) -> Result<ReplayResult, ReplayError> {
     let n = starts.len();
     if plan.agents() != n {
         return Err(ReplayError::AgentCount {
@@ -284,6 +314,7 @@ pub fn replay(
     let cfg = EnvConfig {
         agents: n,
         t_max,
+        rules,
         starts: Starts::Random,
         ..EnvConfig::default()
     };
@@ -309,7 +340,10 @@ pub fn replay(
         truncated: false,
         blocked_moves: 0,
         divergence: None,
-        blocked_following: blocked_following(plan),
+        blocked_following: match rules {
+            RuleSet::Thesis => blocked_following(plan),
+            RuleSet::Pogema => Vec::new(),
+        },
         final_positions: Vec::new(),
     };
     for (t, joint) in actions.iter().enumerate() {
@@ -364,7 +398,34 @@ pub fn replay_exact(
     plan: &Plan,
     t_max: u32,
 ) -> Result<ReplayResult, ReplayError> {
-    let result = replay(map, starts, goals, plan, t_max)?;
+    replay_exact_with(map, starts, goals, plan, t_max, RuleSet::Thesis)
+}
+
+/// [`replay_exact`] in an env under the rule set `rules` (see
+/// [`replay_with`]). Guaranteed under pogema rules for valid plans under
+/// [`Rules::SIMULTANEOUS`](crate::Rules::SIMULTANEOUS) whose makespan is at
+/// most `t_max`.
+///
+/// ```
+/// use buridan_env::{Cell, Map, Rules as RuleSet};
+/// use buridan_mapf::{replay_exact_with, Plan, ReplayError};
+/// let map = std::sync::Arc::new(Map::load("rm-1.1").unwrap());
+/// let c = |col| Cell::new(1, col);
+/// let plan = Plan::new(vec![vec![c(0), c(1)], vec![c(1), c(2)]]);
+/// let (s, g) = ([c(0), c(1)], [c(1), c(2)]);
+/// assert!(replay_exact_with(&map, &s, &g, &plan, 128, RuleSet::Pogema).is_ok());
+/// let err = replay_exact_with(&map, &s, &g, &plan, 100, RuleSet::Thesis).unwrap_err();
+/// assert!(matches!(err, ReplayError::Inexact { makespan: 1, .. }));
+/// ```
+pub fn replay_exact_with(
+    map: &Arc<Map>,
+    starts: &[Cell],
+    goals: &[Cell],
+    plan: &Plan,
+    t_max: u32,
+    rules: RuleSet,
+) -> Result<ReplayResult, ReplayError> {
+    let result = replay_with(map, starts, goals, plan, t_max, rules)?;
     let makespan = plan.makespan();
     if result.is_exact(makespan) {
         Ok(result)

@@ -22,6 +22,18 @@
 //! higher agent (no following conflict). It also rules out rotations of
 //! three or more agents along a cycle, which the environment cannot
 //! execute either. Swaps are already impossible then, but stay listed.
+//!
+//! # The env's rule sets
+//!
+//! The env has two rule sets ([`buridan_env::Rules`]), and each maps onto one
+//! conflict model (`Rules::from`): **thesis** (sequential moves in index
+//! order) onto [`Rules::ENV_EXECUTABLE`], **pogema** (POGEMA's simultaneous
+//! moves with soft-collision repair) onto [`Rules::SIMULTANEOUS`]. A plan
+//! without vertex and swap conflicts makes POGEMA repair nothing: no move
+//! enters a wall, none swaps, no two enter one cell and none enters the cell
+//! of an agent that stays, so every valid plan under `SIMULTANEOUS` (following
+//! and rotations included) replays exactly under pogema rules. Plans valid
+//! under `ENV_EXECUTABLE` are valid under both.
 
 /// The conflict model a planner or the validator uses.
 ///
@@ -54,5 +66,40 @@ impl Rules {
 impl Default for Rules {
     fn default() -> Self {
         Self::ENV_EXECUTABLE
+    }
+}
+
+impl Rules {
+    /// The env rule set that executes exactly the plans valid under this
+    /// conflict model (the inverse of `Rules::from`).
+    ///
+    /// ```
+    /// use buridan_mapf::Rules;
+    /// assert_eq!(Rules::ENV_EXECUTABLE.rule_set(), buridan_env::Rules::Thesis);
+    /// assert_eq!(Rules::SIMULTANEOUS.rule_set(), buridan_env::Rules::Pogema);
+    /// ```
+    pub fn rule_set(self) -> buridan_env::Rules {
+        if self.forbid_following {
+            buridan_env::Rules::Thesis
+        } else {
+            buridan_env::Rules::Pogema
+        }
+    }
+}
+
+/// The conflict model whose valid plans the env's rule set executes exactly
+/// (see the [module docs](self)).
+///
+/// ```
+/// use buridan_mapf::Rules;
+/// assert_eq!(Rules::from(buridan_env::Rules::Thesis), Rules::ENV_EXECUTABLE);
+/// assert_eq!(Rules::from(buridan_env::Rules::Pogema), Rules::SIMULTANEOUS);
+/// ```
+impl From<buridan_env::Rules> for Rules {
+    fn from(rules: buridan_env::Rules) -> Self {
+        match rules {
+            buridan_env::Rules::Thesis => Self::ENV_EXECUTABLE,
+            buridan_env::Rules::Pogema => Self::SIMULTANEOUS,
+        }
     }
 }
