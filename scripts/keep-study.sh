@@ -18,6 +18,7 @@ DEST="${2:?usage: $0 SRC DEST [--policies]}"
 POLICIES="${3:-}"
 [ -f "$SRC/plan.json" ] || { echo "$SRC is not a study directory (no plan.json)" >&2; exit 1; }
 mkdir -p "$DEST/study"
+DEST="$(cd "$DEST" && pwd)"
 for f in plan.json experiment.toml table.md table.csv table.json cells.csv cells.json; do
   [ -f "$SRC/$f" ] && cp "$SRC/$f" "$DEST/"
 done
