@@ -12,6 +12,51 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use crate::plot::{err, register_fonts, PlotError};
 use crate::stats::{BoxStats, Interval};
 
+/// The cartesian chart of [`grouped_bars`] and [`grouped_boxes`].
+type GroupedChart<'a, 'b> = ChartContext<
+    'a,
+    BitMapBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// The frame the grouped figures share: one slot per group (x = its index,
+/// named under it), y from 0 to `top`, the mesh drawn.
+fn grouped_frame<'a, 'b>(
+    root: &'a DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>,
+    path: &Path,
+    title: &str,
+    y_label: &str,
+    groups: &[String],
+    top: f64,
+) -> Result<GroupedChart<'a, 'b>, PlotError> {
+    let n = groups.len().max(1) as f64;
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 18))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(-0.5..(n - 0.5), 0.0..top)
+        .map_err(|e| err(path, e))?;
+    let label = |x: &f64| {
+        let i = x.round();
+        if (x - i).abs() < 1e-6 && i >= 0.0 {
+            groups.get(i as usize).cloned().unwrap_or_default()
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(groups.len() * 4 + 1)
+        .x_label_formatter(&label)
+        .y_desc(y_label)
+        .y_label_formatter(&|v| tick(*v))
+        .draw()
+        .map_err(|e| err(path, e))?;
+    Ok(chart)
+}
+
 /// One bar: the value of `series` in `group`, with its interval if any.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Bar {
@@ -54,31 +99,7 @@ pub fn grouped_bars(
         .filter(|v| v.is_finite())
         .fold(0.0f64, f64::max);
     let top = if top > 0.0 { top * 1.08 } else { 1.0 };
-    let n = groups.len().max(1) as f64;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 18))
-        .margin(15)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(-0.5..(n - 0.5), 0.0..top)
-        .map_err(|e| err(path, e))?;
-    let names = groups.to_vec();
-    let label = move |x: &f64| {
-        let i = x.round();
-        if (x - i).abs() < 1e-6 && i >= 0.0 {
-            names.get(i as usize).cloned().unwrap_or_default()
-        } else {
-            String::new()
-        }
-    };
-    chart
-        .configure_mesh()
-        .disable_x_mesh()
-        .x_labels(groups.len() * 4 + 1)
-        .x_label_formatter(&label)
-        .y_desc(y_label)
-        .draw()
-        .map_err(|e| err(path, e))?;
+    let mut chart = grouped_frame(&root, path, title, y_label, groups, top)?;
     let k = series.len().max(1) as f64;
     let width = 0.8 / k;
     let left = |b: &Bar| b.group as f64 - 0.4 + b.series as f64 * width;
@@ -310,32 +331,7 @@ pub fn grouped_boxes(
         .collect();
     let top = stats.iter().map(|s| s.1[4]).fold(0.0f64, f64::max);
     let top = if top > 0.0 { top * 1.15 } else { 1.0 };
-    let n = groups.len().max(1) as f64;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 18))
-        .margin(15)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(-0.5..(n - 0.5), 0.0..top)
-        .map_err(|e| err(path, e))?;
-    let names = groups.to_vec();
-    let label = move |x: &f64| {
-        let i = x.round();
-        if (x - i).abs() < 1e-6 && i >= 0.0 {
-            names.get(i as usize).cloned().unwrap_or_default()
-        } else {
-            String::new()
-        }
-    };
-    chart
-        .configure_mesh()
-        .disable_x_mesh()
-        .x_labels(groups.len() * 4 + 1)
-        .x_label_formatter(&label)
-        .y_desc(y_label)
-        .y_label_formatter(&|v| tick(*v))
-        .draw()
-        .map_err(|e| err(path, e))?;
+    let mut chart = grouped_frame(&root, path, title, y_label, groups, top)?;
     let width = 0.8 / series.len().max(1) as f64;
     for (s, name) in series.iter().enumerate() {
         let color = Palette99::pick(s).to_rgba();
