@@ -247,6 +247,8 @@ impl EvalJob {
             starts: self.starts,
             t_max: self.t_max,
             jobs: 1,
+            // The env's thesis rules: this caller does not choose a rule set yet.
+            ..EvalSpec::default()
         };
         let report = evaluate(&map, &spec, &*make, &|_| {})?;
         let mut eval = serde_json::to_value(&report.summary)?;

@@ -5,11 +5,14 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
-use buridan_env::{Map, Starts};
+use buridan_env::{Map, Rules, Starts};
+use buridan_eval::instances::load_instance_set;
 use buridan_eval::output::{write_report, write_sweep};
 use buridan_eval::planner::PlannerController;
 use buridan_eval::replay::Warmup;
-use buridan_eval::{evaluate, Controller, EvalSpec, EvalSummary, RandomController};
+use buridan_eval::{
+    evaluate, evaluate_instances, Controller, EvalReport, EvalSpec, EvalSummary, RandomController,
+};
 use buridan_policy::ActMode;
 
 use crate::replay::write_failed;
@@ -17,18 +20,32 @@ use crate::replay::write_failed;
 use buridan_eval::policy::PolicyController;
 use buridan_eval::rescue::RescueController;
 use buridan_eval::shield::{Ranking, ShieldController};
-use buridan_mapf::{planner_by_name, Limits, Planner};
+use buridan_mapf::{planner_for_rules, Limits, Planner};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// Arguments of `learner eval`.
 #[derive(Debug, clap::Args)]
 pub struct EvalArgs {
-    /// Reference model id (`rm-2.1`) or path to a MovingAI `.map` file.
+    /// Reference model id (`rm-2.1`) or path to a MovingAI `.map` file;
+    /// with --scen, the map the `.scen` files name (beside them) unless given.
+    #[arg(long, required_unless_present = "scen")]
+    pub map: Option<String>,
+    /// Agents: a number (`4`), an inclusive range (`4..20`, `4..20:2`) or a
+    /// list (`4,8,12`); default 4, or with --scen every line of each file
+    /// (a number N takes the first N lines).
     #[arg(long)]
-    pub map: String,
-    /// Agents: a number (`4`), an inclusive range (`4..20`, `4..20:2`) or a list (`4,8,12`).
-    #[arg(long, default_value = "4")]
-    pub agents: String,
+    pub agents: Option<String>,
+    /// Instance sets: MovingAI `.scen` files, each one episode with its own
+    /// starts and goals; a directory means every `.scen` file in it, in
+    /// natural order (repeatable). Replaces the seeded episodes (--episodes,
+    /// --starts, --seed are not used).
+    #[arg(long, value_name = "PATH")]
+    pub scen: Vec<PathBuf>,
+    /// The rule set the env moves agents by: `thesis` (sequential moves in
+    /// index order) or `pogema` (POGEMA's simultaneous moves); planners plan
+    /// for it.
+    #[arg(long, default_value = "thesis")]
+    pub rules: Rules,
     /// Episodes per agent count: indices 0..N of the seeded generator.
     #[arg(long, default_value_t = 100)]
     pub episodes: usize,
@@ -54,9 +71,10 @@ pub struct EvalArgs {
     /// `random` starts and goals, or `fixed` (the map's `.scen`).
     #[arg(long, default_value = "random")]
     pub starts: Starts,
-    /// Truncation step count T_max.
-    #[arg(long, default_value_t = 100)]
-    pub t_max: u32,
+    /// Truncation step count T_max (default: the rule set's, 100 for
+    /// thesis, 128 for pogema).
+    #[arg(long, alias = "max-steps")]
+    pub t_max: Option<u32>,
     /// Per-instance planning time limit in seconds (planners).
     #[arg(long, default_value_t = 60.0)]
     pub time_limit: f64,
@@ -206,13 +224,48 @@ pub fn controller_factory(
     limits: Limits,
     act_mode: ActMode,
 ) -> Result<ControllerFactory> {
+    controller_factory_for_rules(name, agents, seed, limits, act_mode, Rules::Thesis)
+}
+
+/// [`controller_factory`] for an env under `rules`: planners (also the
+/// rescue's) plan for that rule set; one that cannot (OD-A* under pogema)
+/// is an error. Under pogema rules the rescue's default planner is
+/// [`CROWD_RESCUE_PLANNER`] at every fleet size (it has no OD-A*).
+/// Policies act as trained; the shield keeps the thesis conflict model,
+/// whose joint moves POGEMA's rules execute too.
+///
+/// ```
+/// use buridan_cli::eval::controller_factory_for_rules;
+/// use buridan_env::Rules;
+/// use buridan_policy::ActMode;
+/// let lacam = controller_factory_for_rules("lacam", 32, 0, Default::default(), ActMode::Greedy, Rules::Pogema).unwrap();
+/// assert_eq!(lacam().name(), "lacam-simultaneous");
+/// let err = controller_factory_for_rules("od-astar", 4, 0, Default::default(), ActMode::Greedy, Rules::Pogema).err().unwrap();
+/// assert!(format!("{err:#}").contains("cannot plan under pogema rules"), "{err:#}");
+/// let rescued = controller_factory_for_rules("rescue:random", 4, 0, Default::default(), ActMode::Greedy, Rules::Pogema).unwrap();
+/// assert_eq!(rescued().name(), "random+rescue-pp-simultaneous+lacam-simultaneous");
+/// ```
+pub fn controller_factory_for_rules(
+    name: &str,
+    agents: usize,
+    seed: u64,
+    limits: Limits,
+    act_mode: ActMode,
+    rules: Rules,
+) -> Result<ControllerFactory> {
     if let Some((kind, planner, inner)) = rescue_parts(name, agents) {
-        let planner: Arc<dyn Planner> = planner_by_name(planner)
-            .with_context(|| {
-                format!("'{name}': unknown rescue planner '{planner}' (expected pibt, lacam, lacam-star, od-astar, pp, cbs, ma-astar, or several joined by '+')")
-            })?
-            .into();
-        let inner = controller_factory(inner, agents, seed, limits, act_mode)?;
+        let planner = match (rules, name.contains('=')) {
+            (Rules::Pogema, false) => CROWD_RESCUE_PLANNER,
+            _ => planner,
+        };
+        let planner: Arc<dyn Planner> = match planner_for_rules(planner, rules) {
+            Ok(planner) => planner.into(),
+            Err(buridan_mapf::PlannerLookupError::Unknown { .. }) => bail!(
+                "'{name}': unknown rescue planner '{planner}' (expected pibt, lacam, lacam-star, od-astar, pp, cbs, ma-astar, or several joined by '+')"
+            ),
+            Err(err) => return Err(err).with_context(|| format!("'{name}': rescue planner")),
+        };
+        let inner = controller_factory_for_rules(inner, agents, seed, limits, act_mode, rules)?;
         let foresight = kind == "lookahead";
         return Ok(Box::new(move || {
             let rescue = RescueController::new(inner(), planner.clone(), limits);
@@ -250,11 +303,15 @@ pub fn controller_factory(
     if name == "random" {
         return Ok(Box::new(move || Box::new(RandomController::new(seed))));
     }
-    let planner: Arc<dyn Planner> = planner_by_name(name)
-        .with_context(|| {
-            format!("unknown controller '{name}': expected ma-astar, od-astar, cbs, pibt, lacam, lacam-star, pp, random, checkpoint:DIR, shield:checkpoint:DIR or rescue:CONTROLLER")
-        })?
-        .into();
+    let planner: Arc<dyn Planner> = match planner_for_rules(name, rules) {
+        Ok(planner) => planner.into(),
+        Err(err @ buridan_mapf::PlannerLookupError::UnsupportedRules { .. }) => {
+            return Err(err).with_context(|| format!("controller '{name}'"))
+        }
+        Err(buridan_mapf::PlannerLookupError::Unknown { .. }) => bail!(
+            "unknown controller '{name}': expected ma-astar, od-astar, cbs, pibt, lacam, lacam-star, pp, random, checkpoint:DIR, shield:checkpoint:DIR or rescue:CONTROLLER"
+        ),
+    };
     Ok(Box::new(move || {
         Box::new(PlannerController::new(planner.clone(), limits))
     }))
@@ -262,10 +319,28 @@ pub fn controller_factory(
 
 /// Runs `learner eval`.
 pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
-    let map =
-        Arc::new(Map::load(&args.map).with_context(|| format!("loading map '{}'", args.map))?);
-    let counts = parse_agent_counts(&args.agents)?;
+    let counts: Vec<Option<usize>> = match &args.agents {
+        Some(text) => parse_agent_counts(text)?.into_iter().map(Some).collect(),
+        // With --scen: every line of each file.
+        None if !args.scen.is_empty() => vec![None],
+        None => vec![Some(4)],
+    };
+    let fixed_map = if args.scen.is_empty() {
+        let name = args
+            .map
+            .as_deref()
+            .context("--map is required without --scen")?;
+        Some(Arc::new(
+            Map::load(name).with_context(|| format!("loading map '{name}'"))?,
+        ))
+    } else {
+        if args.replays.is_some() {
+            bail!("--replays is not supported with --scen yet: replays redraw seeded episodes");
+        }
+        None
+    };
     let limits = planner_limits(args.time_limit, args.memory_limit)?;
+    let t_max = args.t_max.unwrap_or(args.rules.default_t_max());
     let sweep = counts.len() > 1;
     let act_mode = if args.sample {
         ActMode::Sample
@@ -273,17 +348,42 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
         ActMode::Greedy
     };
     let mut summaries = Vec::new();
-    for &agents in &counts {
-        let make = controller_factory(&args.controller, agents, args.seed, limits, act_mode)?;
+    for &count in &counts {
+        let set = match &fixed_map {
+            Some(_) => None,
+            None => Some(
+                load_instance_set(&args.scen, args.map.as_deref(), count)
+                    .context("loading the --scen instances")?,
+            ),
+        };
+        let map = match (&fixed_map, &set) {
+            (Some(map), _) => map.clone(),
+            (None, Some(set)) => set.map.clone(),
+            (None, None) => unreachable!("either --map or --scen"),
+        };
+        let agents = match &set {
+            Some(set) => set.agents(),
+            None => count.expect("a count without --scen"),
+        };
+        let episodes = set.as_ref().map_or(args.episodes, |s| s.instances.len());
+        let make = controller_factory_for_rules(
+            &args.controller,
+            agents,
+            args.seed,
+            limits,
+            act_mode,
+            args.rules,
+        )?;
         let spec = EvalSpec {
             agents,
-            episodes: args.episodes,
+            episodes,
             seed: args.seed,
             starts: args.starts,
-            t_max: args.t_max,
+            t_max,
             jobs: args.jobs.max(1),
+            rules: args.rules,
         };
-        let bar = ProgressBar::new(args.episodes as u64);
+        let bar = ProgressBar::new(episodes as u64);
         bar.set_style(
             ProgressStyle::with_template(
                 "{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed}, eta {eta})",
@@ -302,8 +402,11 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
             bar.set_message(format!("success {:.1}%", 100.0 * s as f64 / d as f64));
             bar.inc(1);
         };
-        let report = evaluate(&map, &spec, &*make, &on_episode)
-            .with_context(|| format!("evaluating {} agents on {}", agents, map.name))?;
+        let report: EvalReport = match &set {
+            Some(set) => evaluate_instances(&map, &spec, &set.instances, &*make, &on_episode),
+            None => evaluate(&map, &spec, &*make, &on_episode),
+        }
+        .with_context(|| format!("evaluating {} agents on {}", agents, map.name))?;
         bar.finish();
         let dir = if sweep {
             args.out.join(format!("agents-{agents}"))
@@ -339,19 +442,7 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
             files = ?files, "evaluation done"
         );
         if !args.json {
-            eprintln!(
-                "{} on {} with {} agents: success {:.1}% ({} episodes), timesteps median {} [q1 {}, q3 {}], compute median {} ms -> {}",
-                s.controller,
-                s.map,
-                agents,
-                100.0 * s.success_rate,
-                s.episodes,
-                fmt_opt(s.timesteps_median),
-                fmt_opt(s.timesteps_q1),
-                fmt_opt(s.timesteps_q3),
-                fmt_opt(s.compute_ms_median),
-                dir.display()
-            );
+            eprintln!("{} -> {}", summary_line(s), dir.display());
         }
         summaries.push(report.summary);
     }
@@ -368,6 +459,36 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
         println!("{text}");
     }
     Ok(summaries)
+}
+
+/// The line `learner eval` prints per evaluation: success, timesteps and
+/// compute as before, then the rule set, SoC and makespan (POGEMA's
+/// definitions: agents off their goals cost T_max), the median SoC over
+/// its single-agent lower bound and the ISR.
+pub fn summary_line(s: &EvalSummary) -> String {
+    let episodes = if s.instances > 0 {
+        format!("{} instances", s.instances)
+    } else {
+        format!("{} episodes", s.episodes)
+    };
+    format!(
+        "{} on {} with {} agents ({} rules, T_max {}): success {:.1}% ({episodes}), timesteps median {} [q1 {}, q3 {}], compute median {} ms (max {:.1}), SoC mean {:.1}, makespan mean {:.1}, SoC/LB median {}, ISR {:.3}",
+        s.controller,
+        s.map,
+        s.agents,
+        s.rules,
+        s.t_max,
+        100.0 * s.success_rate,
+        fmt_opt(s.timesteps_median),
+        fmt_opt(s.timesteps_q1),
+        fmt_opt(s.timesteps_q3),
+        fmt_opt(s.compute_ms_median),
+        s.compute_ms_max,
+        s.soc_mean,
+        s.makespan_mean,
+        s.soc_ratio_median.map_or_else(|| "-".into(), |x| format!("{x:.3}")),
+        s.isr_mean,
+    )
 }
 
 fn fmt_opt(v: Option<f64>) -> String {

@@ -88,6 +88,8 @@ pub fn run(args: &ReplayArgs) -> Result<Trace> {
         starts: args.starts,
         t_max: args.t_max,
         jobs: 1,
+        // The env's thesis rules: this caller does not choose a rule set yet.
+        ..EvalSpec::default()
     };
     let opts = GifOptions {
         cell_px: args.cell_px,

@@ -199,6 +199,8 @@ fn run_eval(x: &Experiment, out: &Path, index: usize, bars: &Bars) -> Result<()>
         starts: e.starts,
         t_max: e.t_max,
         jobs: 1,
+        // The env's thesis rules: this caller does not choose a rule set yet.
+        ..EvalSpec::default()
     };
     let what = match &cell.evaluated {
         Evaluated::Policy { train, actions } => format!(

@@ -366,6 +366,8 @@ pub fn measure(
         starts: cfg.starts,
         t_max: cfg.t_max,
         jobs: 1,
+        // The env's thesis rules: this caller does not choose a rule set yet.
+        ..EvalSpec::default()
     };
     let report = evaluate_policy(&spec.run_dir, &map, &eval_spec, act_mode)?;
     // Objectives evaluate sampled or greedy; a greedy mix counts as sampled.

@@ -42,13 +42,15 @@ fn train_args(out: PathBuf) -> TrainArgs {
 
 fn eval_args(controller: String, out: PathBuf) -> EvalArgs {
     EvalArgs {
-        map: "rm-1.1".into(),
-        agents: "2".into(),
+        map: Some("rm-1.1".into()),
+        agents: Some("2".into()),
+        scen: Vec::new(),
+        rules: Default::default(),
         episodes: 3,
         seed: 42,
         controller,
         starts: Starts::Fixed,
-        t_max: 100,
+        t_max: Some(100),
         time_limit: 10.0,
         memory_limit: 256,
         jobs: 1,
@@ -129,7 +131,7 @@ fn train_writes_its_outputs_and_eval_loads_the_checkpoint() {
     // A CTDE policy runs with another agent count (the scalability sweep).
     let sweep_out = temp_dir("eval-sweep");
     let mut args = eval_args(format!("checkpoint:{}", out.display()), sweep_out.clone());
-    (args.agents, args.starts) = ("2..3".into(), Starts::Random);
+    (args.agents, args.starts) = (Some("2..3".into()), Starts::Random);
     let summaries = eval::run(&args).unwrap();
     assert_eq!(
         summaries.iter().map(|s| s.agents).collect::<Vec<_>>(),
@@ -156,10 +158,10 @@ fn bad_controllers_and_checkpoints_are_reported() {
     .unwrap_err();
     assert!(format!("{err:#}").contains("no checkpoint"), "{err:#}");
     let mut args = eval_args("cbs".into(), out.clone());
-    args.agents = "0".into();
+    args.agents = Some("0".into());
     assert!(eval::run(&args).is_err());
-    args.agents = "2".into();
-    args.map = "rm-7.7".into();
+    args.agents = Some("2".into());
+    args.map = Some("rm-7.7".into());
     let err = eval::run(&args).unwrap_err();
     assert!(
         format!("{err:#}").contains("unknown map 'rm-7.7'"),
@@ -232,7 +234,8 @@ fn a_policy_trained_on_two_layouts_evaluates_on_a_third() {
 
     let eval_out = temp_dir("maps-eval");
     let mut eval = eval_args(format!("checkpoint:{}", out.display()), eval_out.clone());
-    (eval.map, eval.agents, eval.starts) = ("rm-2.1".into(), "4".into(), Starts::Random);
+    (eval.map, eval.agents, eval.starts) =
+        (Some("rm-2.1".into()), Some("4".into()), Starts::Random);
     let summaries = eval::run(&eval).unwrap();
     assert_eq!(
         (summaries[0].episodes, summaries[0].map.as_str()),

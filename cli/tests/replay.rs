@@ -34,13 +34,15 @@ fn a_replay_is_the_evaluated_episode() {
     let bytes = std::fs::read(&args.out).unwrap();
     assert_eq!(&bytes[..6], b"GIF89a");
     let eval_args = EvalArgs {
-        map: "rm-2.1".into(),
-        agents: "8".into(),
+        map: Some("rm-2.1".into()),
+        agents: Some("8".into()),
+        scen: Vec::new(),
+        rules: Default::default(),
         episodes: 4,
         seed: 42,
         controller: "random".into(),
         starts: Starts::Random,
-        t_max: 30,
+        t_max: Some(30),
         time_limit: 10.0,
         memory_limit: 256,
         jobs: 1,

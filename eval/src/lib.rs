@@ -7,13 +7,16 @@
 //! - [`policy`]: a trained policy (a checkpoint) as a controller.
 //! - [`shield`]: a trained policy executed through the PIBT collision
 //!   shield (deterministic, conflict-free joint moves).
-//! - [`runner`]: [`evaluate`] runs episodes and aggregates them.
+//! - [`runner`]: [`evaluate`] runs episodes and aggregates them;
+//!   [`evaluate_instances`] does so on an instance set.
+//! - [`instances`]: instance sets, MovingAI `.scen` files as episodes.
 //! - [`stats`]: quantiles and box-plot statistics.
 //! - [`output`]: CSV, JSON and PNG files of a report; the agent-count sweep.
 //! - [`plot`]: heatmaps, box plots and line charts as PNG.
 //! - [`replay`]: one episode recorded step by step, for drawing.
 
 pub mod controller;
+pub mod instances;
 pub mod output;
 pub mod planner;
 pub mod plot;
@@ -25,4 +28,6 @@ pub mod shield;
 pub mod stats;
 
 pub use controller::{Controller, GiveUp, PlanNotes, RandomController};
-pub use runner::{evaluate, run_episode, EpisodeRecord, EvalReport, EvalSpec, EvalSummary};
+pub use runner::{
+    evaluate, evaluate_instances, run_episode, EpisodeRecord, EvalReport, EvalSpec, EvalSummary,
+};

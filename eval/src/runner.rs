@@ -4,9 +4,10 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use buridan_env::{EnvConfig, EnvError, GridEnv, Map, Starts};
+use buridan_env::{EnvConfig, EnvError, GridEnv, Map, Rules, Scenario, Starts};
 
 use crate::controller::Controller;
+use crate::instances::Instance;
 use crate::stats::BoxStats;
 
 /// What to evaluate on.
@@ -24,6 +25,9 @@ pub struct EvalSpec {
     pub t_max: u32,
     /// Episodes run in parallel (each on its own controller instance).
     pub jobs: usize,
+    /// The rule set the env moves agents by (thesis by default). `t_max`
+    /// is set separately: [`Rules::default_t_max`] is the rule set's own.
+    pub rules: Rules,
 }
 
 impl Default for EvalSpec {
@@ -35,6 +39,7 @@ impl Default for EvalSpec {
             starts: Starts::Random,
             t_max: 100,
             jobs: 1,
+            rules: Rules::Thesis,
         }
     }
 }
@@ -86,6 +91,22 @@ pub struct EpisodeRecord {
     pub stuck_at_end: u32,
     /// Plans a rescuing controller followed to end a jam (empty for others).
     pub rescues: Option<u32>,
+    /// The `.scen` file of an instance set's episode (empty for generated
+    /// episodes).
+    pub instance: Option<String>,
+    /// Sum of costs in POGEMA's sense, for every episode: each agent's cost
+    /// is the step (1-based) at which it last arrived on its goal and
+    /// stayed, `T_max` if it is off its goal at the end
+    /// ([`GridEnv::cost`]). An episode given up on counts as every agent
+    /// waiting until `T_max`.
+    pub soc: u64,
+    /// Makespan in POGEMA's sense: the largest of those costs.
+    pub makespan: u32,
+    /// The single-agent lower bound of the SoC: Σ shortest-path distances
+    /// from starts to goals (empty if some goal is unreachable).
+    pub soc_lower_bound: Option<u64>,
+    /// Fraction of agents on their goals at the end (POGEMA's ISR).
+    pub isr: f64,
 }
 
 /// Writes `[3, 0, 5]` as `"3 0 5"`: one CSV cell, and still readable in JSON.
@@ -148,6 +169,28 @@ pub struct EvalSummary {
     pub failures_ending_stuck_alone: usize,
     /// Wall time of the whole evaluation, seconds.
     pub wall_seconds: f64,
+    /// The rule set the env moved agents by.
+    pub rules: Rules,
+    /// Truncation step count `T_max`.
+    pub t_max: u32,
+    /// Episodes that came from `.scen` files (0: the seeded generator's).
+    pub instances: usize,
+    /// Worst compute time per instance, milliseconds.
+    pub compute_ms_max: f64,
+    /// Mean POGEMA sum of costs over all episodes (agents off their goals
+    /// at the end cost `T_max`; see [`EpisodeRecord::soc`]).
+    pub soc_mean: f64,
+    /// Mean POGEMA makespan over all episodes.
+    pub makespan_mean: f64,
+    /// Median of SoC over its lower bound, over all episodes with a
+    /// positive bound.
+    pub soc_ratio_median: Option<f64>,
+    /// Mean of SoC over its lower bound, over the same episodes.
+    pub soc_ratio_mean: Option<f64>,
+    /// Median of SoC over its lower bound, over successful episodes.
+    pub soc_ratio_median_solved: Option<f64>,
+    /// Mean fraction of agents on their goals at the end (ISR).
+    pub isr_mean: f64,
 }
 
 /// Everything an evaluation produced.
@@ -177,12 +220,73 @@ pub fn evaluate(
     make: &(dyn Fn() -> Box<dyn Controller> + Sync),
     on_episode: &(dyn Fn(&EpisodeRecord) + Sync),
 ) -> Result<EvalReport, EnvError> {
+    evaluate_on(map, spec, None, make, on_episode)
+}
+
+/// Evaluates controllers made by `make` on `instances` (an instance set,
+/// [`crate::instances`]): episode `e` starts from instance `e`'s starts and
+/// goals, and its record names the instance. `spec.episodes` and
+/// `spec.starts` are not used; `spec.agents` must be the instances'.
+///
+/// ```
+/// use buridan_env::Cell;
+/// use buridan_eval::{evaluate_instances, instances::Instance, EvalSpec};
+/// let map = std::sync::Arc::new(buridan_env::Map::load("rm-1.1").unwrap());
+/// let inst = |name: &str, start: usize| Instance {
+///     name: name.into(), path: name.into(),
+///     starts: vec![Cell::new(1, start)], goals: vec![Cell::new(1, start + 2)],
+/// };
+/// let spec = EvalSpec { agents: 1, rules: buridan_env::Rules::Pogema, t_max: 128, ..EvalSpec::default() };
+/// let make = || -> Box<dyn buridan_eval::Controller> {
+///     Box::new(buridan_eval::planner::PlannerController::new(
+///         buridan_mapf::planner_for_rules("lacam", buridan_env::Rules::Pogema).unwrap().into(),
+///         Default::default(),
+///     ))
+/// };
+/// let report = evaluate_instances(&map, &spec, &[inst("a.scen", 0), inst("b.scen", 3)], &make, &|_| {}).unwrap();
+/// assert_eq!(report.records[1].instance.as_deref(), Some("b.scen"));
+/// assert_eq!((report.records[1].soc, report.records[1].soc_lower_bound), (2, Some(2)));
+/// assert_eq!((report.summary.success_rate, report.summary.soc_ratio_median), (1.0, Some(1.0)));
+/// ```
+pub fn evaluate_instances(
+    map: &Arc<Map>,
+    spec: &EvalSpec,
+    instances: &[Instance],
+    make: &(dyn Fn() -> Box<dyn Controller> + Sync),
+    on_episode: &(dyn Fn(&EpisodeRecord) + Sync),
+) -> Result<EvalReport, EnvError> {
+    evaluate_on(map, spec, Some(instances), make, on_episode)
+}
+
+fn evaluate_on(
+    map: &Arc<Map>,
+    spec: &EvalSpec,
+    instances: Option<&[Instance]>,
+    make: &(dyn Fn() -> Box<dyn Controller> + Sync),
+    on_episode: &(dyn Fn(&EpisodeRecord) + Sync),
+) -> Result<EvalReport, EnvError> {
     let started = Instant::now();
-    let cfg = episode_config(spec, make().as_ref());
+    let mut cfg = episode_config(spec, make().as_ref());
+    let episodes = instances.map_or(spec.episodes, <[Instance]>::len);
+    // An instance set's map need not hold 2n random cells: the env starts
+    // from the first instance (as a fixed scenario), each episode from its own.
+    let map = match instances.and_then(<[Instance]>::first) {
+        Some(first) => {
+            cfg.starts = Starts::Fixed;
+            let mut with_scenario = Map::clone(map);
+            with_scenario.scenario = Some(Scenario {
+                starts: first.starts.clone(),
+                goals: first.goals.clone(),
+            });
+            Arc::new(with_scenario)
+        }
+        None => map.clone(),
+    };
+    let map = &map;
     // Fail early, on the caller's thread, for bad configurations.
     GridEnv::new(map.clone(), cfg.clone())?;
     let next = AtomicUsize::new(0);
-    let results = Mutex::new(Vec::with_capacity(spec.episodes));
+    let results = Mutex::new(Vec::with_capacity(episodes));
     let cells = map.grid.height() * map.grid.width();
     let visits = Mutex::new(vec![0u64; cells]);
     let mut name = String::new();
@@ -195,10 +299,24 @@ pub fn evaluate(
                     env.clear_visits();
                     loop {
                         let e = next.fetch_add(1, Ordering::Relaxed);
-                        if e >= spec.episodes {
+                        if e >= episodes {
                             break;
                         }
-                        let record = run_episode(&mut env, controller.as_mut(), e as u64)?;
+                        let record = match instances {
+                            Some(set) => {
+                                let inst = &set[e];
+                                env.reset_with(e as u64, &inst.starts, &inst.goals)?;
+                                let mut record = play_episode(
+                                    &mut env,
+                                    controller.as_mut(),
+                                    e as u64,
+                                    &mut |_| {},
+                                )?;
+                                record.instance = Some(inst.name.clone());
+                                record
+                            }
+                            None => run_episode(&mut env, controller.as_mut(), e as u64)?,
+                        };
                         on_episode(&record);
                         results
                             .lock()
@@ -220,7 +338,8 @@ pub fn evaluate(
     })?;
     let mut records = results.into_inner().expect("lock not poisoned");
     records.sort_by_key(|r| r.episode);
-    let summary = summarize(&name, &map.name, spec, &records, started.elapsed());
+    let mut summary = summarize(&name, &map.name, spec, &records, started.elapsed());
+    summary.instances = instances.map_or(0, <[Instance]>::len);
     Ok(EvalReport {
         records,
         summary,
@@ -235,12 +354,13 @@ pub fn evaluate(
 /// use buridan_eval::{runner::episode_config, EvalSpec, RandomController};
 /// let spec = EvalSpec { agents: 3, seed: 7, ..EvalSpec::default() };
 /// let cfg = episode_config(&spec, &RandomController::new(7));
-/// assert_eq!((cfg.agents, cfg.seed, cfg.t_max), (3, 7, 100));
+/// assert_eq!((cfg.agents, cfg.seed, cfg.t_max, cfg.rules), (3, 7, 100, buridan_env::Rules::Thesis));
 /// ```
 pub fn episode_config(spec: &EvalSpec, controller: &dyn Controller) -> EnvConfig {
     EnvConfig {
         agents: spec.agents,
         t_max: spec.t_max,
+        rules: spec.rules,
         starts: spec.starts,
         seed: spec.seed,
         sensor_range: controller.obs_sensor_range(),
@@ -268,7 +388,33 @@ pub fn run_episode_observed(
     observe: &mut dyn FnMut(&GridEnv),
 ) -> Result<EpisodeRecord, EnvError> {
     env.reset_to(episode)?;
+    play_episode(env, controller, episode, observe)
+}
+
+/// The single-agent lower bound of the sum of costs of `env`'s episode:
+/// Σ shortest-path distances from the agents' cells to their goals, `None`
+/// if some goal is unreachable.
+fn soc_lower_bound(env: &GridEnv) -> Option<u64> {
+    let grid = &env.map().grid;
+    (0..env.agents())
+        .map(|i| {
+            let goal = env.goals()[i];
+            let d = grid.distances_to(goal)[grid.index(env.position(i))];
+            (d != buridan_env::map::UNREACHABLE).then_some(u64::from(d))
+        })
+        .sum()
+}
+
+/// Plays `env`'s freshly reset episode with `controller` (see
+/// [`run_episode_observed`]).
+fn play_episode(
+    env: &mut GridEnv,
+    controller: &mut dyn Controller,
+    episode: u64,
+    observe: &mut dyn FnMut(&GridEnv),
+) -> Result<EpisodeRecord, EnvError> {
     let n = env.agents();
+    let lower_bound = soc_lower_bound(env);
     let mut compute = Duration::ZERO;
     let t0 = Instant::now();
     let prepared = controller.begin_episode(env);
@@ -276,6 +422,13 @@ pub fn run_episode_observed(
     let notes = controller.episode_notes();
     observe(env);
     if let Err(why) = prepared {
+        // As if every agent waited until T_max: those on their goals from
+        // the start cost 1 (POGEMA's first step), the others T_max.
+        let t_max = env.config().t_max;
+        let costs: Vec<u32> = (0..n)
+            .map(|i| if env.at_goal(i) { 1 } else { t_max })
+            .collect();
+        let on_goal = (0..n).filter(|&i| env.at_goal(i)).count();
         return Ok(EpisodeRecord {
             episode,
             success: false,
@@ -296,6 +449,11 @@ pub fn run_episode_observed(
             jammed_at_end: 0,
             stuck_at_end: 0,
             rescues: notes.rescues,
+            instance: None,
+            soc: costs.iter().map(|&c| u64::from(c)).sum(),
+            makespan: costs.iter().copied().max().unwrap_or(0),
+            soc_lower_bound: lower_bound,
+            isr: on_goal as f64 / n.max(1) as f64,
         });
     }
     let mut actions = vec![0u8; n];
@@ -341,6 +499,11 @@ pub fn run_episode_observed(
         jammed_at_end: (monitor.deadlocked() + monitor.livelocked()) as u32,
         stuck_at_end: monitor.stuck() as u32,
         rescues: controller.episode_notes().rescues,
+        instance: None,
+        soc: env.sum_of_costs(),
+        makespan: env.makespan(),
+        soc_lower_bound: lower_bound,
+        isr: f64::from(stats.agents_at_goal) / n.max(1) as f64,
     })
 }
 
@@ -376,6 +539,12 @@ fn summarize(
             Some(v.iter().sum::<f64>() / v.len() as f64)
         }
     };
+    let ratio = |r: &&EpisodeRecord| match r.soc_lower_bound {
+        Some(lb) if lb > 0 => Some(r.soc as f64 / lb as f64),
+        _ => None,
+    };
+    let ratios: Vec<f64> = records.iter().filter_map(|r| ratio(&r)).collect();
+    let solved_ratios: Vec<f64> = solved.iter().filter_map(ratio).collect();
     EvalSummary {
         controller: controller.to_string(),
         map: map.to_string(),
@@ -413,5 +582,15 @@ fn summarize(
             .filter(|r| r.jammed_at_end == 0 && r.stuck_at_end > 0)
             .count(),
         wall_seconds: wall.as_secs_f64(),
+        rules: spec.rules,
+        t_max: spec.t_max,
+        instances: 0,
+        compute_ms_max: compute.iter().copied().fold(0.0, f64::max),
+        soc_mean: records.iter().map(|r| r.soc as f64).sum::<f64>() / n,
+        makespan_mean: records.iter().map(|r| f64::from(r.makespan)).sum::<f64>() / n,
+        soc_ratio_median: BoxStats::of(&ratios).map(|b| b.median),
+        soc_ratio_mean: mean(&ratios),
+        soc_ratio_median_solved: BoxStats::of(&solved_ratios).map(|b| b.median),
+        isr_mean: records.iter().map(|r| r.isr).sum::<f64>() / n,
     }
 }
