@@ -1,5 +1,7 @@
 //! The `learner train` and `learner eval` commands end to end, in process.
 
+mod common;
+
 use std::path::PathBuf;
 
 use buridan_cli::eval::{self, EvalArgs};
@@ -41,25 +43,27 @@ fn train_args(out: PathBuf) -> TrainArgs {
 }
 
 fn eval_args(controller: String, out: PathBuf) -> EvalArgs {
-    EvalArgs {
-        map: Some("rm-1.1".into()),
-        agents: Some("2".into()),
-        scen: Vec::new(),
-        rules: Default::default(),
-        episodes: 3,
-        seed: 42,
-        controller,
-        starts: Starts::Fixed,
-        t_max: Some(100),
-        time_limit: 10.0,
-        memory_limit: 256,
-        jobs: 1,
-        out,
-        json: false,
-        sample: false,
-        replays: None,
-        replays_max: 20,
-    }
+    let out = out.display().to_string();
+    common::eval_args(&[
+        "--map",
+        "rm-1.1",
+        "--agents",
+        "2",
+        "--episodes",
+        "3",
+        "--controller",
+        &controller,
+        "--starts",
+        "fixed",
+        "--t-max",
+        "100",
+        "--time-limit",
+        "10",
+        "--memory-limit",
+        "256",
+        "--out",
+        &out,
+    ])
 }
 
 #[test]

@@ -1,31 +1,27 @@
 //! `learner eval --scen PATH --rules pogema`: instance sets end to end, in
 //! process.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use buridan_cli::eval::{self, EvalArgs};
-use buridan_env::{Rules, Starts};
+use buridan_env::Rules;
 
 fn args(scen: Vec<PathBuf>, controller: &str, agents: Option<&str>, out: PathBuf) -> EvalArgs {
-    EvalArgs {
-        map: None,
-        agents: agents.map(Into::into),
-        scen,
-        rules: Rules::Pogema,
-        episodes: 100,
-        seed: 42,
-        controller: controller.into(),
-        starts: Starts::Random,
-        t_max: None,
-        time_limit: 10.0,
-        memory_limit: 256,
-        jobs: 1,
-        out,
-        json: false,
-        sample: false,
-        replays: None,
-        replays_max: 20,
+    let mut flags: Vec<String> = ["--rules", "pogema", "--controller", controller]
+        .into_iter()
+        .chain(["--time-limit", "10", "--memory-limit", "256"])
+        .map(String::from)
+        .collect();
+    for s in scen {
+        flags.extend(["--scen".to_string(), s.display().to_string()]);
     }
+    if let Some(n) = agents {
+        flags.extend(["--agents".to_string(), n.to_string()]);
+    }
+    flags.extend(["--out".to_string(), out.display().to_string()]);
+    common::eval_args(&flags)
 }
 
 /// A directory with the POGEMA warehouse and two of its instances.

@@ -1,9 +1,11 @@
 //! `learner replay` and `learner eval --replays`: GIFs of the episodes the
 //! evaluation plays, and clear errors for bad requests.
 
+mod common;
+
 use std::path::PathBuf;
 
-use buridan_cli::eval::{self, EvalArgs};
+use buridan_cli::eval;
 use buridan_cli::replay::{self, ReplayArgs};
 use buridan_env::Starts;
 
@@ -33,25 +35,30 @@ fn a_replay_is_the_evaluated_episode() {
     let trace = replay::run(&args).unwrap();
     let bytes = std::fs::read(&args.out).unwrap();
     assert_eq!(&bytes[..6], b"GIF89a");
-    let eval_args = EvalArgs {
-        map: Some("rm-2.1".into()),
-        agents: Some("8".into()),
-        scen: Vec::new(),
-        rules: Default::default(),
-        episodes: 4,
-        seed: 42,
-        controller: "random".into(),
-        starts: Starts::Random,
-        t_max: Some(30),
-        time_limit: 10.0,
-        memory_limit: 256,
-        jobs: 1,
-        out: dir.path().join("eval"),
-        json: true,
-        sample: false,
-        replays: Some(dir.path().join("replays")),
-        replays_max: 2,
-    };
+    let (out, replays) = (dir.path().join("eval"), dir.path().join("replays"));
+    let eval_args = common::eval_args(&[
+        "--map",
+        "rm-2.1",
+        "--agents",
+        "8",
+        "--episodes",
+        "4",
+        "--controller",
+        "random",
+        "--t-max",
+        "30",
+        "--time-limit",
+        "10",
+        "--memory-limit",
+        "256",
+        "--json",
+        "--out",
+        &out.display().to_string(),
+        "--replays",
+        &replays.display().to_string(),
+        "--replays-max",
+        "2",
+    ]);
     eval::run(&eval_args).unwrap();
     let csv = std::fs::read_to_string(dir.path().join("eval/episodes.csv")).unwrap();
     let row = csv.lines().nth(4).unwrap();

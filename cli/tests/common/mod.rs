@@ -3,6 +3,24 @@
 
 use std::path::{Path, PathBuf};
 
+use buridan_cli::eval::EvalArgs;
+use clap::Parser;
+
+/// `learner eval` arguments as the command line gives them: `flags` after
+/// `eval`, clap's defaults for the rest — so tests name only what they
+/// set, and a new flag needs no edit here.
+pub fn eval_args<S: AsRef<str>>(flags: &[S]) -> EvalArgs {
+    #[derive(Parser)]
+    struct Eval {
+        #[command(flatten)]
+        args: EvalArgs,
+    }
+    let argv = std::iter::once("eval").chain(flags.iter().map(AsRef::as_ref));
+    Eval::try_parse_from(argv)
+        .unwrap_or_else(|e| panic!("bad eval flags: {e}"))
+        .args
+}
+
 /// A PPO config on rm-1.1 small enough for a trial of a few thousand steps.
 pub fn tiny_config(dir: &Path) -> PathBuf {
     let path = dir.join("tiny.toml");
