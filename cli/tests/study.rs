@@ -143,13 +143,26 @@ fn bad_study_files_name_the_file_and_the_problem() {
     );
 }
 
+/// A study of `experiment` (TOML) over the tiny PPO config, written into
+/// `dir`: its arguments, one cell at a time, output in `dir/out`.
+fn tiny_experiment(dir: &Path, experiment: &str) -> StudyArgs {
+    tiny_config(dir);
+    let file = dir.join("experiment.toml");
+    std::fs::write(&file, experiment).unwrap();
+    StudyArgs {
+        command: None,
+        experiment: Some(file),
+        out: Some(dir.join("out")),
+        parallel: Some(1),
+        quiet: true,
+    }
+}
+
 #[test]
 fn a_tiny_study_aggregates_seeds_and_planners_and_resumes() {
     let dir = tempfile::tempdir().unwrap();
-    tiny_config(dir.path());
-    let file = dir.path().join("experiment.toml");
-    std::fs::write(
-        &file,
+    let args = tiny_experiment(
+        dir.path(),
         r#"
 [experiment]
 name = "tiny"
@@ -165,16 +178,8 @@ time_limit = 5.0
 name = "ppo"
 config = "tiny.toml"
 "#,
-    )
-    .unwrap();
-    let out = dir.path().join("study-out");
-    let args = StudyArgs {
-        command: None,
-        experiment: Some(file),
-        out: Some(out.clone()),
-        parallel: Some(1),
-        quiet: true,
-    };
+    );
+    let out = args.out.clone().unwrap();
     let first = study::run(&args).unwrap();
     assert_eq!(first.jobs_run, 3, "2 training cells + 1 planner evaluation");
     for f in [
@@ -260,10 +265,8 @@ config = "tiny.toml"
 #[test]
 fn a_tiny_generalization_study_reports_each_layout_and_the_mean() {
     let dir = tempfile::tempdir().unwrap();
-    tiny_config(dir.path());
-    let file = dir.path().join("generalization.toml");
-    std::fs::write(
-        &file,
+    let args = tiny_experiment(
+        dir.path(),
         r#"
 [experiment]
 name = "tiny-generalization"
@@ -280,16 +283,8 @@ name = "ppo"
 config = "tiny.toml"
 set = ["starts=\"random\""]
 "#,
-    )
-    .unwrap();
-    let out = dir.path().join("out");
-    let args = StudyArgs {
-        command: None,
-        experiment: Some(file),
-        out: Some(out.clone()),
-        parallel: Some(1),
-        quiet: true,
-    };
+    );
+    let out = args.out.clone().unwrap();
     assert_eq!(study::run(&args).unwrap().jobs_run, 2);
     let summary: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(out.join("runs/rm-1.1_1+rm-1.2_1/ppo/seed-1/summary.json"))
@@ -337,10 +332,8 @@ set = ["starts=\"random\""]
 #[test]
 fn an_agent_sweep_writes_scalability_figures() {
     let dir = tempfile::tempdir().unwrap();
-    tiny_config(dir.path());
-    let file = dir.path().join("experiment.toml");
-    std::fs::write(
-        &file,
+    let args = tiny_experiment(
+        dir.path(),
         r#"
 [experiment]
 name = "sweep"
@@ -357,17 +350,9 @@ time_limit = 5.0
 name = "ppo"
 config = "tiny.toml"
 "#,
-    )
-    .unwrap();
-    let out = dir.path().join("out");
-    let outcome = study::run(&StudyArgs {
-        command: None,
-        experiment: Some(file),
-        out: Some(out.clone()),
-        parallel: Some(1),
-        quiet: true,
-    })
-    .unwrap();
+    );
+    let out = args.out.clone().unwrap();
+    let outcome = study::run(&args).unwrap();
     assert!(outcome.failures.is_empty(), "{:?}", outcome.failures);
     for f in [
         "scalability-rm-2.1.png",
