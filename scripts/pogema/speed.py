@@ -64,6 +64,8 @@ BENCH_FILTER = "grid_env_step_warehouse/pogema/"
 
 M32 = 0xFFFFFFFF
 M64 = 0xFFFFFFFFFFFFFFFF
+QUARTERS = [(0, 4, 8, 12), (1, 5, 9, 13), (2, 6, 10, 14), (3, 7, 11, 15),
+            (0, 5, 10, 15), (1, 6, 11, 12), (2, 7, 8, 13), (3, 4, 9, 14)]
 
 
 class ChaCha8:
@@ -98,9 +100,9 @@ class ChaCha8:
             x[b] ^= x[c]
             x[b] = ((x[b] << 7) | (x[b] >> 25)) & M32
 
-        for _ in range(4):  # 8 rounds = 4 double rounds
-            quarter(0, 4, 8, 12), quarter(1, 5, 9, 13), quarter(2, 6, 10, 14), quarter(3, 7, 11, 15)
-            quarter(0, 5, 10, 15), quarter(1, 6, 11, 12), quarter(2, 7, 8, 13), quarter(3, 4, 9, 14)
+        for _ in range(4):  # 8 rounds = 4 double rounds: columns, then diagonals
+            for a, b, c, d in QUARTERS:
+                quarter(a, b, c, d)
         self.counter += 1
         return [(a + b) & M32 for a, b in zip(x, s)]
 
