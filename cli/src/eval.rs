@@ -383,31 +383,17 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
             jobs: args.jobs.max(1),
             rules: args.rules,
         };
-        let bar = ProgressBar::new(episodes as u64);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed}, eta {eta})",
-            )
-            .expect("valid template")
-            .progress_chars("=> "),
+        let progress = EpisodeProgress::new(
+            &format!("{} {} agents={agents}", args.controller, map.name),
+            episodes,
         );
-        bar.set_prefix(format!("{} {} agents={agents}", args.controller, map.name));
-        crate::heartbeat::watch(&bar);
-        let solved = AtomicUsize::new(0);
-        let done = AtomicUsize::new(0);
-        let on_episode = |r: &buridan_eval::EpisodeRecord| {
-            let s = solved.fetch_add(usize::from(r.success), Ordering::Relaxed)
-                + usize::from(r.success);
-            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-            bar.set_message(format!("success {:.1}%", 100.0 * s as f64 / d as f64));
-            bar.inc(1);
-        };
+        let on_episode = |r: &buridan_eval::EpisodeRecord| progress.record(r);
         let report: EvalReport = match &set {
             Some(set) => evaluate_instances(&map, &spec, &set.instances, &*make, &on_episode),
             None => evaluate(&map, &spec, &*make, &on_episode),
         }
         .with_context(|| format!("evaluating {} agents on {}", agents, map.name))?;
-        bar.finish();
+        progress.finish();
         let dir = if sweep {
             args.out.join(format!("agents-{agents}"))
         } else {
@@ -459,6 +445,50 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
         println!("{text}");
     }
     Ok(summaries)
+}
+
+/// A progress bar over an evaluation's episodes that shows the success
+/// rate so far (and, off a terminal, heartbeat log lines).
+pub struct EpisodeProgress {
+    bar: ProgressBar,
+    solved: AtomicUsize,
+    done: AtomicUsize,
+}
+
+impl EpisodeProgress {
+    /// A bar for `episodes` episodes, labelled `prefix`.
+    pub fn new(prefix: &str, episodes: usize) -> Self {
+        let bar = ProgressBar::new(episodes as u64);
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed}, eta {eta})",
+            )
+            .expect("valid template")
+            .progress_chars("=> "),
+        );
+        bar.set_prefix(prefix.to_string());
+        crate::heartbeat::watch(&bar);
+        EpisodeProgress {
+            bar,
+            solved: AtomicUsize::new(0),
+            done: AtomicUsize::new(0),
+        }
+    }
+
+    /// Counts one finished episode (called from evaluation threads).
+    pub fn record(&self, r: &buridan_eval::EpisodeRecord) {
+        let solved = usize::from(r.success);
+        let s = self.solved.fetch_add(solved, Ordering::Relaxed) + solved;
+        let d = self.done.fetch_add(1, Ordering::Relaxed) + 1;
+        self.bar
+            .set_message(format!("success {:.1}%", 100.0 * s as f64 / d as f64));
+        self.bar.inc(1);
+    }
+
+    /// Leaves the finished bar on screen.
+    pub fn finish(&self) {
+        self.bar.finish();
+    }
 }
 
 /// The line `learner eval` prints per evaluation: success, timesteps and

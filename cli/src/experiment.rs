@@ -762,6 +762,7 @@ impl TrainCell {
             algo: None,
             mode: None,
             starts: None,
+            rules: None,
             config: self.config.clone(),
             steps: self.steps,
             seed: Some(self.seed),

@@ -4,6 +4,7 @@
 //! and `buridan-mapf`; this crate only parses, calls and presents.
 
 pub mod aggregate;
+pub mod bench;
 pub mod dashboard;
 pub mod eval;
 pub mod experiment;

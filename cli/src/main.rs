@@ -23,6 +23,9 @@ enum Command {
     Serve(cli::serve::ServeArgs),
     /// Evaluate a controller (planner, random or trained policy) on seeded episodes.
     Eval(cli::eval::EvalArgs),
+    /// Run a benchmark of the field: our controllers beside published results on the same instances.
+    #[command(subcommand)]
+    Bench(cli::bench::BenchCommand),
     /// Draw one evaluation episode as an animated GIF (robots, goals, trails, jams).
     Replay(cli::replay::ReplayArgs),
     /// Search hyperparameters: a study file's trials, in parallel, resumable (or on a cluster).
@@ -66,6 +69,7 @@ fn main() -> Result<()> {
         Command::Train(args) => cli::train::run(&args).map(|_| ()),
         Command::Serve(args) => cli::serve::run(&args).map(|_| ()),
         Command::Eval(args) => cli::eval::run(&args).map(|_| ()),
+        Command::Bench(command) => cli::bench::run(&command).map(|_| ()),
         Command::Replay(args) => cli::replay::run(&args).map(|_| ()),
         Command::Tune(args) => cli::tune::run(&args).map(|_| ()),
         Command::Study(args) => cli::study::run(&args).map(|_| ()),

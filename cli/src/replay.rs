@@ -5,13 +5,13 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
-use buridan_env::{Map, Starts};
+use buridan_env::{Map, Rules, Starts};
 use buridan_eval::replay::{record_episode, Trace, Warmup};
 use buridan_eval::{EvalReport, EvalSpec};
 use buridan_policy::ActMode;
 use buridan_render::{write_gif, GifOptions};
 
-use crate::eval::{controller_factory, planner_limits, ControllerFactory};
+use crate::eval::{controller_factory_for_rules, planner_limits, ControllerFactory};
 
 /// Arguments of `learner replay`.
 #[derive(Debug, clap::Args)]
@@ -37,9 +37,14 @@ pub struct ReplayArgs {
     /// `random` starts and goals, or `fixed` (the map's `.scen`).
     #[arg(long, default_value = "random")]
     pub starts: Starts,
-    /// Truncation step count T_max.
-    #[arg(long, default_value_t = 100)]
-    pub t_max: u32,
+    /// The rule set the env moves agents by (`thesis` or `pogema`, as
+    /// `learner eval --rules`); planners plan for it.
+    #[arg(long, default_value = "thesis")]
+    pub rules: Rules,
+    /// Truncation step count T_max (default: the rule set's, 100 for
+    /// thesis, 128 for pogema).
+    #[arg(long)]
+    pub t_max: Option<u32>,
     /// Per-instance planning time limit in seconds (planners).
     #[arg(long, default_value_t = 60.0)]
     pub time_limit: f64,
@@ -80,16 +85,22 @@ pub fn run(args: &ReplayArgs) -> Result<Trace> {
         ActMode::Greedy
     };
     let limits = planner_limits(args.time_limit, args.memory_limit)?;
-    let make = controller_factory(&args.controller, args.agents, args.seed, limits, act_mode)?;
+    let make = controller_factory_for_rules(
+        &args.controller,
+        args.agents,
+        args.seed,
+        limits,
+        act_mode,
+        args.rules,
+    )?;
     let spec = EvalSpec {
         agents: args.agents,
         episodes: args.episodes,
         seed: args.seed,
         starts: args.starts,
-        t_max: args.t_max,
+        t_max: args.t_max.unwrap_or(args.rules.default_t_max()),
         jobs: 1,
-        // The env's thesis rules: this caller does not choose a rule set yet.
-        ..EvalSpec::default()
+        rules: args.rules,
     };
     let opts = GifOptions {
         cell_px: args.cell_px,

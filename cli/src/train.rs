@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
-use buridan_env::{ObsFeatures, Starts};
+use buridan_env::{ObsFeatures, Rules, Starts};
 use buridan_eval::plot::{line_chart, Series};
 use buridan_policy::Mode;
 
@@ -39,6 +39,11 @@ pub struct TrainArgs {
     /// `random` starts and goals, or `fixed` (the map's `.scen`).
     #[arg(long)]
     pub starts: Option<Starts>,
+    /// The rule set: `thesis` (sequential moves) or `pogema` (POGEMA's
+    /// simultaneous moves); also sets T_max to the rule set's (100 / 128;
+    /// `--set t_max=N` overrides).
+    #[arg(long)]
+    pub rules: Option<Rules>,
     /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it. Without one: the default recipe (IMPALA with the path and pressure features and shaping, 1M steps; README, "The recipe's ablation")
     #[arg(long)]
     pub config: Option<PathBuf>,
@@ -132,6 +137,10 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
     }
     if let Some(v) = args.starts {
         cfg.starts = v;
+    }
+    if let Some(v) = args.rules {
+        cfg.rules = v;
+        cfg.t_max = v.default_t_max();
     }
     if args.config.is_none() && cfg.mode == Mode::Cte {
         // The recipe's features extend local observations; CTE's central

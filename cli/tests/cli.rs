@@ -5,41 +5,14 @@ mod common;
 use std::path::PathBuf;
 
 use buridan_cli::eval::{self, EvalArgs};
-use buridan_cli::train::{self, TrainArgs};
+use buridan_cli::train;
 use buridan_env::Starts;
-use buridan_learner::train::Algo;
 use buridan_policy::Mode;
 
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("buridan-cli-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     dir
-}
-
-fn train_args(out: PathBuf) -> TrainArgs {
-    TrainArgs {
-        map: Some("rm-1.1".into()),
-        maps: None,
-        agents: Some(2),
-        algo: Some(Algo::Ppo),
-        mode: Some(Mode::Ctde),
-        starts: Some(Starts::Fixed),
-        config: None,
-        steps: Some(3000),
-        seed: Some(3),
-        resume: None,
-        metrics: None,
-        overrides: vec![
-            "ppo.train_batch=1000".into(),
-            "ppo.minibatch=500".into(),
-            "ppo.epochs=2".into(),
-            "envs_per_actor=4".into(),
-        ],
-        out,
-        quiet: true,
-        stop_when_stdin_closes: false,
-        dashboard: Default::default(),
-    }
 }
 
 fn eval_args(controller: String, out: PathBuf) -> EvalArgs {
@@ -69,7 +42,7 @@ fn eval_args(controller: String, out: PathBuf) -> EvalArgs {
 #[test]
 fn train_writes_its_outputs_and_eval_loads_the_checkpoint() {
     let out = temp_dir("train");
-    let summary = train::run(&train_args(out.clone())).unwrap();
+    let summary = train::run(&common::train_args(out.clone())).unwrap();
     assert!(summary.env_steps >= 3000, "{}", summary.env_steps);
     for file in [
         "metrics.csv",
@@ -100,17 +73,17 @@ fn train_writes_its_outputs_and_eval_loads_the_checkpoint() {
     assert_eq!(&png[..4], b"\x89PNG");
 
     // The same directory is refused without --resume, so no run is overwritten.
-    let err = train::run(&train_args(out.clone())).unwrap_err();
+    let err = train::run(&common::train_args(out.clone())).unwrap_err();
     assert!(err.to_string().contains("--resume"), "{err}");
     // `--resume OUT` continues from OUT's newest checkpoint.
-    let mut more = train_args(out.clone());
+    let mut more = common::train_args(out.clone());
     (more.steps, more.resume) = (Some(4000), Some(out.clone()));
     let resumed = train::run(&more).unwrap();
     assert_eq!(resumed.updates, summary.updates + 1);
     assert!(resumed.env_steps >= 4000);
     // `--resume auto` starts fresh where there is no checkpoint yet.
     let fresh = temp_dir("train-auto");
-    let mut auto = train_args(fresh.clone());
+    let mut auto = common::train_args(fresh.clone());
     auto.resume = Some("auto".into());
     assert_eq!(train::run(&auto).unwrap().updates, summary.updates);
     std::fs::remove_dir_all(fresh).ok();
@@ -183,7 +156,7 @@ fn config_layers_defaults_file_flags_and_overrides() {
         "map = \"rm-3.1\"\nagents = 6\n[ppo]\nlr = 0.0005\nepochs = 7\n",
     )
     .unwrap();
-    let mut args = train_args(dir.join("out"));
+    let mut args = common::train_args(dir.join("out"));
     args.config = Some(file.clone());
     args.map = None;
     args.agents = None;
@@ -212,7 +185,7 @@ fn config_layers_defaults_file_flags_and_overrides() {
 #[test]
 fn a_policy_trained_on_two_layouts_evaluates_on_a_third() {
     let out = temp_dir("maps");
-    let mut args = train_args(out.clone());
+    let mut args = common::train_args(out.clone());
     args.map = None;
     args.maps = Some("rm-2.2:1,rm-3.1:1".into());
     (args.agents, args.starts) = (Some(4), Some(Starts::Random));
@@ -247,12 +220,12 @@ fn a_policy_trained_on_two_layouts_evaluates_on_a_third() {
     );
 
     // CTE over several layouts is refused, and says why.
-    let mut cte = train_args(temp_dir("maps-cte"));
+    let mut cte = common::train_args(temp_dir("maps-cte"));
     (cte.map, cte.maps, cte.mode) = (None, Some("rm-2.2,rm-3.1".into()), Some(Mode::Cte));
     let err = format!("{:#}", train::run(&cte).unwrap_err());
     assert!(err.contains("cte cannot train on several layouts"), "{err}");
     // `--map` replaces a config's maps.
-    let mut one = train_args(temp_dir("maps-one"));
+    let mut one = common::train_args(temp_dir("maps-one"));
     one.config = Some(out.join("config.toml"));
     one.maps = None;
     let cfg = train::resolve_config(&one).unwrap();

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use buridan_cli::eval;
 use buridan_cli::replay::{self, ReplayArgs};
-use buridan_env::Starts;
+use buridan_env::{Rules, Starts};
 
 fn replay_args(out: PathBuf) -> ReplayArgs {
     ReplayArgs {
@@ -18,7 +18,8 @@ fn replay_args(out: PathBuf) -> ReplayArgs {
         episodes: 100,
         controller: "random".into(),
         starts: Starts::Random,
-        t_max: 30,
+        rules: Rules::Thesis,
+        t_max: Some(30),
         time_limit: 10.0,
         memory_limit: 256,
         sample: false,
@@ -86,4 +87,50 @@ fn bad_requests_are_reported() {
     let args = replay_args(dir.path().join("x.png"));
     let err = format!("{:#}", replay::run(&args).unwrap_err());
     assert!(err.contains("name it *.gif"), "{err}");
+}
+
+#[test]
+fn a_replay_under_pogema_rules_is_the_episode_eval_plays_under_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut args = replay_args(dir.path().join("pogema.gif"));
+    (args.controller, args.rules, args.t_max, args.episode) =
+        ("pibt".into(), Rules::Pogema, None, 1);
+    let trace = replay::run(&args).unwrap();
+    let out = dir.path().join("eval");
+    let flags = [
+        "--map",
+        "rm-2.1",
+        "--agents",
+        "8",
+        "--episodes",
+        "2",
+        "--controller",
+        "pibt",
+        "--rules",
+        "pogema",
+        "--time-limit",
+        "10",
+        "--memory-limit",
+        "256",
+        "--out",
+    ];
+    let mut flags: Vec<String> = flags.map(String::from).to_vec();
+    flags.push(out.display().to_string());
+    let summaries = eval::run(&common::eval_args(&flags)).unwrap();
+    assert_eq!(summaries[0].t_max, 128, "pogema's T_max by default");
+    let csv = std::fs::read_to_string(out.join("episodes.csv")).unwrap();
+    let row: Vec<String> = csv
+        .lines()
+        .nth(2)
+        .unwrap()
+        .split(',')
+        .map(String::from)
+        .collect();
+    assert_eq!(row[0], "1");
+    assert_eq!(row[2], trace.record.timesteps.to_string());
+    assert_eq!(trace.record.success, row[1] == "true");
+    // OD-A* searches the thesis step: refused under pogema, and says so.
+    args.controller = "od-astar".into();
+    let err = format!("{:#}", replay::run(&args).unwrap_err());
+    assert!(err.contains("cannot plan under pogema rules"), "{err}");
 }

@@ -10,11 +10,14 @@
 //! - [`runner`]: [`evaluate`] runs episodes and aggregates them;
 //!   [`evaluate_instances`] does so on an instance set.
 //! - [`instances`]: instance sets, MovingAI `.scen` files as episodes.
+//! - [`benchmark`]: measured rows beside published ones on an instance
+//!   set (POGEMA's warehouse): the table and its charts.
 //! - [`stats`]: quantiles and box-plot statistics.
 //! - [`output`]: CSV, JSON and PNG files of a report; the agent-count sweep.
 //! - [`plot`]: heatmaps, box plots and line charts as PNG.
 //! - [`replay`]: one episode recorded step by step, for drawing.
 
+pub mod benchmark;
 pub mod controller;
 pub mod instances;
 pub mod output;

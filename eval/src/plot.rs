@@ -102,10 +102,34 @@ pub fn line_chart(
     y_label: &str,
     series: &[Series],
 ) -> Result<(), PlotError> {
+    line_chart_with_references(path, title, x_label, y_label, series, &[])
+}
+
+/// [`line_chart`] with reference lines drawn dashed beside the solid
+/// `series` (published results beside measured ones), each in a colour of
+/// its own, all in one legend.
+///
+/// ```no_run
+/// use buridan_eval::plot::{line_chart_with_references, Series};
+/// let ours = Series { label: "lacam".into(), points: vec![(32.0, 100.0), (64.0, 100.0)] };
+/// let theirs = Series { label: "published DCC".into(), points: vec![(32.0, 95.3), (64.0, 85.9)] };
+/// line_chart_with_references(std::path::Path::new("s.png"), "success", "agents", "%", &[ours], &[theirs]).unwrap();
+/// ```
+pub fn line_chart_with_references(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    references: &[Series],
+) -> Result<(), PlotError> {
     register_fonts();
     let root = BitMapBackend::new(path, (900, 540)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(path, e))?;
-    let pts = series.iter().flat_map(|s| s.points.iter());
+    let pts = series
+        .iter()
+        .chain(references)
+        .flat_map(|s| s.points.iter());
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for &(x, y) in pts.filter(|(x, y)| x.is_finite() && y.is_finite()) {
         (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
@@ -148,6 +172,21 @@ pub fn line_chart(
                 .draw_series(s.points.iter().map(|&p| Circle::new(p, 3, color.filled())))
                 .map_err(|e| err(path, e))?;
         }
+    }
+    for (k, s) in references.iter().enumerate() {
+        let color = Palette99::pick(series.len() + k).to_rgba();
+        chart
+            .draw_series(DashedLineSeries::new(
+                s.points.iter().copied(),
+                8,
+                5,
+                color.stroke_width(2),
+            ))
+            .map_err(|e| err(path, e))?
+            .label(s.label.clone())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 8, y)], color.stroke_width(2))
+            });
     }
     chart
         .configure_series_labels()

@@ -4,7 +4,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use buridan_env::{EnvConfig, EnvError, GridEnv, Map, Rules, Scenario, Starts};
+use buridan_env::{Cell, EnvConfig, EnvError, Grid, GridEnv, Map, Rules, Scenario, Starts};
 
 use crate::controller::Controller;
 use crate::instances::Instance;
@@ -392,14 +392,25 @@ pub fn run_episode_observed(
 }
 
 /// The single-agent lower bound of the sum of costs of `env`'s episode:
-/// Σ shortest-path distances from the agents' cells to their goals, `None`
+/// The single-agent lower bound of an instance's sum of costs: Σ
+/// shortest-path distances from each start to its goal on `grid`, `None`
 /// if some goal is unreachable.
-fn soc_lower_bound(env: &GridEnv) -> Option<u64> {
-    let grid = &env.map().grid;
-    (0..env.agents())
-        .map(|i| {
-            let goal = env.goals()[i];
-            let d = grid.distances_to(goal)[grid.index(env.position(i))];
+///
+/// ```
+/// use buridan_env::{Cell, Grid};
+/// let grid = Grid::from_rows(&["...", ".@.", "..."]).unwrap();
+/// let (a, b) = (Cell::new(0, 1), Cell::new(2, 1));
+/// // Around the pillar, both ways: 4 steps each.
+/// assert_eq!(buridan_eval::runner::soc_lower_bound(&grid, &[a, b], &[b, a]), Some(8));
+/// let walled = Grid::from_rows(&[".@."]).unwrap();
+/// assert_eq!(buridan_eval::runner::soc_lower_bound(&walled, &[Cell::new(0, 0)], &[Cell::new(0, 2)]), None);
+/// ```
+pub fn soc_lower_bound(grid: &Grid, starts: &[Cell], goals: &[Cell]) -> Option<u64> {
+    starts
+        .iter()
+        .zip(goals)
+        .map(|(&start, &goal)| {
+            let d = grid.distances_to(goal)[grid.index(start)];
             (d != buridan_env::map::UNREACHABLE).then_some(u64::from(d))
         })
         .sum()
@@ -414,7 +425,7 @@ fn play_episode(
     observe: &mut dyn FnMut(&GridEnv),
 ) -> Result<EpisodeRecord, EnvError> {
     let n = env.agents();
-    let lower_bound = soc_lower_bound(env);
+    let lower_bound = soc_lower_bound(&env.map().grid, &env.positions(), &env.goals());
     let mut compute = Duration::ZERO;
     let t0 = Instant::now();
     let prepared = controller.begin_episode(env);

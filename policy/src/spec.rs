@@ -1,7 +1,7 @@
 //! The model specification: everything needed to rebuild a network from a
 //! checkpoint's weights.
 
-use buridan_env::ObsFeatures;
+use buridan_env::{ObsFeatures, Rules};
 use serde::{Deserialize, Serialize};
 
 use crate::error::PolicyError;
@@ -162,6 +162,15 @@ pub struct ModelSpec {
     /// local observations runs on any layout). Empty if unknown.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub maps: Vec<String>,
+    /// The rule set the policy was trained under (a record, like `maps`:
+    /// the network runs under either; evaluations report a mismatch).
+    /// `thesis` if not recorded.
+    #[serde(default, skip_serializing_if = "is_thesis")]
+    pub rules: Rules,
+}
+
+fn is_thesis(r: &Rules) -> bool {
+    *r == Rules::Thesis
 }
 
 fn default_sensor_range() -> usize {
@@ -193,6 +202,7 @@ impl ModelSpec {
             features: ObsFeatures::default(),
             sensor_range: default_sensor_range(),
             maps: Vec::new(),
+            rules: Rules::Thesis,
         }
     }
 
@@ -256,7 +266,7 @@ impl ModelSpec {
     }
 
     /// Whether `other` describes the same network (everything but the
-    /// record of training layouts), so that its weights fit.
+    /// records of training layouts and rules), so that its weights fit.
     ///
     /// ```
     /// use buridan_policy::{ModelSpec, Mode};
@@ -268,6 +278,7 @@ impl ModelSpec {
     pub fn same_network(&self, other: &ModelSpec) -> bool {
         let strip = |s: &ModelSpec| ModelSpec {
             maps: Vec::new(),
+            rules: Rules::Thesis,
             ..s.clone()
         };
         strip(self) == strip(other)

@@ -401,17 +401,24 @@ pub fn env_to_message(e: &EnvConfig) -> v1::EnvSettings {
         pressure_feature: e.features.pressure,
         shaping: e.shaping.map_or(0.0, |s| s.coeff),
         shaping_gamma: e.shaping.map_or(0.0, |s| s.gamma),
+        rules: e.rules.name().into(),
     }
 }
 
 /// Env settings from the wire, with `seed`.
 pub fn env_from_message(m: &v1::EnvSettings, seed: u64) -> Result<EnvConfig, ConvertError> {
     let starts = m.starts.parse::<Starts>().map_err(ConvertError::Invalid)?;
+    let rules = match m.rules.as_str() {
+        // A peer from before the field existed.
+        "" => buridan_env::Rules::Thesis,
+        name => name
+            .parse()
+            .map_err(|e: buridan_env::rules::UnknownRules| ConvertError::Invalid(e.to_string()))?,
+    };
     Ok(EnvConfig {
         agents: m.agents as usize,
         t_max: m.t_max,
-        // The wire carries no rule set yet (issue 18 adds it): thesis, as before.
-        rules: buridan_env::Rules::Thesis,
+        rules,
         starts,
         seed,
         sensor_range: m.sensor_range as usize,
@@ -597,5 +604,32 @@ mod tests {
         let mut nan = m;
         nan.tensors[0].data[0] = f32::NAN;
         assert!(weights_from_message(nan).is_err());
+    }
+
+    #[test]
+    fn env_settings_carry_the_rule_set() {
+        let pogema = EnvConfig::for_rules(buridan_env::Rules::Pogema);
+        let m = env_to_message(&pogema);
+        assert_eq!((m.rules.as_str(), m.t_max), ("pogema", 128));
+        let back = env_from_message(&m, 7).unwrap();
+        assert_eq!(
+            (back.rules, back.t_max, back.seed),
+            (buridan_env::Rules::Pogema, 128, 7)
+        );
+        // A peer from before the field: thesis.
+        let old = v1::EnvSettings {
+            rules: String::new(),
+            ..m.clone()
+        };
+        assert_eq!(
+            env_from_message(&old, 0).unwrap().rules,
+            buridan_env::Rules::Thesis
+        );
+        let bad = v1::EnvSettings {
+            rules: "chess".into(),
+            ..m
+        };
+        let err = env_from_message(&bad, 0).unwrap_err();
+        assert!(err.to_string().contains("unknown rules 'chess'"), "{err}");
     }
 }

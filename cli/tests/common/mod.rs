@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use buridan_cli::eval::EvalArgs;
+use buridan_cli::train::TrainArgs;
 use clap::Parser;
 
 /// `learner eval` arguments as the command line gives them: `flags` after
@@ -42,4 +43,33 @@ epochs = 2
     )
     .unwrap();
     path
+}
+
+/// `learner train` arguments of a PPO run on rm-1.1 with 2 agents, 3000
+/// steps: small enough for a test.
+pub fn train_args(out: PathBuf) -> TrainArgs {
+    TrainArgs {
+        map: Some("rm-1.1".into()),
+        maps: None,
+        agents: Some(2),
+        algo: Some(buridan_learner::train::Algo::Ppo),
+        mode: Some(buridan_policy::Mode::Ctde),
+        starts: Some(buridan_env::Starts::Fixed),
+        rules: None,
+        config: None,
+        steps: Some(3000),
+        seed: Some(3),
+        resume: None,
+        metrics: None,
+        overrides: vec![
+            "ppo.train_batch=1000".into(),
+            "ppo.minibatch=500".into(),
+            "ppo.epochs=2".into(),
+            "envs_per_actor=4".into(),
+        ],
+        out,
+        quiet: true,
+        stop_when_stdin_closes: false,
+        dashboard: Default::default(),
+    }
 }

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use buridan_env::{EnvError, Map, MapError, ObsFeatures, Starts, WeightedLayout};
+use buridan_env::{EnvError, Map, MapError, ObsFeatures, Rules, Starts, WeightedLayout};
 use buridan_imitate::ImitationConfig;
 use buridan_policy::{ActMode, LstmSpec, Mode, ModelSpec, ValueHead};
 use serde::{Deserialize, Serialize};
@@ -348,7 +348,12 @@ pub struct TrainConfig {
     pub agents: usize,
     /// Fixed (`.scen`) or random starts and goals.
     pub starts: Starts,
-    /// Episode truncation `T_max`.
+    /// The rule set agents move by: `thesis` (sequential moves in index
+    /// order, the dissertation's) or `pogema` (simultaneous moves,
+    /// POGEMA's repair). Recorded in checkpoints.
+    pub rules: Rules,
+    /// Episode truncation `T_max` (in a file without it: the rule set's,
+    /// 100 for thesis, 128 for pogema).
     pub t_max: u32,
     /// Sensor range R of local observations.
     pub sensor_range: usize,
@@ -408,7 +413,8 @@ impl Default for TrainConfig {
             maps: None,
             agents: 4,
             starts: Starts::Random,
-            t_max: 100,
+            rules: Rules::Thesis,
+            t_max: Rules::Thesis.default_t_max(),
             sensor_range: 2,
             features: ObsFeatures::default(),
             shaping: 0.0,
@@ -491,7 +497,11 @@ impl TrainConfig {
                 path: path.to_path_buf(),
             });
         }
-        let cfg: Self = table.try_into().map_err(parse_error)?;
+        let t_max_given = table.contains_key("t_max");
+        let mut cfg: Self = table.try_into().map_err(parse_error)?;
+        if !t_max_given {
+            cfg.t_max = cfg.rules.default_t_max();
+        }
         cfg.validate()?;
         Ok(cfg)
     }
@@ -729,6 +739,7 @@ impl TrainConfig {
             features: self.features,
             sensor_range: self.sensor_range,
             maps: self.layout_names(),
+            rules: self.rules,
             ..ModelSpec::new(self.mode, self.agents, obs_dim)
         }
     }

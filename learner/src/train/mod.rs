@@ -199,6 +199,7 @@ pub fn env_config(cfg: &TrainConfig, seed: u64) -> EnvConfig {
     EnvConfig {
         agents: cfg.agents,
         t_max: cfg.t_max,
+        rules: cfg.rules,
         starts: cfg.starts,
         seed,
         sensor_range: cfg.sensor_range,

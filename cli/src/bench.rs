@@ -1,0 +1,293 @@
+//! `learner bench pogema`: the field's benchmark in one command. Our
+//! controllers on POGEMA's warehouse instances under POGEMA's rules, one
+//! evaluation per controller and agent count (resumable), then the table
+//! and charts beside the published results of the same instances.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use buridan_env::Rules;
+use buridan_eval::benchmark::{
+    pool_seeds, published_rows, read_measured, read_published, write_table, LowerBounds, Row,
+    DEFAULT_PUBLISHED,
+};
+use buridan_eval::instances::load_instance_set;
+use buridan_eval::output::write_report;
+use buridan_eval::runner::soc_lower_bound;
+use buridan_eval::{evaluate_instances, EvalSpec};
+use buridan_policy::ActMode;
+
+use crate::eval::{
+    controller_factory_for_rules, parse_agent_counts, planner_limits, summary_line, EpisodeProgress,
+};
+
+/// The benchmarks of `learner bench`.
+#[derive(Debug, clap::Subcommand)]
+pub enum BenchCommand {
+    /// POGEMA's warehouse (32–192 agents × 128 seeds, pogema rules, T_max
+    /// 128): our controllers beside the published LaCAM, MAPF-GPT, SCRIMP,
+    /// DCC, … on the same instances.
+    Pogema(PogemaArgs),
+}
+
+/// Arguments of `learner bench pogema`.
+#[derive(Debug, clap::Args)]
+pub struct PogemaArgs {
+    /// The benchmark's folder: `<map>.map`, `<map>-<agents>-<seed>.scen`
+    /// and the published results (`../shared/pogema`).
+    #[arg(long)]
+    pub instances: PathBuf,
+    /// The map's name in the file names.
+    #[arg(long, default_value = "warehouse")]
+    pub map_name: String,
+    /// Agent counts: a list (`32,64`) or a range (`32..192:32`).
+    #[arg(long, default_value = "32,64,96,128,160,192")]
+    pub agents: String,
+    /// Instance seeds: a list (`0,5`) or an inclusive range (`0..127`).
+    #[arg(long, default_value = "0..127")]
+    pub seeds: String,
+    /// A controller as `learner eval --controller` names it (repeatable;
+    /// run in the order given). `LABEL=CONTROLLER` names its rows (e.g.
+    /// `learned=shield:checkpoint:DIR`); a `sampled:` prefix samples a
+    /// trained policy's actions instead of taking the most probable.
+    /// Labels `NAME#K` (one per training seed K) are pooled into one row
+    /// `NAME`: mean success over seeds with its 95 % bootstrap interval.
+    #[arg(long = "controller", default_values_t = ["lacam".to_string(), "pibt".to_string(), "lacam-star".to_string(), "cbs".to_string()])]
+    pub controllers: Vec<String>,
+    /// Published per-instance results (default: `<map>-published.csv` in
+    /// the instances folder).
+    #[arg(long)]
+    pub published: Option<PathBuf>,
+    /// Published methods to show beside ours (comma-separated, as named in
+    /// the file).
+    #[arg(long, value_delimiter = ',', default_values_t = DEFAULT_PUBLISHED.map(String::from))]
+    pub published_methods: Vec<String>,
+    /// Per-instance planning time limit in seconds.
+    #[arg(long, default_value_t = 10.0)]
+    pub time_limit: f64,
+    /// Per-instance memory cap of a planner's search, in MiB.
+    #[arg(long, default_value_t = 2048)]
+    pub memory_limit: usize,
+    /// Instances run in parallel (1 keeps compute times comparable).
+    #[arg(long, default_value_t = 1)]
+    pub jobs: usize,
+    /// Seed of trained policies' sampling.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output directory: `<label>/agents-<N>/` per evaluation (kept and
+    /// reused when the command runs again), `table.csv`, `table.md`,
+    /// `success.png`, `soc_ratio.png`.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Parses seeds: `0..127` (inclusive), `0..127:2` or `0,5,9`.
+///
+/// ```
+/// use buridan_cli::bench::parse_seeds;
+/// assert_eq!(parse_seeds("0..3").unwrap(), vec![0, 1, 2, 3]);
+/// assert_eq!(parse_seeds("4,0").unwrap(), vec![4, 0]);
+/// assert!(parse_seeds("3..1").is_err());
+/// assert!(parse_seeds("a").is_err());
+/// ```
+pub fn parse_seeds(text: &str) -> Result<Vec<u64>> {
+    let num = |s: &str| -> Result<u64> {
+        s.trim()
+            .parse()
+            .with_context(|| format!("'{s}' is not a seed"))
+    };
+    if let Some((lo, rest)) = text.split_once("..") {
+        let (hi, step) = rest.split_once(':').unwrap_or((rest, "1"));
+        let (lo, hi, step) = (num(lo)?, num(hi)?, num(step)?);
+        if lo > hi || step == 0 {
+            bail!("empty seed range {text}");
+        }
+        return Ok((lo..=hi).step_by(step as usize).collect());
+    }
+    text.split(',').map(num).collect()
+}
+
+/// A `--controller` value: the rows' label, the controller, how it acts.
+///
+/// ```
+/// use buridan_cli::bench::ControllerSpec;
+/// use buridan_policy::ActMode;
+/// let s = ControllerSpec::parse("learned=sampled:shield:checkpoint:runs/a").unwrap();
+/// assert_eq!((s.label.as_str(), s.controller.as_str(), s.act_mode), ("learned", "shield:checkpoint:runs/a", ActMode::Sample));
+/// let s = ControllerSpec::parse("rescue=lacam:checkpoint:runs/a").unwrap();
+/// assert_eq!((s.label.as_str(), s.controller.as_str()), ("rescue-lacam-checkpoint-runs-a", "rescue=lacam:checkpoint:runs/a"));
+/// assert!(ControllerSpec::parse("=lacam").is_err());
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct ControllerSpec {
+    /// Names the rows and the output folder.
+    pub label: String,
+    /// As `learner eval --controller` takes it.
+    pub controller: String,
+    /// Greedy or sampled (trained policies).
+    pub act_mode: ActMode,
+}
+
+impl ControllerSpec {
+    /// Parses `[LABEL=][sampled:]CONTROLLER`; `rescue=` and `lookahead=`
+    /// belong to the controller, not to a label.
+    pub fn parse(text: &str) -> Result<Self> {
+        let labelled = text
+            .split_once('=')
+            .filter(|(label, _)| !matches!(*label, "rescue" | "lookahead"));
+        let (label, rest) = match labelled {
+            Some((label, rest)) => {
+                let ok = !label.is_empty()
+                    && label
+                        .chars()
+                        .all(|c| c.is_ascii_alphanumeric() || "-_.+#".contains(c));
+                if !ok {
+                    bail!("'{text}': a label is letters, digits and - _ . + # before '='");
+                }
+                (Some(label.to_string()), rest)
+            }
+            None => (None, text),
+        };
+        let (controller, act_mode) = match rest.strip_prefix("sampled:") {
+            Some(inner) => (inner, ActMode::Sample),
+            None => (rest, ActMode::Greedy),
+        };
+        if controller.is_empty() {
+            bail!("'{text}': no controller");
+        }
+        let label = label.unwrap_or_else(|| {
+            let plain: String = rest
+                .chars()
+                .map(|c| {
+                    if c.is_ascii_alphanumeric() || "-_.+".contains(c) {
+                        c
+                    } else {
+                        '-'
+                    }
+                })
+                .collect();
+            plain.trim_matches('-').to_string()
+        });
+        Ok(ControllerSpec {
+            label,
+            controller: controller.to_string(),
+            act_mode,
+        })
+    }
+}
+
+/// Runs `learner bench`.
+pub fn run(command: &BenchCommand) -> Result<Vec<Row>> {
+    match command {
+        BenchCommand::Pogema(args) => run_pogema(args),
+    }
+}
+
+fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
+    let counts = parse_agent_counts(&args.agents)?;
+    let seeds = parse_seeds(&args.seeds)?;
+    let specs = args
+        .controllers
+        .iter()
+        .map(|c| ControllerSpec::parse(c))
+        .collect::<Result<Vec<_>>>()?;
+    for (k, spec) in specs.iter().enumerate() {
+        if specs[..k].iter().any(|s| s.label == spec.label) {
+            bail!(
+                "two controllers are labelled '{}': name them apart with LABEL=CONTROLLER",
+                spec.label
+            );
+        }
+    }
+    let published_path = args.published.clone().unwrap_or_else(|| {
+        args.instances
+            .join(format!("{}-published.csv", args.map_name))
+    });
+    // Read before hours of planning, so that a bad file fails at once.
+    let published = read_published(&published_path)?;
+    // Unknown method names too (no instances yet: only the names are checked).
+    published_rows(&published, &args.published_methods, &LowerBounds::new())?;
+    let limits = planner_limits(args.time_limit, args.memory_limit)?;
+    let rules = Rules::Pogema;
+    let mut sets = Vec::with_capacity(counts.len());
+    let mut bounds = LowerBounds::new();
+    for &agents in &counts {
+        let files: Vec<PathBuf> = seeds
+            .iter()
+            .map(|seed| {
+                args.instances
+                    .join(format!("{}-{agents}-{seed}.scen", args.map_name))
+            })
+            .collect();
+        let set = load_instance_set(&files, None, Some(agents))
+            .with_context(|| format!("loading the {agents}-agent instances"))?;
+        for (instance, &seed) in set.instances.iter().zip(&seeds) {
+            let bound = soc_lower_bound(&set.map.grid, &instance.starts, &instance.goals);
+            bounds.insert((agents, seed), bound);
+        }
+        sets.push((agents, set));
+    }
+    let mut rows = Vec::new();
+    for spec in &specs {
+        for (agents, set) in &sets {
+            let dir = args.out.join(&spec.label).join(format!("agents-{agents}"));
+            let summary_path = dir.join("summary.json");
+            if summary_path.is_file() {
+                let kept = read_measured(&summary_path)?;
+                if kept.episodes != set.instances.len() {
+                    bail!(
+                        "{} holds {} instances, not the {} asked for: move it away to run it again",
+                        summary_path.display(),
+                        kept.episodes,
+                        set.instances.len()
+                    );
+                }
+                tracing::info!(label = %spec.label, agents, "kept from an earlier run");
+                rows.push(Row::measured(&spec.label, &kept));
+                continue;
+            }
+            let make = controller_factory_for_rules(
+                &spec.controller,
+                *agents,
+                args.seed,
+                limits,
+                spec.act_mode,
+                rules,
+            )?;
+            let eval_spec = EvalSpec {
+                agents: *agents,
+                episodes: set.instances.len(),
+                seed: args.seed,
+                t_max: rules.default_t_max(),
+                jobs: args.jobs.max(1),
+                rules,
+                ..EvalSpec::default()
+            };
+            let progress = EpisodeProgress::new(
+                &format!("{} {} agents={agents}", spec.label, set.map.name),
+                set.instances.len(),
+            );
+            let report = evaluate_instances(&set.map, &eval_spec, &set.instances, &*make, &|r| {
+                progress.record(r)
+            })
+            .with_context(|| format!("evaluating {} on {agents} agents", spec.label))?;
+            progress.finish();
+            write_report(&dir, &report, &set.map.grid)
+                .with_context(|| format!("writing results to {}", dir.display()))?;
+            eprintln!("{} -> {}", summary_line(&report.summary), dir.display());
+            rows.push(Row::measured(&spec.label, &read_measured(&summary_path)?));
+        }
+    }
+    let mut rows = pool_seeds(&rows);
+    rows.extend(published_rows(
+        &published,
+        &args.published_methods,
+        &bounds,
+    )?);
+    let files = write_table(&args.out, &args.map_name, &rows)
+        .with_context(|| format!("writing the table to {}", args.out.display()))?;
+    tracing::info!(files = ?files, "benchmark table written");
+    let md = std::fs::read_to_string(args.out.join("table.md"))?;
+    println!("{md}");
+    Ok(rows)
+}

@@ -1,0 +1,184 @@
+//! `learner bench pogema` end to end on a tiny instance set, and training
+//! under pogema rules (the benchmark's learned row).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use buridan_cli::bench::{self, BenchCommand};
+use buridan_cli::train;
+use buridan_env::Rules;
+use clap::Parser;
+
+/// `learner bench pogema` arguments as the command line gives them.
+fn bench_args<S: AsRef<str>>(flags: &[S]) -> BenchCommand {
+    #[derive(Parser)]
+    struct Bench {
+        #[command(subcommand)]
+        command: BenchCommand,
+    }
+    let argv = ["bench", "pogema"]
+        .into_iter()
+        .chain(flags.iter().map(AsRef::as_ref));
+    Bench::try_parse_from(argv)
+        .unwrap_or_else(|e| panic!("bad bench flags: {e}"))
+        .command
+}
+
+/// A 3×5 room with a pillar, two instances of 1 and 2 agents (seeds 0, 1),
+/// and published results of one method on them.
+fn instance_set(dir: &Path) -> PathBuf {
+    let set = dir.join("set");
+    std::fs::create_dir_all(&set).unwrap();
+    std::fs::write(
+        set.join("room.map"),
+        "type octile\nheight 3\nwidth 5\nmap\n.....\n..@..\n.....\n",
+    )
+    .unwrap();
+    // Agent i is line i: (x, y) start then goal; the N-agent instance is the
+    // first N lines.
+    let scen = |lines: &[(usize, usize, usize, usize)]| {
+        let mut text = String::from("version 1\n");
+        for &(sx, sy, gx, gy) in lines {
+            text += &format!("0\troom.map\t5\t3\t{sx}\t{sy}\t{gx}\t{gy}\t0\n");
+        }
+        text
+    };
+    let seed0 = [(0, 0, 4, 0), (4, 2, 0, 2)];
+    let seed1 = [(0, 1, 4, 1), (4, 0, 0, 0)];
+    for agents in [1, 2] {
+        std::fs::write(
+            set.join(format!("room-{agents}-0.scen")),
+            scen(&seed0[..agents]),
+        )
+        .unwrap();
+        std::fs::write(
+            set.join(format!("room-{agents}-1.scen")),
+            scen(&seed1[..agents]),
+        )
+        .unwrap();
+    }
+    let mut csv = String::from("map,agents,seed,algorithm,success,makespan,soc,isr\n");
+    for agents in [1, 2] {
+        for seed in [0, 1] {
+            // Seed 1 with 2 agents unsolved: half the instances at 2 agents.
+            let solved = !(agents == 2 && seed == 1);
+            let (s, m, soc) = if solved {
+                (1, 4, 4 * agents)
+            } else {
+                (0, 128, 256)
+            };
+            csv += &format!("room,{agents},{seed},Oracle,{s},{m},{soc},1.0\n");
+        }
+    }
+    std::fs::write(set.join("room-published.csv"), csv).unwrap();
+    set
+}
+
+#[test]
+fn the_benchmark_runs_planners_and_a_pogema_policy_beside_published_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let set = instance_set(dir.path());
+
+    // A policy trained under pogema rules, off the benchmark's map.
+    let run = dir.path().join("run");
+    let mut args = common::train_args(run.clone());
+    args.rules = Some(Rules::Pogema);
+    let summary = train::run(&args).unwrap();
+    assert!(summary.env_steps >= 3000);
+    let config = std::fs::read_to_string(run.join("config.toml")).unwrap();
+    assert!(
+        config.contains("rules = \"pogema\"") && config.contains("t_max = 128"),
+        "the rule set and its T_max are recorded: {config}"
+    );
+    let spec = std::fs::read_to_string(run.join("checkpoints/final/spec.json")).unwrap();
+    assert!(
+        spec.contains("pogema"),
+        "the checkpoint records the rule set: {spec}"
+    );
+
+    let out = dir.path().join("bench");
+    let ckpt = format!("checkpoint:{}", run.display());
+    let flags = |controllers: &[String]| {
+        let mut f: Vec<String> = [
+            "--instances",
+            set.to_str().unwrap(),
+            "--map-name",
+            "room",
+            "--agents",
+            "1,2",
+            "--seeds",
+            "0..1",
+            "--published-methods",
+            "Oracle",
+            "--time-limit",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ]
+        .map(String::from)
+        .to_vec();
+        for c in controllers {
+            f.extend(["--controller".to_string(), c.clone()]);
+        }
+        f
+    };
+    let controllers = [
+        "lacam".to_string(),
+        format!("learned={ckpt}"),
+        format!("learned-sampled=sampled:{ckpt}"),
+    ];
+    let rows = bench::run(&bench_args(&flags(&controllers))).unwrap();
+    // Three measured methods and one published, at two agent counts.
+    assert_eq!(rows.len(), 8);
+    let lacam: Vec<_> = rows.iter().filter(|r| r.method == "lacam").collect();
+    assert!(lacam
+        .iter()
+        .all(|r| r.success_rate == 1.0 && r.instances == 2));
+    let oracle: Vec<_> = rows.iter().filter(|r| r.method == "Oracle").collect();
+    assert_eq!((oracle[0].agents, oracle[0].success_rate), (1, 1.0));
+    assert_eq!((oracle[1].agents, oracle[1].success_rate), (2, 0.5));
+    for file in ["table.csv", "table.md", "success.png", "soc_ratio.png"] {
+        assert!(out.join(file).is_file(), "missing {file}");
+    }
+    for label in ["lacam", "learned", "learned-sampled"] {
+        let summary = out.join(label).join("agents-2/summary.json");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&summary).unwrap()).unwrap();
+        assert_eq!(json["rules"], "pogema", "{label}");
+        assert_eq!(json["t_max"], 128, "{label}");
+    }
+    let md = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(
+        md.contains("| agents | lacam | learned | learned-sampled | Oracle (published) |"),
+        "{md}"
+    );
+
+    // Run again: finished cells are read back, not evaluated again.
+    let episodes = out.join("lacam/agents-1/episodes.csv");
+    std::fs::remove_file(&episodes).unwrap();
+    let again = bench::run(&bench_args(&flags(&controllers))).unwrap();
+    assert_eq!(again, rows);
+    assert!(!episodes.exists(), "a kept cell is not run again");
+
+    // Errors say what is wrong.
+    let twice = ["lacam".to_string(), "lacam".to_string()];
+    let err = format!("{:#}", bench::run(&bench_args(&flags(&twice))).unwrap_err());
+    assert!(
+        err.contains("two controllers are labelled 'lacam'"),
+        "{err}"
+    );
+    let mut unknown = flags(&["pibt".to_string()]);
+    let at = unknown.iter().position(|f| f == "Oracle").unwrap();
+    unknown[at] = "Sage".into();
+    let err = format!("{:#}", bench::run(&bench_args(&unknown)).unwrap_err());
+    assert!(
+        err.contains("no published results for 'Sage' (the file holds: Oracle)"),
+        "{err}"
+    );
+    let mut missing_seed = flags(&["pibt".to_string()]);
+    let at = missing_seed.iter().position(|f| f == "0..1").unwrap();
+    missing_seed[at] = "0..2".into();
+    let err = format!("{:#}", bench::run(&bench_args(&missing_seed)).unwrap_err());
+    assert!(err.contains("room-1-2.scen"), "{err}");
+}
