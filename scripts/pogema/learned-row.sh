@@ -1,0 +1,47 @@
+#!/bin/sh
+# The POGEMA benchmark's learned row (issue 18): the recipe trained under
+# pogema rules on the reference layouts rm-3.1 and rm-2.2 (never on the
+# warehouse), one policy per training seed, then `learner bench pogema` with
+# each policy raw (greedy), through the PIBT collision shield, and sampled,
+# beside PIBT alone; the seeds pool into one row per mode (mean success and
+# its 95 % bootstrap interval).
+#
+# Usage: scripts/pogema/learned-row.sh OUT [TRAIN_SEEDS] [INSTANCE_SEEDS]
+#   OUT             output folder: policies/seed-K/, bench/ (resumable: a
+#                   trained seed or a finished bench cell is kept)
+#   TRAIN_SEEDS     training seeds, default "0 1 2 3 4 5 6 7 8 9"
+#   INSTANCE_SEEDS  the benchmark's instance seeds, default 0..127
+# Environment: LEARNER (default: learner on PATH), SHARED (default
+#   ../shared/pogema), STEPS (default 1000000), AGENTS (default 16).
+set -eu
+out=${1:?usage: learned-row.sh OUT [TRAIN_SEEDS] [INSTANCE_SEEDS]}
+train_seeds=${2:-0 1 2 3 4 5 6 7 8 9}
+instance_seeds=${3:-0..127}
+learner=${LEARNER:-learner}
+shared=${SHARED:-../shared/pogema}
+steps=${STEPS:-1000000}
+agents=${AGENTS:-16}
+mkdir -p "$out/policies"
+for s in $train_seeds; do
+  dir="$out/policies/seed-$s"
+  if [ -f "$dir/summary.json" ]; then
+    echo "seed $s: trained already ($dir)"
+    continue
+  fi
+  start=$(date +%s)
+  "$learner" train --rules pogema --maps rm-3.1:1,rm-2.2:1 --agents "$agents" \
+    --steps "$steps" --seed "$s" --out "$dir" --quiet
+  echo "seed $s: trained in $(( $(date +%s) - start )) s" | tee -a "$out/train-walls.txt"
+done
+set -- --controller pibt
+for mode in learned learned-shield learned-sampled; do
+  for s in $train_seeds; do
+    ckpt="checkpoint:$out/policies/seed-$s"
+    case $mode in
+      learned) set -- "$@" --controller "learned#$s=$ckpt" ;;
+      learned-shield) set -- "$@" --controller "learned-shield#$s=shield:$ckpt" ;;
+      learned-sampled) set -- "$@" --controller "learned-sampled#$s=sampled:$ckpt" ;;
+    esac
+  done
+done
+"$learner" bench pogema --instances "$shared" --seeds "$instance_seeds" --out "$out/bench" "$@"
