@@ -383,18 +383,31 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
     // One run: one seed, named in the figures' titles.
     write_curves(&args.out, &format!("{title}, seed {}", cfg.seed))
         .context("drawing the learning curves")?;
+    // A run shorter than one episode (imitation only, `--steps` below
+    // T_max) has no episode statistics: say so rather than print NaN.
+    let episodes = if summary.episode_len_mean.is_finite() {
+        format!(
+            "last 100 episodes: return {:.2}, success {:.1}%, length {:.1}",
+            summary.episode_return_mean,
+            100.0 * summary.success_rate,
+            summary.episode_len_mean,
+        )
+    } else {
+        "no episode finished".to_string()
+    };
     eprintln!(
-        "{title}: {} env steps in {:.0} s ({:.0} steps/s); last 100 episodes: return {:.2}, success {:.1}%, length {:.1} -> {}",
+        "{title}: {} env steps in {:.0} s ({:.0} steps/s); {episodes} -> {}",
         summary.env_steps,
         summary.wall_seconds,
         summary.steps_per_s,
-        summary.episode_return_mean,
-        100.0 * summary.success_rate,
-        summary.episode_len_mean,
         args.out.display()
     );
     for (map, success) in &summary.success_by_map {
         let episodes = summary.episodes_by_map.get(map).copied().unwrap_or(0);
+        if episodes == 0 {
+            eprintln!("  {map}: no episode finished");
+            continue;
+        }
         eprintln!(
             "  {map}: success {:.1}% over its last 100 episodes ({episodes} episodes in all)",
             100.0 * success
