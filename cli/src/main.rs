@@ -58,8 +58,13 @@ fn main() -> Result<()> {
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
-                // Progress lines stand in for the bars off a terminal.
-                format!("{default_level},{}=info", cli::heartbeat::TARGET).into()
+                // Progress lines stand in for the bars off a terminal;
+                // imitation's rounds (minutes each with crowds) have no bar.
+                format!(
+                    "{default_level},{}=info,buridan_imitate=info",
+                    cli::heartbeat::TARGET
+                )
+                .into()
             }),
         )
         .with_writer(std::io::stderr)

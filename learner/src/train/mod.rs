@@ -229,30 +229,14 @@ fn imitate(
     let seed = seed::actor_env(cfg.seed, u64::from(u32::MAX), 0);
     let env = env_config(cfg, seed);
     let kind = cfg.mode.obs_kind();
-    // Rounds take minutes with crowds: one line each says how far it is,
-    // under the target the CLI shows progress lines of by default.
-    let mut on_round = |r: &buridan_imitate::RoundReport| {
-        tracing::info!(
-            target: "progress",
-            round = r.round,
-            of = im.rounds,
-            rows = r.rows,
-            expert_calls = r.expert_calls,
-            expert_failures = r.expert_failures,
-            success_rate = r.success_rate,
-            accuracy = r.accuracy,
-            seconds = r.seconds,
-            "imitation round done"
-        );
-    };
     let imitated = match layouts {
         [(map, _)] => {
             let mut venv = VecEnv::new(map.clone(), env, im.envs, kind, 1)?;
-            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut on_round)
+            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut |_| {})
         }
         _ => {
             let mut venv = VecEnv::with_layouts(layouts, env, im.envs, kind, 1)?;
-            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut on_round)
+            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut |_| {})
         }
     };
     let rounds = imitated.map_err(|e| TrainError::Imitation(Box::new(e)))?;
