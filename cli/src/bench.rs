@@ -8,8 +8,8 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use buridan_env::Rules;
 use buridan_eval::benchmark::{
-    pool_seeds, published_rows, read_measured, read_published, write_table, LowerBounds, Row,
-    DEFAULT_PUBLISHED,
+    check_published_methods, markdown, pool_seeds, published_rows, read_measured, read_published,
+    write_table, LowerBounds, Row, DEFAULT_PUBLISHED,
 };
 use buridan_eval::instances::load_instance_set;
 use buridan_eval::output::write_report;
@@ -137,10 +137,8 @@ impl ControllerSpec {
             .filter(|(label, _)| !matches!(*label, "rescue" | "lookahead"));
         let (label, rest) = match labelled {
             Some((label, rest)) => {
-                let ok = !label.is_empty()
-                    && label
-                        .chars()
-                        .all(|c| c.is_ascii_alphanumeric() || "-_.+#".contains(c));
+                // '#' only in a label given: `NAME#K` pools seeds.
+                let ok = !label.is_empty() && label.chars().all(|c| label_char(c) || c == '#');
                 if !ok {
                     bail!("'{text}': a label is letters, digits and - _ . + # before '='");
                 }
@@ -158,13 +156,7 @@ impl ControllerSpec {
         let label = label.unwrap_or_else(|| {
             let plain: String = rest
                 .chars()
-                .map(|c| {
-                    if c.is_ascii_alphanumeric() || "-_.+".contains(c) {
-                        c
-                    } else {
-                        '-'
-                    }
-                })
+                .map(|c| if label_char(c) { c } else { '-' })
                 .collect();
             plain.trim_matches('-').to_string()
         });
@@ -174,6 +166,11 @@ impl ControllerSpec {
             act_mode,
         })
     }
+}
+
+/// Characters a label (and so a folder name) keeps as they are.
+fn label_char(c: char) -> bool {
+    c.is_ascii_alphanumeric() || "-_.+".contains(c)
 }
 
 /// Runs `learner bench`.
@@ -205,8 +202,7 @@ fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
     });
     // Read before hours of planning, so that a bad file fails at once.
     let published = read_published(&published_path)?;
-    // Unknown method names too (no instances yet: only the names are checked).
-    published_rows(&published, &args.published_methods, &LowerBounds::new())?;
+    check_published_methods(&published, &args.published_methods)?;
     let limits = planner_limits(args.time_limit, args.memory_limit)?;
     let rules = Rules::Pogema;
     let mut sets = Vec::with_capacity(counts.len());
@@ -275,6 +271,9 @@ fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
             write_report(&dir, &report, &set.map.grid)
                 .with_context(|| format!("writing results to {}", dir.display()))?;
             eprintln!("{} -> {}", summary_line(&report.summary), dir.display());
+            // Read back, not taken from memory: serde_json's float parsing
+            // is not bit-exact, and a rerun that keeps this cell must give
+            // the same row as this run.
             rows.push(Row::measured(&spec.label, &read_measured(&summary_path)?));
         }
     }
@@ -287,7 +286,6 @@ fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
     let files = write_table(&args.out, &args.map_name, &rows)
         .with_context(|| format!("writing the table to {}", args.out.display()))?;
     tracing::info!(files = ?files, "benchmark table written");
-    let md = std::fs::read_to_string(args.out.join("table.md"))?;
-    println!("{md}");
+    println!("{}", markdown(&rows));
     Ok(rows)
 }

@@ -226,6 +226,31 @@ pub fn read_measured(path: &Path) -> Result<MeasuredSummary, BenchError> {
     })
 }
 
+/// Checks that `records` hold every one of `methods` (before hours of
+/// planning, so that a misspelt name fails at once).
+///
+/// ```
+/// use buridan_eval::benchmark::{check_published_methods, PublishedRecord};
+/// let rec = PublishedRecord { map: "w".into(), agents: 2, seed: 0, algorithm: "DCC".into(),
+///     success: 1, makespan: 5, soc: 10, isr: 1.0 };
+/// assert!(check_published_methods(&[rec.clone()], &["DCC".into()]).is_ok());
+/// let err = check_published_methods(&[rec], &["dcc".into()]).unwrap_err();
+/// assert_eq!(err.to_string(), "no published results for 'dcc' (the file holds: DCC)");
+/// ```
+pub fn check_published_methods(
+    records: &[PublishedRecord],
+    methods: &[String],
+) -> Result<(), BenchError> {
+    let known: BTreeSet<&str> = records.iter().map(|r| r.algorithm.as_str()).collect();
+    match methods.iter().find(|m| !known.contains(m.as_str())) {
+        Some(name) => Err(BenchError::UnknownMethod {
+            name: name.clone(),
+            known: known.into_iter().collect::<Vec<_>>().join(", "),
+        }),
+        None => Ok(()),
+    }
+}
+
 /// The rows of the published `methods` over exactly the instances of
 /// `bounds`, one per method and agent count (counts ascending, methods in
 /// the order given).
@@ -234,7 +259,7 @@ pub fn published_rows(
     methods: &[String],
     bounds: &LowerBounds,
 ) -> Result<Vec<Row>, BenchError> {
-    let known: BTreeSet<&str> = records.iter().map(|r| r.algorithm.as_str()).collect();
+    check_published_methods(records, methods)?;
     let mut by_key: BTreeMap<(&str, usize, u64), &PublishedRecord> = BTreeMap::new();
     for r in records {
         by_key.insert((r.algorithm.as_str(), r.agents, r.seed), r);
@@ -242,12 +267,6 @@ pub fn published_rows(
     let counts: BTreeSet<usize> = bounds.keys().map(|&(agents, _)| agents).collect();
     let mut rows = Vec::new();
     for method in methods {
-        if !known.contains(method.as_str()) {
-            return Err(BenchError::UnknownMethod {
-                name: method.clone(),
-                known: known.iter().copied().collect::<Vec<_>>().join(", "),
-            });
-        }
         for &agents in &counts {
             let mut solved = 0usize;
             let (mut ratios, mut makespans) = (Vec::new(), Vec::new());
@@ -407,19 +426,15 @@ pub fn write_table(dir: &Path, map: &str, rows: &[Row]) -> Result<Vec<PathBuf>, 
                 .filter(|r| r.method == method && r.source == source)
                 .filter_map(|r| Some((r.agents as f64, value(r)?)))
                 .collect();
-            let series = match source {
-                Source::Measured => Series {
+            match source {
+                Source::Measured => measured.push(Series {
                     label: method,
                     points,
-                },
-                Source::Published => Series {
+                }),
+                Source::Published => published.push(Series {
                     label: format!("{method} (published)"),
                     points,
-                },
-            };
-            match source {
-                Source::Measured => measured.push(series),
-                Source::Published => published.push(series),
+                }),
             }
         }
         let path = dir.join(file);
@@ -463,8 +478,9 @@ fn success_cell(r: &Row) -> String {
     }
 }
 
-/// The Markdown of [`write_table`]: a success pivot, then the full rows.
-fn markdown(rows: &[Row]) -> String {
+/// The Markdown of [`write_table`]'s `table.md`: a success pivot, then
+/// the full rows.
+pub fn markdown(rows: &[Row]) -> String {
     let methods = methods(rows);
     let counts: BTreeSet<usize> = rows.iter().map(|r| r.agents).collect();
     let find = |agents, (method, source): &(String, Source)| {
