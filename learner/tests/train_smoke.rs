@@ -80,7 +80,7 @@ fn ppo_writes_metrics_checkpoints_summary_and_resumes() {
         lines.next().unwrap(),
         "update,env_steps,agent_steps,wall_seconds,steps_per_s,episodes,episode_return_mean,\
          success_rate,episode_len_mean,total_loss,policy_loss,vf_loss,entropy,kl,kl_coeff,\
-         grad_norm,mean_rho,stale_fragments,learn_seconds"
+         grad_norm,mean_rho,stale_fragments,learn_seconds,lr,entropy_coeff"
     );
     assert_eq!(lines.count(), 5);
     // Every row reads back as a MetricsRow (the curves command does this).
@@ -235,4 +235,56 @@ fn imitation_runs_before_learning_and_logs_its_rounds() {
     cfg.mode = Mode::Dte;
     let err = train(&cfg, dir.path(), &mut NoProgress).unwrap_err();
     assert!(matches!(err, TrainError::Config(_)), "{err}");
+}
+
+#[test]
+fn schedules_set_each_updates_learning_rate_and_entropy_coefficient() {
+    buridan_policy::threads::pin_threads(1);
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = tiny(Algo::Impala, Mode::Ctde);
+    cfg.impala.lr_schedule = Some(
+        toml::from_str::<Sched>("s = [[0, 1e-3], [800, 0]]")
+            .unwrap()
+            .s,
+    );
+    cfg.impala.entropy_schedule = Some(toml::from_str::<Sched>("s = [[320, 0.02]]").unwrap().s);
+    let mut rec = Record::default();
+    train(&cfg, &dir.path().join("run"), &mut rec).unwrap();
+    // Update k (1-based) learns from the batch that ends at 160·k env
+    // steps, with the rates of the env steps sampled so far (RLlib's
+    // `timesteps_total`): 160·k.
+    let lrs: Vec<f64> = rec.rows.iter().map(|r| r.lr).collect();
+    let expected = [8e-4, 6e-4, 4e-4, 2e-4, 0.0];
+    for (got, want) in lrs.iter().zip(expected) {
+        assert!(
+            (got - want).abs() < 1e-12,
+            "lr {lrs:?}, expected {expected:?}"
+        );
+    }
+    assert!(rec
+        .rows
+        .iter()
+        .all(|r| (r.entropy_coeff - 0.02).abs() < 1e-9));
+    // The file records them too.
+    let rows: Vec<MetricsRow> = csv::Reader::from_path(dir.path().join("run/metrics.csv"))
+        .unwrap()
+        .deserialize()
+        .collect::<Result<_, _>>()
+        .unwrap();
+    assert!((rows[2].lr - 4e-4).abs() < 1e-12);
+
+    // Without schedules the rows show the constant settings.
+    let cfg = tiny(Algo::Ppo, Mode::Ctde);
+    let mut rec = Record::default();
+    train(&cfg, &dir.path().join("plain"), &mut rec).unwrap();
+    assert!(rec.rows.iter().all(|r| r.lr == cfg.ppo.lr));
+    assert!(rec
+        .rows
+        .iter()
+        .all(|r| r.entropy_coeff == cfg.ppo.entropy_coeff as f64));
+}
+
+#[derive(serde::Deserialize)]
+struct Sched {
+    s: buridan_learner::algo::schedule::Schedule,
 }

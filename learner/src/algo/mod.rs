@@ -8,12 +8,14 @@
 //! - [`impala`]: the V-trace actor-critic update.
 //! - [`batch`]: fragments → per-weight-set batches → tensors, value pass.
 //! - [`optim`]: Adam and global-norm gradient clipping.
+//! - [`schedule`]: piecewise-linear learning-rate and entropy schedules.
 
 pub mod batch;
 pub mod gae;
 pub mod impala;
 pub mod optim;
 pub mod ppo;
+pub mod schedule;
 pub mod trajectory;
 pub mod vtrace;
 

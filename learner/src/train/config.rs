@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::algo::impala::ImpalaSettings;
 use crate::algo::ppo::PpoSettings;
+use crate::algo::schedule::Schedule;
 use crate::algo::vtrace::VTraceParams;
 use crate::train::gate::Staleness;
 
@@ -230,6 +231,14 @@ pub struct PpoConfig {
     pub vf_share_layers: bool,
     /// Standardise advantages over the train batch (RLlib: yes).
     pub standardize_advantages: bool,
+    /// Learning rate over env steps, RLlib's `lr_schedule` (`[[0, 1e-3],
+    /// [2_000_000, 1e-4]]`): replaces `lr` when set.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lr_schedule: Option<Schedule>,
+    /// Entropy coefficient over env steps, RLlib's
+    /// `entropy_coeff_schedule`: replaces `entropy_coeff` when set.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub entropy_schedule: Option<Schedule>,
 }
 
 impl Default for PpoConfig {
@@ -249,6 +258,8 @@ impl Default for PpoConfig {
             grad_clip: None,
             vf_share_layers: false,
             standardize_advantages: true,
+            lr_schedule: None,
+            entropy_schedule: None,
         }
     }
 }
@@ -286,6 +297,14 @@ pub struct ImpalaConfig {
     /// rehearse greedy execution, and V-trace corrects for the mixed
     /// behaviour ([`ActMode::GreedyMix`]).
     pub greedy_mix: f32,
+    /// Learning rate over env steps, RLlib's `lr_schedule` (`[[0, 5e-4],
+    /// [10_000_000, 5e-5]]`): replaces `lr` when set.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lr_schedule: Option<Schedule>,
+    /// Entropy coefficient over env steps, RLlib's
+    /// `entropy_coeff_schedule`: replaces `entropy_coeff` when set.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub entropy_schedule: Option<Schedule>,
 }
 
 impl Default for ImpalaConfig {
@@ -303,6 +322,8 @@ impl Default for ImpalaConfig {
             max_policy_lag: 8,
             queue_capacity: 0,
             greedy_mix: 0.0,
+            lr_schedule: None,
+            entropy_schedule: None,
         }
     }
 }

@@ -190,6 +190,12 @@ pub struct MetricsRow {
     pub stale_fragments: u64,
     /// Seconds the learner spent in this update.
     pub learn_seconds: f64,
+    /// Learning rate of this update (its schedule's value, if scheduled).
+    #[serde(default)]
+    pub lr: f64,
+    /// Entropy coefficient of this update (its schedule's value, if scheduled).
+    #[serde(default)]
+    pub entropy_coeff: f64,
 }
 
 /// Why `metrics.csv` could not be written.

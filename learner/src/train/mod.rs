@@ -152,6 +152,34 @@ impl Learner {
         }
     }
 
+    /// Sets the learning rate and entropy coefficient the config's
+    /// schedules give at `env_steps` (unscheduled ones stay as configured).
+    fn follow_schedules(&mut self, cfg: &TrainConfig, env_steps: u64) {
+        let (lr, entropy) = match cfg.algo {
+            Algo::Ppo => (&cfg.ppo.lr_schedule, &cfg.ppo.entropy_schedule),
+            Algo::Impala => (&cfg.impala.lr_schedule, &cfg.impala.entropy_schedule),
+        };
+        if let Some(lr) = lr {
+            self.optim().adam.lr = lr.value(env_steps);
+        }
+        if let Some(entropy) = entropy {
+            let coeff = entropy.value(env_steps) as f32;
+            match self {
+                Learner::Ppo(p) => p.settings.entropy_coeff = coeff,
+                Learner::Impala(i) => i.settings.entropy_coeff = coeff,
+            }
+        }
+    }
+
+    /// The learning rate and entropy coefficient of the next update.
+    fn rates(&mut self) -> (f64, f64) {
+        let entropy = match self {
+            Learner::Ppo(p) => p.settings.entropy_coeff,
+            Learner::Impala(i) => i.settings.entropy_coeff,
+        };
+        (self.optim().adam.lr, entropy as f64)
+    }
+
     fn kl_coeffs(&self) -> Vec<f64> {
         match self {
             Learner::Ppo(p) => p.kl_coeffs.clone(),
@@ -516,6 +544,8 @@ impl Run {
             let Some(batch) = self.gather_batch(exchange)? else {
                 return Err(self.stop_interrupted());
             };
+            self.learner
+                .follow_schedules(&self.cfg, self.state.env_steps);
             let t_learn = Instant::now();
             let stats = self.learner.update(&self.policy, &batch, &mut rng)?;
             let learn_seconds = t_learn.elapsed().as_secs_f64();
@@ -606,6 +636,7 @@ impl Run {
         since: &mut (f64, u64),
     ) -> MetricsRow {
         let wall = self.wall();
+        let (lr, entropy_coeff) = self.learner.rates();
         let state = &mut self.state;
         state.episodes = self.window.total;
         state.adam_steps = self.learner.optim().adam.steps();
@@ -643,6 +674,8 @@ impl Run {
             mean_rho: stats.mean_rho,
             stale_fragments: state.stale_fragments,
             learn_seconds,
+            lr,
+            entropy_coeff,
         };
         *since = (wall, state.env_steps);
         row
@@ -748,6 +781,8 @@ fn export_metrics(row: &MetricsRow, exchange: &dyn Exchange) {
         ::metrics::gauge!("buridan_loss", "term" => term).set(v);
     }
     ::metrics::gauge!("buridan_grad_norm").set(row.grad_norm);
+    ::metrics::gauge!("buridan_learning_rate").set(row.lr);
+    ::metrics::gauge!("buridan_entropy_coeff").set(row.entropy_coeff);
     ::metrics::histogram!("buridan_learn_seconds").record(row.learn_seconds);
 }
 /// The final checkpoint directory of a finished run in `out`.
