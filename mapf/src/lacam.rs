@@ -110,12 +110,31 @@ pub enum Objective {
 /// let err = Lacam::default().solve(&grid, &s, &g, &Limits::default()).unwrap_err();
 /// assert_eq!(err, SolveError::NoSolution);
 /// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Lacam {
     /// The conflict model (default: env-executable plans).
     pub rules: Rules,
     /// Seed of PIBT's tie-breaking.
     pub seed: u64,
+    /// PIBT's *swap* operation in the configuration generator (default
+    /// on; see [`crate::pibt`]): agents that must pass each other in a
+    /// single lane back out to where it branches.
+    #[serde(default = "swap_default")]
+    pub swap: bool,
+}
+
+fn swap_default() -> bool {
+    true
+}
+
+impl Default for Lacam {
+    fn default() -> Self {
+        Self {
+            rules: Rules::default(),
+            seed: 0,
+            swap: swap_default(),
+        }
+    }
 }
 
 /// LaCAM*: LaCAM that keeps improving its solution (see the
@@ -139,6 +158,9 @@ pub struct LacamStar {
     /// proven optimal or [`Limits::time`] runs out. Without a solution the
     /// search goes on until the limits.
     pub refine_time: Option<Duration>,
+    /// PIBT's *swap* operation (default on, see [`Lacam::swap`]).
+    #[serde(default = "swap_default")]
+    pub swap: bool,
 }
 
 impl Default for LacamStar {
@@ -148,6 +170,7 @@ impl Default for LacamStar {
             seed: 0,
             objective: Objective::default(),
             refine_time: Some(Duration::from_secs(1)),
+            swap: swap_default(),
         }
     }
 }
@@ -187,7 +210,7 @@ impl Planner for Lacam {
         limits: &Limits,
     ) -> Result<Solution, SolveError> {
         let setup = Setup::new(grid, starts, goals)?;
-        Search::new(&setup, self.rules, self.seed, None, limits)
+        Search::new(&setup, self.rules, self.seed, self.swap, None, limits)
             .run()
             .map(|o| o.solution)
     }
@@ -217,7 +240,7 @@ impl LacamStar {
             objective: self.objective,
             refine_time: self.refine_time,
         };
-        Search::new(&setup, self.rules, self.seed, Some(star), limits).run()
+        Search::new(&setup, self.rules, self.seed, self.swap, Some(star), limits).run()
     }
 }
 
@@ -296,10 +319,21 @@ struct Search<'a> {
 }
 
 impl<'a> Search<'a> {
-    fn new(setup: &'a Setup, rules: Rules, seed: u64, star: Option<Star>, limits: &Limits) -> Self {
+    fn new(
+        setup: &'a Setup,
+        rules: Rules,
+        seed: u64,
+        swap: bool,
+        star: Option<Star>,
+        limits: &Limits,
+    ) -> Self {
+        let mut gen = Generator::new(&setup.topo, rules, seed);
+        if swap {
+            gen = gen.with_swap(&setup.dist, &setup.goals);
+        }
         Self {
             setup,
-            gen: Generator::new(&setup.topo, rules, seed),
+            gen,
             star,
             budget: Budget::new(limits),
             nodes: Vec::new(),

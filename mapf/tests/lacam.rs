@@ -228,6 +228,78 @@ fn crafted_swaps_in_dead_ends_and_proven_unsolvable_instances() {
     assert_eq!(sol.plan.makespan(), 1);
 }
 
+/// An rm-2.1b-like layout: three single-lane dead-end aisles off a two-cell
+/// wide spine. Two agents inside one aisle, bound for its far end in the
+/// wrong order (the one nearer the entrance must end deepest), so both
+/// must back out to the spine and re-enter — the manoeuvre behind LaCAM's
+/// rm-2.1b misses before PIBT's swap operation. Both index orders (the
+/// puller moving before or after the agent it pulls), with two more agents
+/// crossing the spine; every plan validated and replayed in the env.
+#[test]
+fn lacam_plans_a_dead_end_reordering_with_the_swap_operation() {
+    let grid = Grid::from_rows(&[
+        "............",
+        "..@@@@@@@@@@",
+        "............",
+        "..@@@@@@@@@@",
+        "............",
+    ])
+    .unwrap();
+    let c = Cell::new;
+    // (start, goal): the pair in aisle 2, then the crossing agents.
+    let outer = (c(2, 4), c(2, 11));
+    let inner = (c(2, 7), c(2, 10));
+    let crossing = [(c(0, 6), c(4, 8)), (c(4, 3), c(0, 9))];
+    let tight = Limits {
+        max_nodes: Some(20_000),
+        ..limits(20)
+    };
+    for pair in [[outer, inner], [inner, outer]] {
+        let agents: Vec<_> = pair.iter().chain(&crossing).copied().collect();
+        let s: Vec<Cell> = agents.iter().map(|a| a.0).collect();
+        let g: Vec<Cell> = agents.iter().map(|a| a.1).collect();
+        let ctx = format!("dead-end reordering, starts {s:?}");
+        let sol = Lacam::default()
+            .solve(&grid, &s, &g, &tight)
+            .unwrap_or_else(|e| panic!("{ctx}: {e}"));
+        check(&grid, &s, &g, &sol.plan, Rules::ENV_EXECUTABLE, &ctx);
+        assert!(
+            sol.plan.makespan() <= 40,
+            "{ctx}: makespan {}",
+            sol.plan.makespan()
+        );
+        let star = LacamStar::default()
+            .solve(&grid, &s, &g, &tight)
+            .unwrap_or_else(|e| panic!("{ctx}: {e}"));
+        check(&grid, &s, &g, &star.plan, Rules::ENV_EXECUTABLE, &ctx);
+        // PIBT with the swap operation alone backs the pair out.
+        let pibt = Pibt {
+            swap: true,
+            ..Pibt::default()
+        };
+        let sol = pibt
+            .solve(&grid, &s, &g, &tight)
+            .unwrap_or_else(|e| panic!("{ctx}: pibt with swap: {e}"));
+        check(&grid, &s, &g, &sol.plan, Rules::ENV_EXECUTABLE, &ctx);
+        // Without it PIBT livelocks and LaCAM needs a far larger search.
+        assert!(
+            Pibt::default().solve(&grid, &s, &g, &tight).is_err(),
+            "{ctx}"
+        );
+        let no_swap = Lacam {
+            swap: false,
+            ..Lacam::default()
+        };
+        assert!(
+            matches!(
+                no_swap.solve(&grid, &s, &g, &tight),
+                Err(SolveError::NodeLimit { .. })
+            ),
+            "{ctx}"
+        );
+    }
+}
+
 /// Random episodes of the evaluation layouts with 4 to 24 agents: every
 /// plan LaCAM finds within 2 s replays exactly. Known misses (8 of 56,
 /// one more under heavy machine load,
