@@ -118,7 +118,8 @@ pub struct Lacam {
     pub seed: u64,
     /// PIBT's *swap* operation in the configuration generator (default
     /// on; see [`crate::pibt`]): agents that must pass each other in a
-    /// single lane back out to where it branches.
+    /// single lane back out to where it branches. [`crate::planner_for_rules`]
+    /// turns it off under pogema rules (not measured there).
     #[serde(default = "swap_default")]
     pub swap: bool,
 }

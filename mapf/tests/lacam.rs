@@ -301,11 +301,10 @@ fn lacam_plans_a_dead_end_reordering_with_the_swap_operation() {
 }
 
 /// Random episodes of the evaluation layouts with 4 to 24 agents: every
-/// plan LaCAM finds within 2 s replays exactly. Known misses (8 of 56,
-/// one more under heavy machine load,
-/// measured): rm-2.1b episodes 1 and 2, rm-2.2 episode 2 with 4 agents,
-/// and some crowded episodes — agents that must reorder inside single-lane
-/// dead ends, where the DFS over configurations wanders (see the README).
+/// plan LaCAM finds within 2 s replays exactly. Known misses (4 of 56 with
+/// PIBT's swap operation, 8 before it; measured): rm-2.1b episode 2 with 4
+/// agents (three agents reordering around one aisle entrance; planned in
+/// 2.8 s), rm-2.1 episode 7 with 16 agents and episodes 3 and 7 with 24.
 #[test]
 fn lacam_solves_random_warehouse_episodes_and_plans_replay() {
     let mut failures = Vec::new();
