@@ -60,7 +60,21 @@
 //! away alone, and at the next step the two stand one cell apart; the swap
 //! decision recognises that gap too (`j` beyond `i`'s empty best cell) and
 //! pulls `j` into the empty cell, which is free at `t` whatever the order, so
-//! the pair keeps moving at full speed. The operation is off by default
+//! the pair keeps moving at full speed.
+//!
+//! With the swap operation the generator also moves **queues** in a lane
+//! under the index order (*waiting chains*): an agent that must leave a
+//! lane past a queue pushes its neighbour, which must push the next one,
+//! and so on — but where an agent would have to enter the cell of a
+//! higher-index one, it cannot do so in the same step, and the whole push
+//! fails. If the push fails, an agent that may wait (nobody pushes it, or
+//! it was pushed by an agent that waits) waits instead and only asks its
+//! neighbour to clear the cell; the neighbour, pushed by a waiting agent,
+//! may in turn wait and pass the request on, until the head of the queue
+//! moves. The failed attempt is undone first (an undo log of the
+//! reservations), so the agents it touched decide afresh.
+//!
+//! The operation is off by default
 //! (the collision shield and lifelong PIBT do not use it) and enabled by
 //! [`Generator::with_swap`]; LaCAM and LaCAM* enable it
 //! ([`crate::Lacam::swap`]). It only changes which step PIBT proposes first:
@@ -167,6 +181,9 @@ pub(crate) struct Generator<'a> {
     touched: Vec<u32>,
     /// The swap operation, if enabled.
     swap: Option<SwapInfo<'a>>,
+    /// Writes to `occ_next` and `next` during this call, as (cell, its
+    /// previous holder, agent, its previous cell), to undo a failed push.
+    undo: Vec<(u32, u32, u32, u32)>,
 }
 
 impl<'a> Generator<'a> {
@@ -180,6 +197,7 @@ impl<'a> Generator<'a> {
             rng: TieBreaker::new(seed),
             touched: Vec::new(),
             swap: None,
+            undo: Vec::new(),
         }
     }
 
@@ -221,10 +239,13 @@ impl<'a> Generator<'a> {
             self.occ_next[c as usize] = NONE;
         }
         self.touched.clear();
+        self.undo.clear();
         ok
     }
 
     fn reserve(&mut self, agent: u32, cell: u32) {
+        let (prev_holder, prev_cell) = (self.occ_next[cell as usize], self.next[agent as usize]);
+        self.undo.push((cell, prev_holder, agent, prev_cell));
         self.occ_next[cell as usize] = agent;
         self.next[agent as usize] = cell;
         self.touched.push(cell);
@@ -286,6 +307,9 @@ impl<'a> Generator<'a> {
         }
         let cands = &mut cands[..k];
         cands.sort_unstable();
+        // Pushed by an agent that waits for `here` to clear: `i` may wait
+        // too (a *waiting chain*, see the module docs).
+        let chained = self.swap.is_some() && self.occ_next[here as usize] == BLOCKED;
         // Swap: back away from the best cell and pull the partner along.
         let swap = self
             .swap
@@ -307,23 +331,45 @@ impl<'a> Generator<'a> {
                 continue;
             }
             if !self.may_enter(i, v, cur) {
-                // Not pushed by anyone (nobody reserved `here`): `i` may
-                // wait while it clears its way.
-                if self.occ_next[here as usize] == NONE {
+                // Not pushed by anyone (nobody reserved `here`), or in a
+                // waiting chain: `i` may wait while it clears its way.
+                if self.occ_next[here as usize] == NONE || chained {
                     // Wait on `here` (reserved first, so that nobody pushed
                     // by the clearing comes back to push `i`).
+                    let mark = self.undo.len();
                     self.reserve(i, here);
                     if self.clear_way(pref, i, v, cur) {
                         return true;
                     }
-                    self.occ_next[here as usize] = NONE;
-                    self.next[i as usize] = NONE;
+                    if chained {
+                        self.rollback(mark);
+                    } else {
+                        // (Agents that failed to clear the way stay decided.)
+                        self.occ_next[here as usize] = NONE;
+                        self.next[i as usize] = NONE;
+                    }
                 }
                 continue;
             }
+            let mark = self.undo.len();
             self.reserve(i, v);
             let j = self.occ_now[v as usize];
-            if j != NONE && j != i && self.next[j as usize] == NONE && !self.pibt(pref, j, cur) {
+            let undecided = j != NONE && j != i && self.next[j as usize] == NONE;
+            if undecided && !self.pibt(pref, j, cur) {
+                let free = self.occ_next[here as usize];
+                if self.swap.is_some() && (free == NONE || chained) {
+                    // `j` could not leave: if `i` may wait (nobody pushes
+                    // it, or it is in a waiting chain) it waits instead and
+                    // lets `j` wait in turn while the agent ahead of it
+                    // leaves.
+                    self.rollback(mark);
+                    self.reserve(i, here);
+                    self.block(v);
+                    if self.pibt(pref, j, cur) {
+                        return true;
+                    }
+                    self.rollback(mark);
+                }
                 continue; // j stays on v: try the next candidate
             }
             if let (0, Some((j, to))) = (rank, pull) {
@@ -335,6 +381,24 @@ impl<'a> Generator<'a> {
         // meanwhile, the final check rejects the step.
         self.reserve(i, here);
         false
+    }
+
+    /// Marks `v` as being cleared (nobody may enter it at `t + 1`).
+    fn block(&mut self, v: u32) {
+        self.undo.push((v, self.occ_next[v as usize], NONE, NONE));
+        self.occ_next[v as usize] = BLOCKED;
+        self.touched.push(v);
+    }
+
+    /// Undoes the reservations made since the undo log had `mark` entries.
+    fn rollback(&mut self, mark: usize) {
+        while self.undo.len() > mark {
+            let (cell, holder, agent, prev) = self.undo.pop().expect("longer than mark");
+            self.occ_next[cell as usize] = holder;
+            if agent != NONE {
+                self.next[agent as usize] = prev;
+            }
+        }
     }
 
     /// Push-then-wait: `i` wants `v`, held by a higher-index agent `j`
@@ -349,8 +413,7 @@ impl<'a> Generator<'a> {
         if self.next[j as usize] != NONE {
             return self.next[j as usize] != v;
         }
-        self.occ_next[v as usize] = BLOCKED;
-        self.touched.push(v);
+        self.block(v);
         self.pibt(pref, j, cur)
     }
 
@@ -838,6 +901,23 @@ mod tests {
         assert_eq!(step(&AISLE, &s, &g, &[0, 1], false), [(1, 2), (1, 4)]);
         // With it, 0 backs out and pulls 1 (which moves after it) along.
         assert_eq!(step(&AISLE, &s, &g, &[0, 1], true), [(1, 1), (1, 2)]);
+    }
+
+    #[test]
+    fn a_queue_whose_indices_rise_towards_its_head_moves_from_the_head() {
+        // Agent 2 at the end of the aisle must get out past 0 and 1, both
+        // resting on their goals. 0 cannot enter 1's cell in the step in
+        // which 1 leaves it (1 moves after 0), so pushing the queue fails.
+        let (s, g) = ([(1, 3), (1, 2), (1, 4)], [(1, 3), (1, 2), (0, 0)]);
+        assert_eq!(
+            step(&AISLE, &s, &g, &[2, 0, 1], false),
+            [(1, 3), (1, 2), (1, 4)]
+        );
+        // As a waiting chain: 2 and 0 wait, the head 1 steps out.
+        assert_eq!(
+            step(&AISLE, &s, &g, &[2, 0, 1], true),
+            [(1, 3), (1, 1), (1, 4)]
+        );
     }
 
     #[test]
