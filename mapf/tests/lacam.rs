@@ -301,10 +301,10 @@ fn lacam_plans_a_dead_end_reordering_with_the_swap_operation() {
 }
 
 /// Random episodes of the evaluation layouts with 4 to 24 agents: every
-/// plan LaCAM finds within 2 s replays exactly. Known misses (4 of 56 with
-/// PIBT's swap operation, 8 before it; measured): rm-2.1b episode 2 with 4
-/// agents (three agents reordering around one aisle entrance; planned in
-/// 2.8 s), rm-2.1 episode 7 with 16 agents and episodes 3 and 7 with 24.
+/// plan LaCAM finds within 2 s replays exactly. Known misses: none of 56
+/// with PIBT's swap operation and waiting chains (measured; 4 with the swap
+/// alone, 8 before it — agents reordering inside single-lane dead ends);
+/// two allowed for slack.
 #[test]
 fn lacam_solves_random_warehouse_episodes_and_plans_replay() {
     let mut failures = Vec::new();
@@ -333,7 +333,7 @@ fn lacam_solves_random_warehouse_episodes_and_plans_replay() {
         }
     }
     eprintln!("unsolved within 2 s: {failures:?}");
-    assert!(failures.len() <= 10, "{failures:?}");
+    assert!(failures.len() <= 2, "{failures:?}");
 }
 
 /// Bad input gives typed errors, never a panic; limits are respected.
