@@ -49,7 +49,7 @@ for r in rm11-ppo-ctde rm11-ppo-cte rm11-ppo-dte rm11-impala-ctde; do
 done
 
 # rm-2.1, random starts, 4 agents (README "Results")
-train rm21-impala --config learner/configs/impala-ctde-rm-2.1.toml --seed 2
+train rm21-impala --config learner/configs/impala-ctde-rm-2.1.toml --seed 2 --steps 2000000  # the README's 2M-step figures
 train rm21-ppo --config learner/configs/ppo-ctde-rm-2.1.toml --seed 1
 for r in rm21-impala rm21-ppo; do
   for m in sample greedy; do
