@@ -841,18 +841,25 @@ mod tests {
             .collect()
     }
 
+    /// A generator with the swap on and every agent of `setup` on its start,
+    /// no move chosen yet: the state the swap decisions are asked in.
+    fn placed_swap_generator(setup: &Setup) -> Generator<'_> {
+        let mut gen = Generator::new(&setup.topo, Rules::ENV_EXECUTABLE, 0)
+            .with_swap(&setup.dist, &setup.goals);
+        for (i, &v) in setup.starts.iter().enumerate() {
+            gen.occ_now[v as usize] = i as u32;
+        }
+        gen.next = vec![NONE; setup.starts.len()];
+        gen
+    }
+
     #[test]
     fn swap_required_and_possible_in_a_dead_end_aisle() {
         let grid = Grid::from_rows(&AISLE).unwrap();
         let c = Cell::new;
         // Agent 0 at (1, 2) bound for the end (1, 4); agent 1 rests on (1, 3).
         let setup = Setup::new(&grid, &[c(1, 2), c(1, 3)], &[c(1, 4), c(1, 3)]).unwrap();
-        let mut gen = Generator::new(&setup.topo, Rules::ENV_EXECUTABLE, 0)
-            .with_swap(&setup.dist, &setup.goals);
-        for (i, &v) in setup.starts.iter().enumerate() {
-            gen.occ_now[v as usize] = i as u32;
-        }
-        gen.next = vec![NONE; 2];
+        let gen = placed_swap_generator(&setup);
         let info = gen.swap.unwrap();
         let (a, b, junction) = (setup.starts[0], setup.starts[1], setup.topo.index(c(1, 0)));
         // Pushing 1 to the end leaves it behind its goal: swap required,
@@ -879,12 +886,7 @@ mod tests {
         // Without a branching cell anywhere (a plain corridor) no swap.
         let line = Grid::from_rows(&["....."]).unwrap();
         let setup = Setup::new(&line, &[c(0, 2), c(0, 3)], &[c(0, 4), c(0, 3)]).unwrap();
-        let mut gen = Generator::new(&setup.topo, Rules::ENV_EXECUTABLE, 0)
-            .with_swap(&setup.dist, &setup.goals);
-        for (i, &v) in setup.starts.iter().enumerate() {
-            gen.occ_now[v as usize] = i as u32;
-        }
-        gen.next = vec![NONE; 2];
+        let gen = placed_swap_generator(&setup);
         let info = gen.swap.unwrap();
         assert!(gen.swap_required(info, 0, 1, setup.starts[0], setup.starts[1]));
         assert!(!gen.swap_possible(info, setup.starts[1], setup.starts[0]));
