@@ -210,6 +210,10 @@ pub struct MetricsError {
 
 /// Appends rows to `metrics.csv`: the header (the [`MetricsRow`] field
 /// names) when the file is new, then one flushed line per update.
+///
+/// A file written by an older version with fewer columns (a run resumed
+/// after an upgrade) is first rewritten under the current header, its rows
+/// kept and the new columns at their defaults, so the file stays one table.
 pub struct MetricsWriter {
     writer: csv::Writer<std::fs::File>,
     path: PathBuf,
@@ -223,6 +227,9 @@ impl MetricsWriter {
             source,
         };
         let is_new = std::fs::metadata(path).map_or(true, |m| m.len() == 0);
+        if !is_new {
+            upgrade_header(path).map_err(failed)?;
+        }
         let file = std::fs::OpenOptions::new()
             .create(true)
             .append(true)
@@ -246,6 +253,48 @@ impl MetricsWriter {
         self.writer.serialize(row).map_err(failed)?;
         self.writer.flush().map_err(|e| failed(e.into()))
     }
+}
+
+/// The header line `metrics.csv` has today.
+fn current_header() -> String {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.serialize(MetricsRow::default())
+        .expect("a default row serialises");
+    let bytes = w.into_inner().expect("writing to memory");
+    let text = String::from_utf8(bytes).expect("CSV of numbers is UTF-8");
+    text.lines().next().unwrap_or_default().to_string()
+}
+
+/// Rewrites `path` under the current header if its header differs (rows
+/// read by column name; columns it lacks take their defaults). Written to a
+/// temporary file first and renamed over, so a failure leaves the old file.
+fn upgrade_header(path: &Path) -> Result<(), csv::Error> {
+    use std::io::BufRead;
+    let first = std::io::BufReader::new(std::fs::File::open(path)?)
+        .lines()
+        .next()
+        .transpose()?
+        .unwrap_or_default();
+    if first.trim_end() == current_header() {
+        return Ok(());
+    }
+    let rows: Vec<MetricsRow> = csv::Reader::from_path(path)?
+        .deserialize()
+        .collect::<Result<_, _>>()?;
+    let tmp = path.with_extension("csv.upgrade");
+    let mut w = csv::Writer::from_path(&tmp)?;
+    for row in &rows {
+        w.serialize(row)?;
+    }
+    w.flush()?;
+    drop(w);
+    std::fs::rename(&tmp, path)?;
+    tracing::info!(
+        "{}: {} rows rewritten under the current header (columns added since it was written)",
+        path.display(),
+        rows.len()
+    );
+    Ok(())
 }
 
 /// What a training run amounted to; written as `summary.json`.
@@ -295,4 +344,50 @@ pub struct Summary {
     pub episodes_by_map: BTreeMap<String, u64>,
     /// Directory of the final checkpoint.
     pub final_checkpoint: PathBuf,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_with_an_older_header_is_rewritten_under_the_current_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("metrics.csv");
+        // A row as written before the lr and entropy_coeff columns existed.
+        std::fs::write(
+            &path,
+            "update,env_steps,agent_steps,wall_seconds,steps_per_s,episodes,episode_return_mean,\
+             success_rate,episode_len_mean,total_loss,policy_loss,vf_loss,entropy,kl,kl_coeff,\
+             grad_norm,mean_rho,stale_fragments,learn_seconds\n\
+             1,500,2000,1.5,333.0,4,2.5,0.5,40.0,0.1,0.2,0.3,1.6,0.0,0.2,1.0,1.0,0,0.01\n",
+        )
+        .unwrap();
+        let mut w = MetricsWriter::open(&path).unwrap();
+        w.write(&MetricsRow {
+            update: 2,
+            env_steps: 1000,
+            lr: 5e-4,
+            ..Default::default()
+        })
+        .unwrap();
+        drop(w);
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text.lines().next().unwrap(), current_header());
+        let rows: Vec<MetricsRow> = csv::Reader::from_path(&path)
+            .unwrap()
+            .deserialize()
+            .collect::<Result<_, _>>()
+            .unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(
+            (rows[0].env_steps, rows[0].success_rate, rows[0].lr),
+            (500, 0.5, 0.0)
+        );
+        assert_eq!((rows[1].env_steps, rows[1].lr), (1000, 5e-4));
+        // A current file is left as it is.
+        let before = std::fs::read_to_string(&path).unwrap();
+        drop(MetricsWriter::open(&path).unwrap());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), before);
+    }
 }
