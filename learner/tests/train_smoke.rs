@@ -2,6 +2,7 @@
 //! mode (× LSTM) end to end on tiny budgets.
 
 use buridan_env::Starts;
+use buridan_learner::algo::schedule::Schedule;
 use buridan_learner::train::{
     final_checkpoint, train, Algo, MetricsRow, NoProgress, Progress, Summary, TrainConfig,
     TrainError,
@@ -242,12 +243,8 @@ fn schedules_set_each_updates_learning_rate_and_entropy_coefficient() {
     buridan_policy::threads::pin_threads(1);
     let dir = tempfile::tempdir().unwrap();
     let mut cfg = tiny(Algo::Impala, Mode::Ctde);
-    cfg.impala.lr_schedule = Some(
-        toml::from_str::<Sched>("s = [[0, 1e-3], [800, 0]]")
-            .unwrap()
-            .s,
-    );
-    cfg.impala.entropy_schedule = Some(toml::from_str::<Sched>("s = [[320, 0.02]]").unwrap().s);
+    cfg.impala.lr_schedule = Some(Schedule::new(vec![(0, 1e-3), (800, 0.0)]).unwrap());
+    cfg.impala.entropy_schedule = Some(Schedule::new(vec![(320, 0.02)]).unwrap());
     let mut rec = Record::default();
     train(&cfg, &dir.path().join("run"), &mut rec).unwrap();
     // Update k (1-based) learns from the batch that ends at 160·k env
@@ -282,9 +279,4 @@ fn schedules_set_each_updates_learning_rate_and_entropy_coefficient() {
         .rows
         .iter()
         .all(|r| r.entropy_coeff == cfg.ppo.entropy_coeff as f64));
-}
-
-#[derive(serde::Deserialize)]
-struct Sched {
-    s: buridan_learner::algo::schedule::Schedule,
 }

@@ -255,32 +255,27 @@ impl MetricsWriter {
     }
 }
 
-/// The header line `metrics.csv` has today.
-fn current_header() -> String {
+/// The header `metrics.csv` has today: the [`MetricsRow`] field names.
+fn current_header() -> csv::StringRecord {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.serialize(MetricsRow::default())
         .expect("a default row serialises");
     let bytes = w.into_inner().expect("writing to memory");
-    let text = String::from_utf8(bytes).expect("CSV of numbers is UTF-8");
-    text.lines().next().unwrap_or_default().to_string()
+    csv::Reader::from_reader(bytes.as_slice())
+        .headers()
+        .expect("the header just written")
+        .clone()
 }
 
 /// Rewrites `path` under the current header if its header differs (rows
 /// read by column name; columns it lacks take their defaults). Written to a
 /// temporary file first and renamed over, so a failure leaves the old file.
 fn upgrade_header(path: &Path) -> Result<(), csv::Error> {
-    use std::io::BufRead;
-    let first = std::io::BufReader::new(std::fs::File::open(path)?)
-        .lines()
-        .next()
-        .transpose()?
-        .unwrap_or_default();
-    if first.trim_end() == current_header() {
+    let mut reader = csv::Reader::from_path(path)?;
+    if *reader.headers()? == current_header() {
         return Ok(());
     }
-    let rows: Vec<MetricsRow> = csv::Reader::from_path(path)?
-        .deserialize()
-        .collect::<Result<_, _>>()?;
+    let rows: Vec<MetricsRow> = reader.deserialize().collect::<Result<_, _>>()?;
     let tmp = path.with_extension("csv.upgrade");
     let mut w = csv::Writer::from_path(&tmp)?;
     for row in &rows {
@@ -373,7 +368,11 @@ mod tests {
         .unwrap();
         drop(w);
         let text = std::fs::read_to_string(&path).unwrap();
-        assert_eq!(text.lines().next().unwrap(), current_header());
+        let header = current_header();
+        assert_eq!(
+            text.lines().next().unwrap(),
+            header.iter().collect::<Vec<_>>().join(",")
+        );
         let rows: Vec<MetricsRow> = csv::Reader::from_path(&path)
             .unwrap()
             .deserialize()

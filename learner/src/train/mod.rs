@@ -163,21 +163,21 @@ impl Learner {
             self.optim().adam.lr = lr.value(env_steps);
         }
         if let Some(entropy) = entropy {
-            let coeff = entropy.value(env_steps) as f32;
-            match self {
-                Learner::Ppo(p) => p.settings.entropy_coeff = coeff,
-                Learner::Impala(i) => i.settings.entropy_coeff = coeff,
-            }
+            *self.entropy_coeff() = entropy.value(env_steps) as f32;
+        }
+    }
+
+    fn entropy_coeff(&mut self) -> &mut f32 {
+        match self {
+            Learner::Ppo(p) => &mut p.settings.entropy_coeff,
+            Learner::Impala(i) => &mut i.settings.entropy_coeff,
         }
     }
 
     /// The learning rate and entropy coefficient of the next update.
     fn rates(&mut self) -> (f64, f64) {
-        let entropy = match self {
-            Learner::Ppo(p) => p.settings.entropy_coeff,
-            Learner::Impala(i) => i.settings.entropy_coeff,
-        };
-        (self.optim().adam.lr, entropy as f64)
+        let entropy = *self.entropy_coeff() as f64;
+        (self.optim().adam.lr, entropy)
     }
 
     fn kl_coeffs(&self) -> Vec<f64> {
