@@ -28,6 +28,10 @@ pub enum BenchCommand {
     /// 128): our controllers beside the published LaCAM, MAPF-GPT, SCRIMP,
     /// DCC, … on the same instances.
     Pogema(PogemaArgs),
+    /// Training throughput of configuration variants side by side (e.g.
+    /// PPO's update on one thread against every core): env steps/s, their
+    /// ratio to the first variant, time to 96 % training success.
+    Train(crate::bench_train::TrainBenchArgs),
 }
 
 /// Arguments of `learner bench pogema`.
@@ -174,13 +178,15 @@ fn label_char(c: char) -> bool {
 }
 
 /// Runs `learner bench`.
-pub fn run(command: &BenchCommand) -> Result<Vec<Row>> {
+pub fn run(command: &BenchCommand) -> Result<()> {
     match command {
-        BenchCommand::Pogema(args) => run_pogema(args),
+        BenchCommand::Pogema(args) => run_pogema(args).map(|_| ()),
+        BenchCommand::Train(args) => crate::bench_train::run(args).map(|_| ()),
     }
 }
 
-fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
+/// Runs `learner bench pogema`; returns the table's rows.
+pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
     let counts = parse_agent_counts(&args.agents)?;
     let seeds = parse_seeds(&args.seeds)?;
     let specs = args

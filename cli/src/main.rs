@@ -74,7 +74,7 @@ fn main() -> Result<()> {
         Command::Train(args) => cli::train::run(&args).map(|_| ()),
         Command::Serve(args) => cli::serve::run(&args).map(|_| ()),
         Command::Eval(args) => cli::eval::run(&args).map(|_| ()),
-        Command::Bench(command) => cli::bench::run(&command).map(|_| ()),
+        Command::Bench(command) => cli::bench::run(&command),
         Command::Replay(args) => cli::replay::run(&args).map(|_| ()),
         Command::Tune(args) => cli::tune::run(&args).map(|_| ()),
         Command::Study(args) => cli::study::run(&args).map(|_| ()),

@@ -17,7 +17,7 @@ use buridan_learner::train::{
 };
 
 /// Arguments of `learner train`.
-#[derive(Debug, clap::Args)]
+#[derive(Debug, Clone, clap::Args)]
 pub struct TrainArgs {
     /// Reference model id (`rm-2.1`) or path to a MovingAI `.map` file
     /// (replaces a config's `maps`).
@@ -411,6 +411,19 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
         eprintln!(
             "  {map}: success {:.1}% over its last 100 episodes ({episodes} episodes in all)",
             100.0 * success
+        );
+    }
+    for t in &summary.time_to_target {
+        let mark = |m: Option<buridan_learner::train::target::Mark>| {
+            m.map_or("not reached".to_string(), |m| {
+                format!("{} env steps, {:.1} s", m.env_steps, m.wall_seconds)
+            })
+        };
+        eprintln!(
+            "  training success {:.0}%: first after {}; held from {}",
+            100.0 * t.success,
+            mark(t.first),
+            mark(t.held)
         );
     }
     Ok(())

@@ -11,6 +11,13 @@ use buridan_env::Rules;
 use clap::Parser;
 
 /// `learner bench pogema` arguments as the command line gives them.
+fn run_pogema(command: &BenchCommand) -> anyhow::Result<Vec<buridan_eval::benchmark::Row>> {
+    match command {
+        BenchCommand::Pogema(args) => bench::run_pogema(args),
+        other => panic!("not the pogema benchmark: {other:?}"),
+    }
+}
+
 fn bench_args<S: AsRef<str>>(flags: &[S]) -> BenchCommand {
     #[derive(Parser)]
     struct Bench {
@@ -128,7 +135,7 @@ fn the_benchmark_runs_planners_and_a_pogema_policy_beside_published_rows() {
         format!("learned={ckpt}"),
         format!("learned-sampled=sampled:{ckpt}"),
     ];
-    let rows = bench::run(&bench_args(&flags(&controllers))).unwrap();
+    let rows = run_pogema(&bench_args(&flags(&controllers))).unwrap();
     // Three measured methods and one published, at two agent counts.
     assert_eq!(rows.len(), 8);
     let lacam: Vec<_> = rows.iter().filter(|r| r.method == "lacam").collect();
@@ -157,13 +164,13 @@ fn the_benchmark_runs_planners_and_a_pogema_policy_beside_published_rows() {
     // Run again: finished cells are read back, not evaluated again.
     let episodes = out.join("lacam/agents-1/episodes.csv");
     std::fs::remove_file(&episodes).unwrap();
-    let again = bench::run(&bench_args(&flags(&controllers))).unwrap();
+    let again = run_pogema(&bench_args(&flags(&controllers))).unwrap();
     assert_eq!(again, rows);
     assert!(!episodes.exists(), "a kept cell is not run again");
 
     // Errors say what is wrong.
     let twice = ["lacam".to_string(), "lacam".to_string()];
-    let err = format!("{:#}", bench::run(&bench_args(&flags(&twice))).unwrap_err());
+    let err = format!("{:#}", run_pogema(&bench_args(&flags(&twice))).unwrap_err());
     assert!(
         err.contains("two controllers are labelled 'lacam'"),
         "{err}"
@@ -171,7 +178,7 @@ fn the_benchmark_runs_planners_and_a_pogema_policy_beside_published_rows() {
     let mut unknown = flags(&["pibt".to_string()]);
     let at = unknown.iter().position(|f| f == "Oracle").unwrap();
     unknown[at] = "Sage".into();
-    let err = format!("{:#}", bench::run(&bench_args(&unknown)).unwrap_err());
+    let err = format!("{:#}", run_pogema(&bench_args(&unknown)).unwrap_err());
     assert!(
         err.contains("no published results for 'Sage' (the file holds: Oracle)"),
         "{err}"
@@ -179,6 +186,6 @@ fn the_benchmark_runs_planners_and_a_pogema_policy_beside_published_rows() {
     let mut missing_seed = flags(&["pibt".to_string()]);
     let at = missing_seed.iter().position(|f| f == "0..1").unwrap();
     missing_seed[at] = "0..2".into();
-    let err = format!("{:#}", bench::run(&bench_args(&missing_seed)).unwrap_err());
+    let err = format!("{:#}", run_pogema(&bench_args(&missing_seed)).unwrap_err());
     assert!(err.contains("room-1-2.scen"), "{err}");
 }

@@ -18,7 +18,9 @@ use std::sync::Arc;
 
 use buridan_env::{Map, Starts};
 use buridan_learner::train::rollout::rollout;
-use buridan_learner::train::{env_config, final_checkpoint, train, Algo, NoProgress, TrainConfig};
+use buridan_learner::train::{
+    env_config, final_checkpoint, train, Algo, MetricsRow, NoProgress, TrainConfig,
+};
 use buridan_policy::{ActMode, Mode, Policy};
 
 #[test]
@@ -47,6 +49,34 @@ fn ppo_ctde_solves_rm_1_1_within_200k_steps() {
     assert!(s.env_steps <= 200_000);
     assert!(s.stopped_early, "no reward 3 within 200k steps: {s:?}");
     assert!(s.episode_return_mean >= 3.0 - 1e-6, "{s:?}");
+
+    // Time to target: the first update of metrics.csv whose full 100-episode
+    // window reaches each level, and held to the end (the run ends at 100 %).
+    let rows: Vec<MetricsRow> = csv::Reader::from_path(dir.path().join("metrics.csv"))
+        .unwrap()
+        .deserialize()
+        .map(Result::unwrap)
+        .collect();
+    assert_eq!(s.time_to_target.len(), 2, "{s:?}");
+    for t in &s.time_to_target {
+        let first = t.first.expect("the run ends at 100 % success");
+        let expected = rows
+            .iter()
+            .find(|r| r.episodes >= 100 && r.success_rate >= t.success)
+            .unwrap();
+        assert_eq!(
+            (first.update, first.env_steps),
+            (expected.update, expected.env_steps)
+        );
+        assert!((first.wall_seconds - expected.wall_seconds).abs() < 1e-9);
+        let held = t.held.expect("held at the end");
+        let last_below = rows
+            .iter()
+            .rposition(|r| r.episodes < 100 || r.success_rate < t.success);
+        let held_row = &rows[last_below.map_or(0, |i| i + 1)];
+        assert_eq!(held.update, held_row.update);
+        assert!(first.update <= held.update && held.env_steps <= s.env_steps);
+    }
 
     let policy = Policy::load(&final_checkpoint(dir.path())).unwrap();
     let map = Arc::new(Map::load("rm-1.1").unwrap());

@@ -199,18 +199,33 @@ impl ClippedAdam {
     /// Back-propagates `loss`, clips, and takes one Adam step; returns the
     /// global gradient norm over all weight sets before clipping.
     pub fn step(&mut self, loss: &Tensor) -> candle_core::Result<f64> {
-        let grads = loss.backward()?;
-        let mut g = collect_grads(&grads, self.adam.vars())?;
+        let mut g = collect_grads(&loss.backward()?, self.adam.vars())?;
+        self.step_grads(&mut g)
+    }
+
+    /// Clips `grads` (one per variable, in [`Adam::vars`] order) per weight
+    /// set and takes one Adam step; returns the global gradient norm over
+    /// all weight sets before clipping.
+    pub fn step_grads(&mut self, grads: &mut [Vec<f32>]) -> candle_core::Result<f64> {
         let mut norm_sq = 0.0;
         for range in &self.groups {
-            let set = &mut g[range.clone()];
+            let set = &mut grads[range.clone()];
             let norm = match self.max_norm {
                 Some(max) => clip_global_norm(set, max),
                 None => global_norm(&set.iter().map(|x| x.as_slice()).collect::<Vec<_>>()),
             };
             norm_sq += norm * norm;
         }
-        self.adam.step(&g)?;
+        self.adam.step(grads)?;
         Ok(norm_sq.sqrt())
+    }
+
+    /// A zero gradient for every variable.
+    pub fn zero_grads(&self) -> Vec<Vec<f32>> {
+        self.adam
+            .vars()
+            .iter()
+            .map(|(_, v)| vec![0.0; v.elem_count()])
+            .collect()
     }
 }

@@ -17,7 +17,7 @@ use rand::Rng;
 
 use crate::algo::batch::{build_net_batches, evaluate, BatchTensors, NetBatch};
 use crate::algo::gae::{gae, standardize, GaeParams};
-use crate::algo::optim::ClippedAdam;
+use crate::algo::optim::{collect_grads, ClippedAdam};
 use crate::algo::{add_loss, AlgoError, Result, UpdateStats};
 
 /// Coefficients of the PPO loss.
@@ -49,6 +49,34 @@ pub struct LossTerms {
     /// Mean `KL(behaviour ‖ current)`.
     pub kl: f64,
 }
+
+impl LossTerms {
+    /// Every term times `w` (a share's weight in a mean over shares).
+    fn scaled(self, w: f64) -> Self {
+        Self {
+            total: self.total * w,
+            policy: self.policy * w,
+            vf: self.vf * w,
+            entropy: self.entropy * w,
+            kl: self.kl * w,
+        }
+    }
+
+    /// Term-wise sum.
+    fn plus(self, o: &Self) -> Self {
+        Self {
+            total: self.total + o.total,
+            policy: self.policy + o.policy,
+            vf: self.vf + o.vf,
+            entropy: self.entropy + o.entropy,
+            kl: self.kl + o.kl,
+        }
+    }
+}
+
+/// Fewest samples worth a thread of their own in a minibatch's forward
+/// and backward pass: below it, waking the thread costs more than it saves.
+pub const MIN_SHARE: usize = 512;
 
 /// The PPO loss over one minibatch: `logits [N, heads·A]` and `values [N]`
 /// from the current network, behaviour data from `bt`, standardised
@@ -137,6 +165,9 @@ pub struct PpoSettings {
     pub standardize_advantages: bool,
     /// Truncated-BPTT length for recurrent nets.
     pub max_seq_len: usize,
+    /// Threads that share each minibatch's forward and backward pass (1:
+    /// the caller's thread only). See [`Ppo::minibatch_grads`].
+    pub update_threads: usize,
 }
 
 /// PPO learner state: optimiser and one KL coefficient per weight set.
@@ -230,20 +261,16 @@ impl Ppo {
                 .collect();
             let minibatches = plans.iter().map(|p| p.minibatches).max().unwrap_or(1);
             for mb in 0..minibatches {
-                let mut total = None;
-                let mut terms = Vec::new();
-                for (k, plan) in plans.iter().enumerate() {
-                    let Some(units) = plan.units(mb) else {
-                        continue;
-                    };
-                    let (loss, t) = self.minibatch_loss(policy, k, &prepared[k], units)?;
-                    kl_sums[k] += t.kl;
-                    terms.push(t);
-                    total = add_loss(total, loss)?;
+                let units: Vec<Option<&[u32]>> = plans.iter().map(|p| p.units(mb)).collect();
+                let Some((mut grads, terms)) = self.minibatch_grads(policy, &prepared, &units)?
+                else {
+                    continue;
+                };
+                for (k, t) in terms.iter().enumerate() {
+                    kl_sums[k] += t.map_or(0.0, |t| t.kl);
                 }
-                let Some(total) = total else { continue };
-                let grad_norm = self.optim.step(&total)?;
-                stats.add_minibatch(&terms, grad_norm);
+                let grad_norm = self.optim.step_grads(&mut grads)?;
+                stats.add_minibatch(&terms.into_iter().flatten().collect::<Vec<_>>(), grad_norm);
             }
         }
         let kl_mean = self.adapt_kl(&kl_sums, stats.grad_steps);
@@ -252,6 +279,91 @@ impl Ppo {
         stats.kl_coeff = self.kl_coeffs.iter().sum::<f64>() / self.kl_coeffs.len() as f64;
         stats.samples = batches.iter().map(|b| b.len()).sum();
         Ok(stats)
+    }
+
+    /// Gradients of one minibatch's loss (summed over weight sets) and each
+    /// weight set's loss terms (`None` where it has no units in this
+    /// minibatch), or `None` if no weight set has any.
+    ///
+    /// The units are cut into `update_threads` shares, one per thread, each
+    /// thread running its share's forward and backward pass. Every loss
+    /// term is a mean over rows and every unit holds as many rows, so the
+    /// shares' gradients weighted by their share of the units add up to the
+    /// whole minibatch's gradient — the same update on more cores, up to
+    /// float rounding. Shares below [`MIN_SHARE`] samples are not worth a
+    /// thread.
+    fn minibatch_grads(
+        &self,
+        policy: &Policy,
+        prepared: &[Prepared],
+        units: &[Option<&[u32]>],
+    ) -> Result<Option<(Vec<Vec<f32>>, Vec<Option<LossTerms>>)>> {
+        let samples: usize = units
+            .iter()
+            .zip(prepared)
+            .map(|(u, p)| {
+                let rows_per_unit = if p.bt.recurrent.is_some() { p.bt.t } else { 1 };
+                u.map_or(0, |u| u.len() * rows_per_unit)
+            })
+            .sum();
+        if samples == 0 {
+            return Ok(None);
+        }
+        let threads = self
+            .settings
+            .update_threads
+            .clamp(1, (samples / MIN_SHARE).max(1));
+        let share = |i: usize| -> Result<(Vec<Vec<f32>>, Vec<Option<LossTerms>>)> {
+            let mut total = None;
+            let mut terms = Vec::with_capacity(units.len());
+            for (k, u) in units.iter().enumerate() {
+                let Some(u) = u else {
+                    terms.push(None);
+                    continue;
+                };
+                let (lo, hi) = (i * u.len() / threads, (i + 1) * u.len() / threads);
+                if hi == lo {
+                    terms.push(None);
+                    continue;
+                }
+                let weight = (hi - lo) as f64 / u.len() as f64;
+                let (loss, t) = self.minibatch_loss(policy, k, &prepared[k], &u[lo..hi])?;
+                terms.push(Some(t.scaled(weight)));
+                total = add_loss(total, (loss * weight)?)?;
+            }
+            let grads = match total {
+                Some(total) => collect_grads(&total.backward()?, self.optim.adam.vars())?,
+                None => self.optim.zero_grads(),
+            };
+            Ok((grads, terms))
+        };
+        let mut results = std::thread::scope(|scope| {
+            let others: Vec<_> = (1..threads)
+                .map(|i| scope.spawn(move || share(i)))
+                .collect();
+            let mine = share(0);
+            std::iter::once(mine)
+                .chain(others.into_iter().map(|h| {
+                    h.join().unwrap_or_else(|_| {
+                        Err(AlgoError::Batch("an update thread panicked".into()))
+                    })
+                }))
+                .collect::<Result<Vec<_>>>()
+        })?
+        .into_iter();
+        let (mut grads, mut terms) = results.next().expect("at least one share");
+        for (g, t) in results {
+            for (sum, part) in grads.iter_mut().zip(g) {
+                sum.iter_mut().zip(part).for_each(|(s, x)| *s += x);
+            }
+            for (sum, part) in terms.iter_mut().zip(t) {
+                *sum = match (*sum, part) {
+                    (Some(a), Some(b)) => Some(a.plus(&b)),
+                    (a, b) => a.or(b),
+                };
+            }
+        }
+        Ok(Some((grads, terms)))
     }
 
     /// GAE advantages (standardised if configured) and value targets of

@@ -239,6 +239,23 @@ pub struct PpoConfig {
     /// `entropy_coeff_schedule`: replaces `entropy_coeff` when set.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub entropy_schedule: Option<Schedule>,
+    /// Threads that share each minibatch's gradient (0, the default: the
+    /// run's share of the cores, [`super::cores::share`]). A resource
+    /// setting, not a hyperparameter: the update is the same up to float
+    /// rounding. While PPO updates, its actors wait for the new weights,
+    /// so the cores they leave are free.
+    pub update_threads: usize,
+}
+
+impl PpoConfig {
+    /// The update's thread count: `update_threads`, or the run's share of
+    /// the cores when it is 0.
+    pub fn threads(&self) -> usize {
+        match self.update_threads {
+            0 => super::cores::share(),
+            n => n,
+        }
+    }
 }
 
 impl Default for PpoConfig {
@@ -260,6 +277,7 @@ impl Default for PpoConfig {
             standardize_advantages: true,
             lr_schedule: None,
             entropy_schedule: None,
+            update_threads: 0,
         }
     }
 }
@@ -784,6 +802,7 @@ impl From<&TrainConfig> for PpoSettings {
             grad_clip: p.grad_clip,
             standardize_advantages: p.standardize_advantages,
             max_seq_len: cfg.max_seq_len,
+            update_threads: p.threads(),
         }
     }
 }

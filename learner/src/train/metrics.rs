@@ -337,6 +337,10 @@ pub struct Summary {
     /// Runs on several layouts: per layout, the episodes finished.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub episodes_by_map: BTreeMap<String, u64>,
+    /// When the training success first reached 90 % and 96 %, and from
+    /// when on it stayed there ([`super::target`]).
+    #[serde(default)]
+    pub time_to_target: Vec<super::target::TimeToTarget>,
     /// Directory of the final checkpoint.
     pub final_checkpoint: PathBuf,
 }

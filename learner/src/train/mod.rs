@@ -23,11 +23,13 @@
 //! [`buridan_policy::checkpoint`] describes.
 
 pub mod config;
+pub mod cores;
 pub mod error;
 pub mod exchange;
 pub mod gate;
 pub mod metrics;
 pub mod rollout;
+pub mod target;
 pub mod tensorboard;
 
 use std::path::{Path, PathBuf};
@@ -118,6 +120,10 @@ pub struct TrainerState {
     /// Runs on several layouts: each layout's episode count and window.
     #[serde(default)]
     pub layouts: Vec<LayoutRecord>,
+    /// When the training success reached each [`target::TARGET_SUCCESS`]
+    /// level (empty in checkpoints of older versions: filled on resume).
+    #[serde(default)]
+    pub time_to_target: Vec<target::TimeToTarget>,
 }
 
 /// One training layout's counters in a checkpoint: a resumed run picks
@@ -149,6 +155,14 @@ impl Learner {
         match self {
             Learner::Ppo(p) => &mut p.optim,
             Learner::Impala(i) => &mut i.optim,
+        }
+    }
+
+    /// Sizes PPO's update to the cores this run may use now
+    /// ([`cores::share`] unless `update_threads` fixes it).
+    fn follow_cores(&mut self, cfg: &TrainConfig) {
+        if let Learner::Ppo(p) = self {
+            p.settings.update_threads = cfg.ppo.threads();
         }
     }
 
@@ -347,7 +361,7 @@ impl Run {
             .obs_kind()
             .obs_dim(&layouts[0].0, &env_config(cfg, cfg.seed));
         let spec = cfg.model_spec(obs_dim);
-        let (policy, state) = match &cfg.resume {
+        let (policy, mut state) = match &cfg.resume {
             None => {
                 let policy = Policy::new(spec.clone(), cfg.seed)?;
                 if let Some(im) = &cfg.imitation {
@@ -364,6 +378,9 @@ impl Run {
                 (policy, read_trainer_state(dir)?)
             }
         };
+        if state.time_to_target.is_empty() {
+            state.time_to_target = target::targets();
+        }
         let mut learner = Learner::new(cfg, &policy);
         if let Some(dir) = &cfg.resume {
             learner.restore(dir, &state)?;
@@ -539,6 +556,7 @@ impl Run {
         let mut rng = ChaCha8Rng::seed_from_u64(shuffle_seed);
         progress.on_start(&self.cfg, self.cfg.steps, self.state.env_steps);
         let mut since = (self.wall_offset, self.state.env_steps);
+        let _learning = cores::Learning::start();
         self.publish(exchange)?;
         while self.state.env_steps < self.cfg.steps {
             let Some(batch) = self.gather_batch(exchange)? else {
@@ -546,6 +564,7 @@ impl Run {
             };
             self.learner
                 .follow_schedules(&self.cfg, self.state.env_steps);
+            self.learner.follow_cores(&self.cfg);
             let t_learn = Instant::now();
             let stats = self.learner.update(&self.policy, &batch, &mut rng)?;
             let learn_seconds = t_learn.elapsed().as_secs_f64();
@@ -678,6 +697,25 @@ impl Run {
             entropy_coeff,
         };
         *since = (wall, state.env_steps);
+        let at = target::Mark {
+            update: state.updates,
+            env_steps: state.env_steps,
+            wall_seconds: wall,
+        };
+        let full = self.window.len() >= metrics::EPISODE_WINDOW;
+        for t in &mut state.time_to_target {
+            if t.observe(row.success_rate, full, at) {
+                tracing::info!(
+                    success = t.success,
+                    env_steps = at.env_steps,
+                    wall_seconds = at.wall_seconds,
+                    "training success first reached {:.0} % after {} env steps, {:.1} s",
+                    100.0 * t.success,
+                    at.env_steps,
+                    at.wall_seconds
+                );
+            }
+        }
         row
     }
 
@@ -725,6 +763,7 @@ impl Run {
             episode_len_mean: window.len_mean(),
             stale_fragments: state.stale_fragments,
             stopped_early,
+            time_to_target: state.time_to_target.clone(),
             final_checkpoint,
         }
     }

@@ -1,0 +1,131 @@
+//! PPO's minibatch gradient shared across threads: the same update as on
+//! one thread, up to float rounding, for feed-forward and recurrent nets and
+//! for several weight sets.
+
+use std::sync::Arc;
+
+use buridan_actor::Collector;
+use buridan_env::{Map, ObsKind, Starts, VecEnv};
+use buridan_learner::algo::ppo::{Ppo, PpoSettings};
+use buridan_learner::train::{env_config, TrainConfig};
+use buridan_policy::{Fragment, Inference, Mode, Policy};
+use rand::SeedableRng;
+
+fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
+    let map = Arc::new(Map::load(&cfg.map).unwrap());
+    let venv = VecEnv::new(
+        map,
+        env_config(cfg, 1),
+        cfg.envs_per_actor,
+        ObsKind::Local,
+        1,
+    )
+    .unwrap();
+    let spec = cfg.model_spec(venv.obs_dim());
+    let policy = Policy::new(spec.clone(), 7).unwrap();
+    let rows = venv.obs().len() / venv.obs_dim();
+    let mut actor = Collector {
+        id: 0,
+        inference: Inference::new(policy.clone(), rows, 3),
+        behaviour: cfg.behaviour(),
+        venv,
+        fragment_len: cfg.fragment_len,
+        version: 0,
+    };
+    let frags = (0..count).map(|_| actor.collect().unwrap()).collect();
+    (policy, frags)
+}
+
+fn flat_weights(policy: &Policy) -> Vec<f32> {
+    let mut w = Vec::new();
+    for k in 0..policy.spec().nets() {
+        for (_, var) in policy.net_vars(k) {
+            w.extend(
+                var.as_tensor()
+                    .flatten_all()
+                    .unwrap()
+                    .to_vec1::<f32>()
+                    .unwrap(),
+            );
+        }
+    }
+    w
+}
+
+/// All weights of a fresh policy before and after two PPO epochs with
+/// `threads` threads, and the update's mean loss, KL and gradient norm.
+fn update_with(cfg: &TrainConfig, threads: usize) -> (Vec<f32>, Vec<f32>, [f64; 3]) {
+    let (policy, frags) = fragments(cfg, 2);
+    let policy = Policy::new(policy.spec().clone(), 11).unwrap();
+    let settings = PpoSettings {
+        epochs: 2,
+        update_threads: threads,
+        ..PpoSettings::from(cfg)
+    };
+    let before = flat_weights(&policy);
+    let mut ppo = Ppo::new(&policy, settings);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let stats = ppo.update(&policy, &frags, &mut rng).unwrap();
+    let means = [stats.total_loss, stats.kl, stats.grad_norm];
+    (before, flat_weights(&policy), means)
+}
+
+fn assert_same_update(cfg: TrainConfig) {
+    let (before, one, means1) = update_with(&cfg, 1);
+    let (_, three, means3) = update_with(&cfg, 3);
+    assert_eq!(one.len(), three.len());
+    let worst = one
+        .iter()
+        .zip(&three)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-5, "weights differ by {worst}");
+    // The update moved the weights: the comparison is not between two
+    // untouched copies.
+    let moved = before.iter().zip(&one).filter(|(a, b)| a != b).count();
+    assert!(
+        moved > one.len() / 2,
+        "only {moved} of {} weights moved",
+        one.len()
+    );
+    // Adam is blind to a gradient's scale; the norm is not (a share
+    // weighted twice would show here, not in the weights).
+    for (name, a, b) in ["loss", "kl", "grad norm"]
+        .iter()
+        .zip(means1.iter().zip(&means3))
+        .map(|(n, (a, b))| (n, a, b))
+    {
+        assert!((a - b).abs() < 1e-6 + 1e-4 * a.abs(), "{name}: {a} vs {b}");
+    }
+}
+
+fn cfg(mode: Mode, lstm: bool) -> TrainConfig {
+    let mut c = TrainConfig {
+        mode,
+        map: "rm-2.1".into(),
+        agents: 4,
+        starts: Starts::Random,
+        envs_per_actor: 16,
+        fragment_len: 40,
+        lstm,
+        ..TrainConfig::default()
+    };
+    // One minibatch of the whole batch per weight set: 2 × 640 × 4 samples.
+    c.ppo.minibatch = 100_000;
+    c
+}
+
+#[test]
+fn three_threads_update_a_shared_net_as_one_does() {
+    assert_same_update(cfg(Mode::Ctde, false));
+}
+
+#[test]
+fn three_threads_update_one_net_per_agent_as_one_does() {
+    assert_same_update(cfg(Mode::Dte, false));
+}
+
+#[test]
+fn three_threads_update_a_recurrent_net_as_one_does() {
+    assert_same_update(cfg(Mode::Ctde, true));
+}
