@@ -2,38 +2,20 @@
 //! one thread, up to float rounding, for feed-forward and recurrent nets and
 //! for several weight sets.
 
-use std::sync::Arc;
-
-use buridan_actor::Collector;
-use buridan_env::{Map, ObsKind, Starts, VecEnv};
+use buridan_env::Starts;
 use buridan_learner::algo::ppo::{Ppo, PpoSettings};
-use buridan_learner::train::{env_config, TrainConfig};
-use buridan_policy::{Fragment, Inference, Mode, Policy};
+use buridan_learner::train::{Run, TrainConfig};
+use buridan_policy::{Fragment, Mode, ModelSpec, Policy};
 use rand::SeedableRng;
 
-fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
-    let map = Arc::new(Map::load(&cfg.map).unwrap());
-    let venv = VecEnv::new(
-        map,
-        env_config(cfg, 1),
-        cfg.envs_per_actor,
-        ObsKind::Local,
-        1,
-    )
-    .unwrap();
-    let spec = cfg.model_spec(venv.obs_dim());
-    let policy = Policy::new(spec.clone(), 7).unwrap();
-    let rows = venv.obs().len() / venv.obs_dim();
-    let mut actor = Collector {
-        id: 0,
-        inference: Inference::new(policy.clone(), rows, 3),
-        behaviour: cfg.behaviour(),
-        venv,
-        fragment_len: cfg.fragment_len,
-        version: 0,
-    };
+/// `count` fragments collected by actor 0 of a run of `cfg`, and the run's
+/// model spec.
+fn fragments(cfg: &TrainConfig, count: usize) -> (ModelSpec, Vec<Fragment>) {
+    let dir = tempfile::tempdir().unwrap();
+    let run = Run::prepare(cfg, dir.path()).unwrap();
+    let mut actor = run.collector(0).unwrap();
     let frags = (0..count).map(|_| actor.collect().unwrap()).collect();
-    (policy, frags)
+    (run.spec().clone(), frags)
 }
 
 fn flat_weights(policy: &Policy) -> Vec<f32> {
@@ -55,8 +37,8 @@ fn flat_weights(policy: &Policy) -> Vec<f32> {
 /// All weights of a fresh policy before and after two PPO epochs with
 /// `threads` threads, and the update's mean loss, KL and gradient norm.
 fn update_with(cfg: &TrainConfig, threads: usize) -> (Vec<f32>, Vec<f32>, [f64; 3]) {
-    let (policy, frags) = fragments(cfg, 2);
-    let policy = Policy::new(policy.spec().clone(), 11).unwrap();
+    let (spec, frags) = fragments(cfg, 2);
+    let policy = Policy::new(spec, 11).unwrap();
     let settings = PpoSettings {
         epochs: 2,
         update_threads: threads,
