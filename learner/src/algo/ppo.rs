@@ -187,6 +187,13 @@ struct Prepared {
     targets: Tensor,
 }
 
+/// One minibatch's gradient (one buffer per variable, in the optimiser's
+/// order) and each weight set's loss terms (`None`: no units this time).
+struct MinibatchGrads {
+    grads: Vec<Vec<f32>>,
+    terms: Vec<Option<LossTerms>>,
+}
+
 /// One epoch's shuffled units of a weight set (samples, or whole sequences
 /// for recurrent nets) and how many minibatches they make.
 struct EpochPlan {
@@ -262,7 +269,8 @@ impl Ppo {
             let minibatches = plans.iter().map(|p| p.minibatches).max().unwrap_or(1);
             for mb in 0..minibatches {
                 let units: Vec<Option<&[u32]>> = plans.iter().map(|p| p.units(mb)).collect();
-                let Some((mut grads, terms)) = self.minibatch_grads(policy, &prepared, &units)?
+                let Some(MinibatchGrads { mut grads, terms }) =
+                    self.minibatch_grads(policy, &prepared, &units)?
                 else {
                     continue;
                 };
@@ -297,7 +305,7 @@ impl Ppo {
         policy: &Policy,
         prepared: &[Prepared],
         units: &[Option<&[u32]>],
-    ) -> Result<Option<(Vec<Vec<f32>>, Vec<Option<LossTerms>>)>> {
+    ) -> Result<Option<MinibatchGrads>> {
         let samples: usize = units
             .iter()
             .zip(prepared)
@@ -313,7 +321,7 @@ impl Ppo {
             .settings
             .update_threads
             .clamp(1, (samples / MIN_SHARE).max(1));
-        let share = |i: usize| -> Result<(Vec<Vec<f32>>, Vec<Option<LossTerms>>)> {
+        let share = |i: usize| -> Result<MinibatchGrads> {
             let mut total = None;
             let mut terms = Vec::with_capacity(units.len());
             for (k, u) in units.iter().enumerate() {
@@ -335,7 +343,7 @@ impl Ppo {
                 Some(total) => collect_grads(&total.backward()?, self.optim.adam.vars())?,
                 None => self.optim.zero_grads(),
             };
-            Ok((grads, terms))
+            Ok(MinibatchGrads { grads, terms })
         };
         let mut results = std::thread::scope(|scope| {
             let others: Vec<_> = (1..threads)
@@ -351,8 +359,11 @@ impl Ppo {
                 .collect::<Result<Vec<_>>>()
         })?
         .into_iter();
-        let (mut grads, mut terms) = results.next().expect("at least one share");
-        for (g, t) in results {
+        let MinibatchGrads {
+            mut grads,
+            mut terms,
+        } = results.next().expect("at least one share");
+        for MinibatchGrads { grads: g, terms: t } in results {
             for (sum, part) in grads.iter_mut().zip(g) {
                 sum.iter_mut().zip(part).for_each(|(s, x)| *s += x);
             }
@@ -363,7 +374,7 @@ impl Ppo {
                 };
             }
         }
-        Ok(Some((grads, terms)))
+        Ok(Some(MinibatchGrads { grads, terms }))
     }
 
     /// GAE advantages (standardised if configured) and value targets of
