@@ -93,7 +93,7 @@ pub struct Measured {
     pub steps_per_s: f64,
     /// Training success of the last 100 episodes at the end.
     pub success: f64,
-    /// Wall seconds until the training success first reached 90 % / 96 %.
+    /// Wall seconds until the training success first reached 90 %.
     pub first_90_s: Option<f64>,
     /// Wall seconds until it first reached 96 %.
     pub first_96_s: Option<f64>,
@@ -208,7 +208,7 @@ pub struct VariantRow {
     pub runs: usize,
     /// Mean env steps/s.
     pub steps_per_s: f64,
-    /// Slowest and fastest run's env steps/s.
+    /// Slowest run's env steps/s.
     pub steps_per_s_min: f64,
     /// Fastest run's env steps/s.
     pub steps_per_s_max: f64,

@@ -40,6 +40,14 @@ pub fn collect_grads(
         .collect()
 }
 
+/// A zero buffer per variable: Adam's initial moments, and the gradient
+/// of a loss that touches no variable.
+pub fn zeros_like(vars: &[(String, Var)]) -> Vec<Vec<f32>> {
+    vars.iter()
+        .map(|(_, v)| vec![0.0; v.elem_count()])
+        .collect()
+}
+
 /// Global L2 norm of a group of gradients.
 pub fn global_norm(grads: &[&[f32]]) -> f64 {
     grads
@@ -73,14 +81,7 @@ pub fn clip_global_norm(grads: &mut [Vec<f32>], max_norm: f64) -> f64 {
 impl Adam {
     /// Adam over `vars` with learning rate `lr`.
     pub fn new(vars: Vec<(String, Var)>, lr: f64) -> Self {
-        let m = vars
-            .iter()
-            .map(|(_, v)| vec![0.0; v.elem_count()])
-            .collect();
-        let v = vars
-            .iter()
-            .map(|(_, v)| vec![0.0; v.elem_count()])
-            .collect();
+        let (m, v) = (zeros_like(&vars), zeros_like(&vars));
         Self {
             vars,
             m,
@@ -218,14 +219,5 @@ impl ClippedAdam {
         }
         self.adam.step(grads)?;
         Ok(norm_sq.sqrt())
-    }
-
-    /// A zero gradient for every variable.
-    pub fn zero_grads(&self) -> Vec<Vec<f32>> {
-        self.adam
-            .vars()
-            .iter()
-            .map(|(_, v)| vec![0.0; v.elem_count()])
-            .collect()
     }
 }

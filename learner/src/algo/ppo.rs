@@ -17,7 +17,7 @@ use rand::Rng;
 
 use crate::algo::batch::{build_net_batches, evaluate, BatchTensors, NetBatch};
 use crate::algo::gae::{gae, standardize, GaeParams};
-use crate::algo::optim::{collect_grads, ClippedAdam};
+use crate::algo::optim::{collect_grads, zeros_like, ClippedAdam};
 use crate::algo::{add_loss, AlgoError, Result, UpdateStats};
 
 /// Coefficients of the PPO loss.
@@ -341,7 +341,7 @@ impl Ppo {
             }
             let grads = match total {
                 Some(total) => collect_grads(&total.backward()?, self.optim.adam.vars())?,
-                None => self.optim.zero_grads(),
+                None => zeros_like(self.optim.adam.vars()),
             };
             Ok(MinibatchGrads { grads, terms })
         };

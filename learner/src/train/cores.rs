@@ -4,6 +4,7 @@
 //! together use each core once instead of oversubscribing them.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::OnceLock;
 
 static RUNS_LEARNING: AtomicUsize = AtomicUsize::new(0);
 
@@ -37,7 +38,10 @@ impl Drop for Learning {
 /// This run's share of the machine's cores: the cores divided among the
 /// runs learning now, at least 1.
 pub fn share() -> usize {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // Asked once: on Linux the answer reads the cgroup's CPU quota from
+    // files, and every PPO update asks for its share.
+    static CORES: OnceLock<usize> = OnceLock::new();
+    let cores = *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     share_of(cores, RUNS_LEARNING.load(Ordering::SeqCst))
 }
 
