@@ -8,6 +8,8 @@
 //!   DTE), weight snapshots ([`Weights`]) and checkpoints.
 //! - [`dist`]: masked categorical heads — log-probs, joint log-prob (sum
 //!   over heads), entropy, KL, sampling, greedy choice.
+//! - [`lstm`]: the LSTM recurrence over a whole sequence as one fused op
+//!   with a hand-derived backward pass.
 //! - [`infer`]: [`Inference`], an actor's batched action selection.
 //! - [`fragment`]: [`Fragment`], `T` steps of experience as plain data.
 //! - [`checkpoint`]: where a run keeps its checkpoints, and which one a
@@ -29,6 +31,7 @@ pub mod dist;
 pub mod error;
 pub mod fragment;
 pub mod infer;
+pub mod lstm;
 pub mod net;
 pub mod policy;
 pub mod spec;

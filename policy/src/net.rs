@@ -135,19 +135,10 @@ impl LstmCell {
 
     /// One step from a projected input: returns `(h', c')`.
     fn step(&self, xp: &Tensor, h: &Tensor, c: &Tensor) -> Result<(Tensor, Tensor), PolicyError> {
-        let gates = (xp + h.matmul(&self.w_hh.t()?)?)?;
-        let n = self.cells;
-        use crate::activation::{sigmoid, tanh};
-        // One contiguous (vectorised) sigmoid over all gates; the g block
-        // of it is unused.
-        let sig = sigmoid(&gates)?;
-        let i = sig.narrow(1, 0, n)?;
-        let f = sig.narrow(1, n, n)?;
-        let g = tanh(&gates.narrow(1, 2 * n, n)?.contiguous()?)?;
-        let o = sig.narrow(1, 3 * n, n)?;
-        let c2 = ((f * c)? + (i * g)?)?;
-        let h2 = (o * tanh(&c2)?)?;
-        Ok((h2, c2))
+        let rows = h.dims2()?.0;
+        let keep = Tensor::ones(rows, xp.dtype(), xp.device())?;
+        let seq = crate::lstm::sequence(xp, &self.w_hh, h, c, &keep, 1, 0)?;
+        Ok((seq.h, seq.c))
     }
 }
 
@@ -180,7 +171,8 @@ pub struct UnrollOutput {
     pub logits: Tensor,
     /// Values `[T·B]`, time-major.
     pub value: Tensor,
-    /// LSTM `(h, c)` after each step `t` (before any reset), `[B, cells]` each.
+    /// LSTM `(h, c)` after each step `t` (before any reset), `[B, cells]`
+    /// each, detached.
     pub states: Vec<(Tensor, Tensor)>,
 }
 
@@ -373,27 +365,14 @@ impl Net {
         let feat = self.pi.forward(obs)?;
         let x = self.lstm_input(&feat, prev_action, prev_reward)?;
         let xp = cell.project_input(&x)?;
-        let (mut h, mut c) = (h0.clone(), c0.clone());
-        let mut outs = Vec::with_capacity(t);
-        let mut states = Vec::with_capacity(t);
-        for s in 0..t {
-            if s > 0 && max_seq_len > 0 && s % max_seq_len == 0 {
-                h = h.detach();
-                c = c.detach();
-            }
-            let k = keep.narrow(0, s * b, b)?;
-            h = h.broadcast_mul(&k)?;
-            c = c.broadcast_mul(&k)?;
-            let (h2, c2) = cell.step(&xp.narrow(0, s * b, b)?, &h, &c)?;
-            outs.push(h2.clone());
-            states.push((h2.clone(), c2.clone()));
-            h = h2;
-            c = c2;
-        }
-        let out = Tensor::cat(&outs, 0)?;
+        let seq = crate::lstm::sequence(&xp, &cell.w_hh, h0, c0, keep, t, max_seq_len)?;
+        let hd = seq.h.detach();
+        let states = (0..t)
+            .map(|s| Ok((hd.narrow(0, s * b, b)?, seq.c.narrow(0, s * b, b)?)))
+            .collect::<Result<Vec<_>, candle_core::Error>>()?;
         Ok(UnrollOutput {
-            logits: self.logits.forward(&out)?,
-            value: self.value.forward(&out)?.squeeze(D::Minus1)?,
+            logits: self.logits.forward(&seq.h)?,
+            value: self.value.forward(&seq.h)?.squeeze(D::Minus1)?,
             states,
         })
     }

@@ -1,0 +1,308 @@
+//! The LSTM recurrence as one fused op over a whole sequence.
+//!
+//! # Why
+//!
+//! Unrolled as candle ops, every time step of a sequence is a dozen small
+//! tensor ops, and the backward pass of each `narrow` over the projected
+//! inputs pads a gradient the size of the whole sequence: an update over
+//! `T` steps costs O(T²) memory traffic and thousands of graph nodes. Here
+//! the recurrence is one [`CustomOp2`] over `(x W_ihᵀ + b, W_hh)`: the
+//! forward pass loops over time with one matrix product per step, and the
+//! backward pass is derived by hand (backpropagation through time):
+//!
+//! ```text
+//! forward, step s (rows b, cells n; h₋, c₋ the state before the step):
+//!   a = xp_s + h₋ W_hhᵀ            i = σ(a_i)  f = σ(a_f)  g = tanh(a_g)  o = σ(a_o)
+//!   c = f·c₋ + i·g                 h = o·tanh(c)
+//! backward, s = T−1 … 0 (δh, δc arriving from step s+1 and from the outputs):
+//!   δc += δh·o·(1 − tanh²c)
+//!   δa_i = δc·g·i(1−i)   δa_f = δc·c₋·f(1−f)   δa_g = δc·i·(1−g²)   δa_o = δh·tanh(c)·o(1−o)
+//!   δxp_s = δa           δW_hh += δaᵀ h₋        δh₋ = δa W_hh        δc₋ = δc·f
+//! ```
+//!
+//! The gate pre-activations are recomputed in the backward pass from the
+//! saved states with one matrix product over all steps (nothing but `h`
+//! and `c` is kept between the passes).
+//!
+//! The state is reset (multiplied by `keep`, 0 at an episode start) before
+//! a step, and gradients stop every `max_seq_len` steps (truncated BPTT,
+//! RLlib's `max_seq_len`), exactly as the step-by-step unroll did; the
+//! tests check both against that unroll and against finite differences.
+
+use candle_core::{
+    backend::BackendStorage, CpuStorage, CustomOp2, Device, Layout, Result, Shape, Tensor,
+};
+
+use crate::activation::fast_tanh;
+
+#[inline(always)]
+fn sigmoid(x: f32) -> f32 {
+    0.5 + 0.5 * fast_tanh(0.5 * x)
+}
+
+/// The states of an LSTM after each step of a time-major sequence.
+#[derive(Debug, Clone)]
+pub struct LstmSequence {
+    /// `h` after each step, `[T·B, cells]`, differentiable with respect to
+    /// the projected inputs and `W_hh`.
+    pub h: Tensor,
+    /// `c` after each step, `[T·B, cells]`, detached (for bootstrapping
+    /// and carrying state, not for gradients).
+    pub c: Tensor,
+}
+
+/// Runs the LSTM recurrence over `t` steps of `b` rows, time-major.
+///
+/// `xp [t·b, 4·cells]`: the projected inputs `x W_ihᵀ + b_ih + b_hh` (gates
+/// i, f, g, o, PyTorch's layout); `w_hh [4·cells, cells]`; `h0, c0 [b,
+/// cells]`: the state before step 0 (not differentiated); `keep [t·b]` or
+/// `[t·b, 1]`: 0 where a step starts a new episode (the state is zeroed
+/// before it), else 1. Gradients flow back at most `max_seq_len` steps (0:
+/// through the whole sequence).
+///
+/// ```
+/// use candle_core::{Device, Tensor};
+/// let dev = Device::Cpu;
+/// // One cell, one row, two steps; all weights zero: every gate is σ(0) = ½, g = 0.
+/// let xp = Tensor::zeros((2, 4), candle_core::DType::F32, &dev).unwrap();
+/// let w_hh = Tensor::zeros((4, 1), candle_core::DType::F32, &dev).unwrap();
+/// let h0 = Tensor::new(&[[0f32]], &dev).unwrap();
+/// let c0 = Tensor::new(&[[2f32]], &dev).unwrap();
+/// let keep = Tensor::new(&[1f32, 1.0], &dev).unwrap();
+/// let seq = buridan_policy::lstm::sequence(&xp, &w_hh, &h0, &c0, &keep, 2, 0).unwrap();
+/// // c halves each step (f = ½, i·g = 0): 1 then ½.
+/// let c: Vec<f32> = seq.c.flatten_all().unwrap().to_vec1().unwrap();
+/// assert!((c[0] - 1.0).abs() < 1e-6 && (c[1] - 0.5).abs() < 1e-6);
+/// ```
+pub fn sequence(
+    xp: &Tensor,
+    w_hh: &Tensor,
+    h0: &Tensor,
+    c0: &Tensor,
+    keep: &Tensor,
+    t: usize,
+    max_seq_len: usize,
+) -> Result<LstmSequence> {
+    let (rows, gates) = xp.dims2()?;
+    let (b, cells) = h0.dims2()?;
+    if gates != 4 * cells || w_hh.dims2()? != (4 * cells, cells) {
+        candle_core::bail!(
+            "lstm: projected inputs have {gates} columns and W_hh is {:?}, expected {} and [{}, {cells}]",
+            w_hh.dims(),
+            4 * cells,
+            4 * cells
+        );
+    }
+    if rows != t * b || c0.dims2()? != (b, cells) || keep.elem_count() != rows {
+        candle_core::bail!(
+            "lstm: {rows} input rows, {} keep flags, state {:?}/{:?}: expected {t} steps × {b} rows",
+            keep.elem_count(),
+            h0.dims(),
+            c0.dims()
+        );
+    }
+    let op = Recurrence {
+        h0: h0.flatten_all()?.to_vec1()?,
+        c0: c0.flatten_all()?.to_vec1()?,
+        keep: keep.flatten_all()?.to_vec1()?,
+        t,
+        b,
+        cells,
+        max_seq_len,
+    };
+    let out = xp.contiguous()?.apply_op2(&w_hh.contiguous()?, op)?;
+    Ok(LstmSequence {
+        h: out.narrow(1, 0, cells)?,
+        c: out.narrow(1, cells, cells)?.detach(),
+    })
+}
+
+/// The fused op: output `[t·b, 2·cells]`, each row `h | c` after its step.
+struct Recurrence {
+    h0: Vec<f32>,
+    c0: Vec<f32>,
+    keep: Vec<f32>,
+    t: usize,
+    b: usize,
+    cells: usize,
+    max_seq_len: usize,
+}
+
+/// The four gate activations of one cell from its pre-activations.
+#[inline(always)]
+fn gates(a: &[f32], n: usize, k: usize) -> (f32, f32, f32, f32) {
+    (
+        sigmoid(a[k]),
+        sigmoid(a[n + k]),
+        fast_tanh(a[2 * n + k]),
+        sigmoid(a[3 * n + k]),
+    )
+}
+
+/// `a [m, k] · b` for a contiguous `b [k, p]` (candle's CPU matrix product).
+fn matmul(a: &[f32], m: usize, k: usize, b: &Tensor) -> Result<Vec<f32>> {
+    Tensor::from_slice(a, (m, k), &Device::Cpu)?
+        .matmul(b)?
+        .flatten_all()?
+        .to_vec1()
+}
+
+impl Recurrence {
+    /// Whether gradients stop between step `s − 1` and step `s`.
+    fn cut_before(&self, s: usize) -> bool {
+        s == 0 || (self.max_seq_len > 0 && s % self.max_seq_len == 0)
+    }
+
+    /// The state before each step (after the reset), `[t·b, cells]` each,
+    /// from the outputs `hc [t·b, 2·cells]`.
+    fn previous_states(&self, hc: &[f32]) -> (Vec<f32>, Vec<f32>) {
+        let (b, n) = (self.b, self.cells);
+        let mut h_prev = vec![0f32; self.t * b * n];
+        let mut c_prev = vec![0f32; self.t * b * n];
+        for s in 0..self.t {
+            for j in 0..b {
+                let row = s * b + j;
+                let keep = self.keep[row];
+                let dst = row * n..(row + 1) * n;
+                let (h, c) = if s == 0 {
+                    (&self.h0[j * n..(j + 1) * n], &self.c0[j * n..(j + 1) * n])
+                } else {
+                    let src = (row - b) * 2 * n;
+                    (&hc[src..src + n], &hc[src + n..src + 2 * n])
+                };
+                for ((d, &v), (e, &w)) in h_prev[dst.clone()]
+                    .iter_mut()
+                    .zip(h)
+                    .zip(c_prev[dst].iter_mut().zip(c))
+                {
+                    *d = keep * v;
+                    *e = keep * w;
+                }
+            }
+        }
+        (h_prev, c_prev)
+    }
+}
+
+impl CustomOp2 for Recurrence {
+    fn name(&self) -> &'static str {
+        "lstm-recurrence"
+    }
+
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+    ) -> Result<(CpuStorage, Shape)> {
+        let (CpuStorage::F32(xp), CpuStorage::F32(w)) = (s1, s2) else {
+            return Err(candle_core::Error::UnsupportedDTypeForOp(
+                s1.dtype(),
+                "lstm-recurrence",
+            ));
+        };
+        let (Some((xl, xh)), Some((wl, wh))) = (l1.contiguous_offsets(), l2.contiguous_offsets())
+        else {
+            candle_core::bail!("lstm-recurrence needs contiguous inputs");
+        };
+        let (xp, w) = (&xp[xl..xh], &w[wl..wh]);
+        let (b, n) = (self.b, self.cells);
+        let w_t = Tensor::from_slice(w, (4 * n, n), &Device::Cpu)?
+            .t()?
+            .contiguous()?;
+        let mut out = vec![0f32; self.t * b * 2 * n];
+        let mut h = vec![0f32; b * n];
+        let mut c = vec![0f32; b * n];
+        for s in 0..self.t {
+            for j in 0..b {
+                let row = s * b + j;
+                let keep = self.keep[row];
+                for k in 0..n {
+                    let (hv, cv) = if s == 0 {
+                        (self.h0[j * n + k], self.c0[j * n + k])
+                    } else {
+                        let src = (row - b) * 2 * n;
+                        (out[src + k], out[src + n + k])
+                    };
+                    h[j * n + k] = keep * hv;
+                    c[j * n + k] = keep * cv;
+                }
+            }
+            let mut a = matmul(&h, b, n, &w_t)?;
+            for j in 0..b {
+                let row = s * b + j;
+                let ar = &mut a[j * 4 * n..(j + 1) * 4 * n];
+                for (v, &x) in ar.iter_mut().zip(&xp[row * 4 * n..(row + 1) * 4 * n]) {
+                    *v += x;
+                }
+                let dst = row * 2 * n;
+                for k in 0..n {
+                    let (i, f, g, o) = gates(ar, n, k);
+                    let c2 = f * c[j * n + k] + i * g;
+                    out[dst + k] = o * fast_tanh(c2);
+                    out[dst + n + k] = c2;
+                }
+            }
+        }
+        Ok((CpuStorage::F32(out), Shape::from((self.t * b, 2 * n))))
+    }
+
+    fn bwd(
+        &self,
+        xp: &Tensor,
+        w_hh: &Tensor,
+        res: &Tensor,
+        grad_res: &Tensor,
+    ) -> Result<(Option<Tensor>, Option<Tensor>)> {
+        let (b, n, t) = (self.b, self.cells, self.t);
+        let hc: Vec<f32> = res.flatten_all()?.to_vec1()?;
+        let grad: Vec<f32> = grad_res.flatten_all()?.to_vec1()?;
+        let (h_prev, c_prev) = self.previous_states(&hc);
+        let w = w_hh.contiguous()?;
+        // Gate pre-activations of every step at once: xp + h₋ W_hhᵀ.
+        let hp = Tensor::from_slice(&h_prev, (t * b, n), xp.device())?;
+        let pre: Vec<f32> = (xp + hp.matmul(&w.t()?)?)?.flatten_all()?.to_vec1()?;
+        let mut da = vec![0f32; t * b * 4 * n];
+        let mut dh_carry = vec![0f32; b * n];
+        let mut dc_carry = vec![0f32; b * n];
+        let mut dc_prev = vec![0f32; b * n];
+        for s in (0..t).rev() {
+            for j in 0..b {
+                let row = s * b + j;
+                let a = &pre[row * 4 * n..(row + 1) * 4 * n];
+                let d = &mut da[row * 4 * n..(row + 1) * 4 * n];
+                for k in 0..n {
+                    let (i, f, g, o) = gates(a, n, k);
+                    let c = hc[row * 2 * n + n + k];
+                    let tc = fast_tanh(c);
+                    let dh = grad[row * 2 * n + k] + dh_carry[j * n + k];
+                    let dc = grad[row * 2 * n + n + k]
+                        + dc_carry[j * n + k]
+                        + dh * o * (1.0 - tc * tc);
+                    d[k] = dc * g * i * (1.0 - i);
+                    d[n + k] = dc * c_prev[row * n + k] * f * (1.0 - f);
+                    d[2 * n + k] = dc * i * (1.0 - g * g);
+                    d[3 * n + k] = dh * tc * o * (1.0 - o);
+                    dc_prev[j * n + k] = dc * f;
+                }
+            }
+            if self.cut_before(s) {
+                dh_carry.fill(0.0);
+                dc_carry.fill(0.0);
+                continue;
+            }
+            let dh_prev = matmul(&da[s * b * 4 * n..(s + 1) * b * 4 * n], b, 4 * n, &w)?;
+            for j in 0..b {
+                let keep = self.keep[s * b + j];
+                for k in 0..n {
+                    dh_carry[j * n + k] = keep * dh_prev[j * n + k];
+                    dc_carry[j * n + k] = keep * dc_prev[j * n + k];
+                }
+            }
+        }
+        let da = Tensor::from_vec(da, (t * b, 4 * n), xp.device())?;
+        let dw = da.t()?.matmul(&hp)?;
+        Ok((Some(da), Some(dw)))
+    }
+}
