@@ -20,9 +20,9 @@
 //!   δxp_s = δa           δW_hh += δaᵀ h₋        δh₋ = δa W_hh        δc₋ = δc·f
 //! ```
 //!
-//! The gate pre-activations are recomputed in the backward pass from the
-//! saved states with one matrix product over all steps (nothing but `h`
-//! and `c` is kept between the passes).
+//! The forward pass keeps each step's gate activations beside `h` and `c`
+//! for the backward pass, which therefore needs one matrix product per
+//! step (`δa W_hh`) and one over all steps (`δW_hh`).
 //!
 //! The state is reset (multiplied by `keep`, 0 at an episode start) before
 //! a step, and gradients stop every `max_seq_len` steps (truncated BPTT,
@@ -117,7 +117,8 @@ pub fn sequence(
     })
 }
 
-/// The fused op: output `[t·b, 2·cells]`, each row `h | c` after its step.
+/// The fused op: output `[t·b, 6·cells]`, each row `h | c | i f g o` after
+/// its step (the gate activations are kept for the backward pass).
 struct Recurrence {
     h0: Vec<f32>,
     c0: Vec<f32>,
@@ -128,18 +129,23 @@ struct Recurrence {
     max_seq_len: usize,
 }
 
-/// The four gate activations of one cell from its pre-activations.
-#[inline(always)]
-fn gates(a: &[f32], n: usize, k: usize) -> (f32, f32, f32, f32) {
-    (
-        sigmoid(a[k]),
-        sigmoid(a[n + k]),
-        fast_tanh(a[2 * n + k]),
-        sigmoid(a[3 * n + k]),
-    )
+/// Width of an output row per cell: `h`, `c` and the four gates.
+const ROW: usize = 6;
+
+/// Gate pre-activations `a = [a_i a_f a_g a_o]` to activations in place:
+/// σ, σ, tanh, σ (separate passes over contiguous blocks, so they vectorise).
+fn activate(a: &mut [f32], n: usize) {
+    let (ifg, o) = a.split_at_mut(3 * n);
+    let (i_f, g) = ifg.split_at_mut(2 * n);
+    for v in i_f.iter_mut().chain(o.iter_mut()) {
+        *v = sigmoid(*v);
+    }
+    for v in g.iter_mut() {
+        *v = fast_tanh(*v);
+    }
 }
 
-/// `a [m, k] · b` for a contiguous `b [k, p]` (candle's CPU matrix product).
+/// `a [m, k] · b` for `b [k, p]` (candle's CPU matrix product).
 fn matmul(a: &[f32], m: usize, k: usize, b: &Tensor) -> Result<Vec<f32>> {
     Tensor::from_slice(a, (m, k), &Device::Cpu)?
         .matmul(b)?
@@ -153,34 +159,24 @@ impl Recurrence {
         s == 0 || (self.max_seq_len > 0 && s % self.max_seq_len == 0)
     }
 
-    /// The state before each step (after the reset), `[t·b, cells]` each,
-    /// from the outputs `hc [t·b, 2·cells]`.
-    fn previous_states(&self, hc: &[f32]) -> (Vec<f32>, Vec<f32>) {
-        let (b, n) = (self.b, self.cells);
-        let mut h_prev = vec![0f32; self.t * b * n];
-        let mut c_prev = vec![0f32; self.t * b * n];
-        for s in 0..self.t {
-            for j in 0..b {
-                let row = s * b + j;
-                let keep = self.keep[row];
-                let dst = row * n..(row + 1) * n;
-                let (h, c) = if s == 0 {
-                    (&self.h0[j * n..(j + 1) * n], &self.c0[j * n..(j + 1) * n])
-                } else {
-                    let src = (row - b) * 2 * n;
-                    (&hc[src..src + n], &hc[src + n..src + 2 * n])
-                };
-                for ((d, &v), (e, &w)) in h_prev[dst.clone()]
-                    .iter_mut()
-                    .zip(h)
-                    .zip(c_prev[dst].iter_mut().zip(c))
-                {
-                    *d = keep * v;
-                    *e = keep * w;
-                }
-            }
+    /// Writes the state before step `s` of row `j` (after the reset) into
+    /// `h, c [cells]`, from the outputs so far.
+    fn state_before(&self, out: &[f32], s: usize, j: usize, h: &mut [f32], c: &mut [f32]) {
+        let n = self.cells;
+        let row = s * self.b + j;
+        let keep = self.keep[row];
+        let (hs, cs) = if s == 0 {
+            (&self.h0[j * n..(j + 1) * n], &self.c0[j * n..(j + 1) * n])
+        } else {
+            let src = (row - self.b) * ROW * n;
+            (&out[src..src + n], &out[src + n..src + 2 * n])
+        };
+        for (d, &v) in h.iter_mut().zip(hs) {
+            *d = keep * v;
         }
-        (h_prev, c_prev)
+        for (d, &v) in c.iter_mut().zip(cs) {
+            *d = keep * v;
+        }
     }
 }
 
@@ -208,44 +204,40 @@ impl CustomOp2 for Recurrence {
         };
         let (xp, w) = (&xp[xl..xh], &w[wl..wh]);
         let (b, n) = (self.b, self.cells);
-        let w_t = Tensor::from_slice(w, (4 * n, n), &Device::Cpu)?
-            .t()?
-            .contiguous()?;
-        let mut out = vec![0f32; self.t * b * 2 * n];
+        // W_hhᵀ as a transposed view: the matrix product reads it in place.
+        let w_t = Tensor::from_slice(w, (4 * n, n), &Device::Cpu)?.t()?;
+        let mut out = vec![0f32; self.t * b * ROW * n];
         let mut h = vec![0f32; b * n];
         let mut c = vec![0f32; b * n];
         for s in 0..self.t {
             for j in 0..b {
-                let row = s * b + j;
-                let keep = self.keep[row];
-                for k in 0..n {
-                    let (hv, cv) = if s == 0 {
-                        (self.h0[j * n + k], self.c0[j * n + k])
-                    } else {
-                        let src = (row - b) * 2 * n;
-                        (out[src + k], out[src + n + k])
-                    };
-                    h[j * n + k] = keep * hv;
-                    c[j * n + k] = keep * cv;
-                }
+                let (hj, cj) = (&mut h[j * n..(j + 1) * n], &mut c[j * n..(j + 1) * n]);
+                self.state_before(&out, s, j, hj, cj);
             }
-            let mut a = matmul(&h, b, n, &w_t)?;
+            let a = matmul(&h, b, n, &w_t)?;
             for j in 0..b {
                 let row = s * b + j;
-                let ar = &mut a[j * 4 * n..(j + 1) * 4 * n];
-                for (v, &x) in ar.iter_mut().zip(&xp[row * 4 * n..(row + 1) * 4 * n]) {
-                    *v += x;
+                let o = &mut out[row * ROW * n..(row + 1) * ROW * n];
+                let (hc, gates) = o.split_at_mut(2 * n);
+                for ((g, &p), &x) in gates
+                    .iter_mut()
+                    .zip(&a[j * 4 * n..(j + 1) * 4 * n])
+                    .zip(&xp[row * 4 * n..(row + 1) * 4 * n])
+                {
+                    *g = p + x;
                 }
-                let dst = row * 2 * n;
+                activate(gates, n);
+                let (i, rest) = gates.split_at(n);
+                let (f, rest) = rest.split_at(n);
+                let (g, o) = rest.split_at(n);
+                let (h2, c2) = hc.split_at_mut(n);
                 for k in 0..n {
-                    let (i, f, g, o) = gates(ar, n, k);
-                    let c2 = f * c[j * n + k] + i * g;
-                    out[dst + k] = o * fast_tanh(c2);
-                    out[dst + n + k] = c2;
+                    c2[k] = f[k] * c[j * n + k] + i[k] * g[k];
+                    h2[k] = o[k] * fast_tanh(c2[k]);
                 }
             }
         }
-        Ok((CpuStorage::F32(out), Shape::from((self.t * b, 2 * n))))
+        Ok((CpuStorage::F32(out), Shape::from((self.t * b, ROW * n))))
     }
 
     fn bwd(
@@ -256,13 +248,11 @@ impl CustomOp2 for Recurrence {
         grad_res: &Tensor,
     ) -> Result<(Option<Tensor>, Option<Tensor>)> {
         let (b, n, t) = (self.b, self.cells, self.t);
-        let hc: Vec<f32> = res.flatten_all()?.to_vec1()?;
+        let out: Vec<f32> = res.flatten_all()?.to_vec1()?;
         let grad: Vec<f32> = grad_res.flatten_all()?.to_vec1()?;
-        let (h_prev, c_prev) = self.previous_states(&hc);
         let w = w_hh.contiguous()?;
-        // Gate pre-activations of every step at once: xp + h₋ W_hhᵀ.
-        let hp = Tensor::from_slice(&h_prev, (t * b, n), xp.device())?;
-        let pre: Vec<f32> = (xp + hp.matmul(&w.t()?)?)?.flatten_all()?.to_vec1()?;
+        let mut h_prev = vec![0f32; t * b * n];
+        let mut c_prev = vec![0f32; n];
         let mut da = vec![0f32; t * b * 4 * n];
         let mut dh_carry = vec![0f32; b * n];
         let mut dc_carry = vec![0f32; b * n];
@@ -270,21 +260,37 @@ impl CustomOp2 for Recurrence {
         for s in (0..t).rev() {
             for j in 0..b {
                 let row = s * b + j;
-                let a = &pre[row * 4 * n..(row + 1) * 4 * n];
+                self.state_before(
+                    &out,
+                    s,
+                    j,
+                    &mut h_prev[row * n..(row + 1) * n],
+                    &mut c_prev,
+                );
+                let o_row = &out[row * ROW * n..(row + 1) * ROW * n];
+                let g_row = &grad[row * ROW * n..(row + 1) * ROW * n];
+                let (c, gates) = (&o_row[n..2 * n], &o_row[2 * n..]);
+                let (i, f, g, o) = (
+                    &gates[..n],
+                    &gates[n..2 * n],
+                    &gates[2 * n..3 * n],
+                    &gates[3 * n..],
+                );
                 let d = &mut da[row * 4 * n..(row + 1) * 4 * n];
+                let (dhc, dcc, dcp) = (
+                    &dh_carry[j * n..(j + 1) * n],
+                    &dc_carry[j * n..(j + 1) * n],
+                    &mut dc_prev[j * n..(j + 1) * n],
+                );
                 for k in 0..n {
-                    let (i, f, g, o) = gates(a, n, k);
-                    let c = hc[row * 2 * n + n + k];
-                    let tc = fast_tanh(c);
-                    let dh = grad[row * 2 * n + k] + dh_carry[j * n + k];
-                    let dc = grad[row * 2 * n + n + k]
-                        + dc_carry[j * n + k]
-                        + dh * o * (1.0 - tc * tc);
-                    d[k] = dc * g * i * (1.0 - i);
-                    d[n + k] = dc * c_prev[row * n + k] * f * (1.0 - f);
-                    d[2 * n + k] = dc * i * (1.0 - g * g);
-                    d[3 * n + k] = dh * tc * o * (1.0 - o);
-                    dc_prev[j * n + k] = dc * f;
+                    let tc = fast_tanh(c[k]);
+                    let dh = g_row[k] + dhc[k];
+                    let dc = g_row[n + k] + dcc[k] + dh * o[k] * (1.0 - tc * tc);
+                    d[k] = dc * g[k] * i[k] * (1.0 - i[k]);
+                    d[n + k] = dc * c_prev[k] * f[k] * (1.0 - f[k]);
+                    d[2 * n + k] = dc * i[k] * (1.0 - g[k] * g[k]);
+                    d[3 * n + k] = dh * tc * o[k] * (1.0 - o[k]);
+                    dcp[k] = dc * f[k];
                 }
             }
             if self.cut_before(s) {
@@ -301,8 +307,9 @@ impl CustomOp2 for Recurrence {
                 }
             }
         }
-        let da = Tensor::from_vec(da, (t * b, 4 * n), xp.device())?;
-        let dw = da.t()?.matmul(&hp)?;
+        let dev = xp.device();
+        let da = Tensor::from_vec(da, (t * b, 4 * n), dev)?;
+        let dw = da.t()?.matmul(&Tensor::from_vec(h_prev, (t * b, n), dev)?)?;
         Ok((Some(da), Some(dw)))
     }
 }

@@ -23,6 +23,7 @@
 //! and statrs; the algorithm is this file.
 
 use rand::Rng;
+use rand_chacha::ChaCha8Rng;
 
 use crate::overrides::Overrides;
 use crate::sampler::{trial_rng, Observed, RandomSampler, Sampler};
@@ -94,23 +95,78 @@ impl Sampler for TpeSampler {
         good.sort_by_key(|(t, _)| *t);
         bad.sort_by_key(|(t, _)| *t);
         let mut rng = trial_rng(self.seed, index);
-        let mut out = Overrides::new();
-        for p in space.params() {
-            let coords = |set: &[(usize, &Observed)]| -> Vec<f64> {
-                set.iter()
-                    .filter_map(|(_, o)| {
-                        o.overrides.get(&p.key).and_then(|v| p.domain.coordinate(v))
-                    })
-                    .collect()
-            };
-            let (g, b) = (coords(good), coords(bad));
-            let x = match p.domain {
-                Domain::Choice(ref list) => self.categorical(list.len(), &g, &b, &mut rng),
-                _ => self.numeric(&p.domain, &g, &b, &mut rng),
-            };
-            out.insert(p.key.clone(), p.domain.value_at(x));
+        let models: Vec<(&crate::space::Param, Model)> = space
+            .params()
+            .iter()
+            .map(|p| {
+                let coords = |set: &[(usize, &Observed)]| -> Vec<f64> {
+                    set.iter()
+                        .filter_map(|(_, o)| {
+                            o.overrides.get(&p.key).and_then(|v| p.domain.coordinate(v))
+                        })
+                        .collect()
+                };
+                (p, self.model(&p.domain, &coords(good), &coords(bad)))
+            })
+            .collect();
+        let propose = |rng: &mut ChaCha8Rng, best_of: usize| -> Overrides {
+            models
+                .iter()
+                .map(|(p, m)| (p.key.clone(), p.domain.value_at(m.propose(best_of, rng))))
+                .collect()
+        };
+        let mut out = propose(&mut rng, self.candidates.max(1));
+        // On a small discrete space the best ℓ/g ratio names the same
+        // configuration trial after trial; a configuration already measured
+        // is redrawn from ℓ alone (still the good trials' neighbourhood), so
+        // the budget goes to configurations not yet seen.
+        for _ in 0..REDRAWS {
+            if !history.iter().any(|o| o.overrides == out) {
+                break;
+            }
+            out = propose(&mut rng, 1);
         }
         Some(out)
+    }
+}
+
+/// Redraws of a proposal that repeats a measured configuration.
+const REDRAWS: usize = 32;
+
+/// One parameter's densities ℓ (good trials) and g (the rest).
+enum Model {
+    Choice { l: Vec<f64>, g: Vec<f64> },
+    Numeric { l: Parzen, g: Parzen, mid: f64 },
+}
+
+impl Model {
+    /// The internal coordinate with the largest ℓ/g among `best_of` draws
+    /// from ℓ (one draw: a plain sample of ℓ).
+    fn propose<R: Rng>(&self, best_of: usize, rng: &mut R) -> f64 {
+        match self {
+            Model::Choice { l, g } => {
+                let mut best = (f64::NEG_INFINITY, 0usize);
+                for _ in 0..best_of {
+                    let c = draw_index(l, rng);
+                    let ratio = l[c].ln() - g[c].ln();
+                    if ratio > best.0 {
+                        best = (ratio, c);
+                    }
+                }
+                best.1 as f64
+            }
+            Model::Numeric { l, g, mid } => {
+                let mut best = (f64::NEG_INFINITY, *mid);
+                for _ in 0..best_of {
+                    let c = l.sample(rng);
+                    let ratio = l.log_pdf(c) - g.log_pdf(c);
+                    if ratio > best.0 {
+                        best = (ratio, c);
+                    }
+                }
+                best.1
+            }
+        }
     }
 }
 
@@ -139,45 +195,39 @@ fn forgetting_weights(n: usize) -> Vec<f64> {
 const FORGET_AFTER: usize = 25;
 
 impl TpeSampler {
-    fn categorical<R: Rng>(&self, k: usize, good: &[f64], bad: &[f64], rng: &mut R) -> f64 {
-        let probs = |obs: &[f64]| -> Vec<f64> {
-            let mut w = vec![self.prior_weight; k];
-            for (&x, f) in obs.iter().zip(forgetting_weights(obs.len())) {
-                w[(x.round() as usize).min(k - 1)] += f;
+    /// ℓ and g of one parameter from the good and the other trials'
+    /// internal coordinates.
+    fn model(&self, domain: &Domain, good: &[f64], bad: &[f64]) -> Model {
+        match domain {
+            Domain::Choice(list) => {
+                let k = list.len();
+                let probs = |obs: &[f64]| -> Vec<f64> {
+                    let mut w = vec![self.prior_weight; k];
+                    for (&x, f) in obs.iter().zip(forgetting_weights(obs.len())) {
+                        w[(x.round() as usize).min(k - 1)] += f;
+                    }
+                    let total: f64 = w.iter().sum();
+                    w.iter().map(|c| c / total).collect()
+                };
+                Model::Choice {
+                    l: probs(good),
+                    g: probs(bad),
+                }
             }
-            let total: f64 = w.iter().sum();
-            w.iter().map(|c| c / total).collect()
-        };
-        let (l, g) = (probs(good), probs(bad));
-        let mut best = (f64::NEG_INFINITY, 0usize);
-        for _ in 0..self.candidates.max(1) {
-            let c = draw_index(&l, rng);
-            let ratio = l[c].ln() - g[c].ln();
-            if ratio > best.0 {
-                best = (ratio, c);
-            }
-        }
-        best.1 as f64
-    }
-
-    fn numeric<R: Rng>(&self, domain: &Domain, good: &[f64], bad: &[f64], rng: &mut R) -> f64 {
-        let (mut lo, mut hi) = domain.internal_bounds();
-        if matches!(domain, Domain::Int { .. }) {
-            // Each lattice point owns the unit interval around it.
-            lo -= 0.5;
-            hi += 0.5;
-        }
-        let l = Parzen::fit(good, lo, hi, self.prior_weight);
-        let g = Parzen::fit(bad, lo, hi, self.prior_weight);
-        let mut best = (f64::NEG_INFINITY, (lo + hi) / 2.0);
-        for _ in 0..self.candidates.max(1) {
-            let c = l.sample(rng);
-            let ratio = l.log_pdf(c) - g.log_pdf(c);
-            if ratio > best.0 {
-                best = (ratio, c);
+            _ => {
+                let (mut lo, mut hi) = domain.internal_bounds();
+                if matches!(domain, Domain::Int { .. }) {
+                    // Each lattice point owns the unit interval around it.
+                    lo -= 0.5;
+                    hi += 0.5;
+                }
+                Model::Numeric {
+                    l: Parzen::fit(good, lo, hi, self.prior_weight),
+                    g: Parzen::fit(bad, lo, hi, self.prior_weight),
+                    mid: (lo + hi) / 2.0,
+                }
             }
         }
-        best.1
     }
 }
 
@@ -285,6 +335,35 @@ fn standard_normal<R: Rng>(rng: &mut R) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn measured_configurations_are_not_proposed_again_while_others_remain() {
+        // 12 configurations; the best ℓ/g ratio alone would name the
+        // neighbourhood of the best one again and again.
+        let space =
+            SearchSpace::from_toml_str("a = { choice = [0, 1, 2] }\nb = { choice = [0, 1, 2, 3] }")
+                .unwrap();
+        let tpe = TpeSampler {
+            startup: 2,
+            ..TpeSampler::new(3)
+        };
+        let mut history: Vec<Observed> = Vec::new();
+        for i in 0..10 {
+            let c = tpe.suggest(&space, i, &history).unwrap();
+            if i >= 2 {
+                assert!(
+                    history.iter().all(|o| o.overrides != c),
+                    "trial {i} repeats {c:?}"
+                );
+            }
+            let (a, b) = (c["a"].as_integer().unwrap(), c["b"].as_integer().unwrap());
+            let objective = -((a - 2).pow(2) + (b - 3).pow(2)) as f64;
+            history.push(Observed {
+                overrides: c,
+                objective,
+            });
+        }
+    }
 
     #[test]
     fn parzen_density_integrates_to_one_on_the_range() {
