@@ -29,9 +29,7 @@
 //! RLlib's `max_seq_len`), exactly as the step-by-step unroll did; the
 //! tests check both against that unroll and against finite differences.
 
-use candle_core::{
-    backend::BackendStorage, CpuStorage, CustomOp2, Device, Layout, Result, Shape, Tensor,
-};
+use candle_core::{backend::BackendStorage, CpuStorage, CustomOp2, Layout, Result, Shape, Tensor};
 
 use crate::activation::fast_tanh;
 
@@ -145,12 +143,97 @@ fn activate(a: &mut [f32], n: usize) {
     }
 }
 
-/// `a [m, k] · b` for `b [k, p]` (candle's CPU matrix product).
-fn matmul(a: &[f32], m: usize, k: usize, b: &Tensor) -> Result<Vec<f32>> {
-    Tensor::from_slice(a, (m, k), &Device::Cpu)?
-        .matmul(b)?
-        .flatten_all()?
-        .to_vec1()
+/// A matrix operand: a row-major slice, read as stored or transposed.
+#[derive(Clone, Copy)]
+struct Operand<'a> {
+    data: &'a [f32],
+    rows: usize,
+    cols: usize,
+    transposed: bool,
+}
+
+impl<'a> Operand<'a> {
+    /// `data` as a row-major `[rows, cols]` matrix.
+    fn new(data: &'a [f32], rows: usize, cols: usize) -> Self {
+        Self {
+            data,
+            rows,
+            cols,
+            transposed: false,
+        }
+    }
+
+    /// The transpose, read in place.
+    fn t(self) -> Self {
+        Self {
+            transposed: !self.transposed,
+            ..self
+        }
+    }
+
+    /// Shape as read.
+    fn shape(&self) -> (usize, usize) {
+        if self.transposed {
+            (self.cols, self.rows)
+        } else {
+            (self.rows, self.cols)
+        }
+    }
+
+    /// (column stride, row stride) as read.
+    fn strides(&self) -> (isize, isize) {
+        let ld = self.cols as isize;
+        if self.transposed {
+            (ld, 1)
+        } else {
+            (1, ld)
+        }
+    }
+}
+
+/// `dst [m, n] = a · b`, or `dst += a · b` when `accumulate`: the `gemm`
+/// crate (candle's CPU kernels) on slices, single-threaded (the learner
+/// splits work across threads itself).
+fn matmul(dst: &mut [f32], accumulate: bool, a: Operand, b: Operand) -> Result<()> {
+    let ((m, k), (k2, n)) = (a.shape(), b.shape());
+    if k != k2
+        || dst.len() != m * n
+        || a.data.len() != a.rows * a.cols
+        || b.data.len() != b.rows * b.cols
+    {
+        candle_core::bail!(
+            "lstm: cannot multiply [{m}, {k}] by [{k2}, {n}] into {} values",
+            dst.len()
+        );
+    }
+    let ((a_cs, a_rs), (b_cs, b_rs)) = (a.strides(), b.strides());
+    // SAFETY: the checks above keep every index gemm computes from these
+    // shapes and strides inside the three slices; `dst` is borrowed
+    // mutably, so it aliases neither operand.
+    unsafe {
+        gemm::gemm(
+            m,
+            n,
+            k,
+            dst.as_mut_ptr(),
+            1,
+            n as isize,
+            accumulate,
+            a.data.as_ptr(),
+            a_cs,
+            a_rs,
+            b.data.as_ptr(),
+            b_cs,
+            b_rs,
+            1.0,
+            1.0,
+            false,
+            false,
+            false,
+            gemm::Parallelism::None,
+        );
+    }
+    Ok(())
 }
 
 impl Recurrence {
@@ -204,28 +287,24 @@ impl CustomOp2 for Recurrence {
         };
         let (xp, w) = (&xp[xl..xh], &w[wl..wh]);
         let (b, n) = (self.b, self.cells);
-        // W_hhᵀ as a transposed view: the matrix product reads it in place.
-        let w_t = Tensor::from_slice(w, (4 * n, n), &Device::Cpu)?.t()?;
+        let w_t = Operand::new(w, 4 * n, n).t();
         let mut out = vec![0f32; self.t * b * ROW * n];
         let mut h = vec![0f32; b * n];
         let mut c = vec![0f32; b * n];
+        let mut a = vec![0f32; b * 4 * n];
         for s in 0..self.t {
             for j in 0..b {
                 let (hj, cj) = (&mut h[j * n..(j + 1) * n], &mut c[j * n..(j + 1) * n]);
                 self.state_before(&out, s, j, hj, cj);
             }
-            let a = matmul(&h, b, n, &w_t)?;
+            // a = xp_s + h₋ W_hhᵀ
+            a.copy_from_slice(&xp[s * b * 4 * n..(s + 1) * b * 4 * n]);
+            matmul(&mut a, true, Operand::new(&h, b, n), w_t)?;
             for j in 0..b {
                 let row = s * b + j;
                 let o = &mut out[row * ROW * n..(row + 1) * ROW * n];
                 let (hc, gates) = o.split_at_mut(2 * n);
-                for ((g, &p), &x) in gates
-                    .iter_mut()
-                    .zip(&a[j * 4 * n..(j + 1) * 4 * n])
-                    .zip(&xp[row * 4 * n..(row + 1) * 4 * n])
-                {
-                    *g = p + x;
-                }
+                gates.copy_from_slice(&a[j * 4 * n..(j + 1) * 4 * n]);
                 activate(gates, n);
                 let (i, rest) = gates.split_at(n);
                 let (f, rest) = rest.split_at(n);
@@ -250,7 +329,8 @@ impl CustomOp2 for Recurrence {
         let (b, n, t) = (self.b, self.cells, self.t);
         let out: Vec<f32> = res.flatten_all()?.to_vec1()?;
         let grad: Vec<f32> = grad_res.flatten_all()?.to_vec1()?;
-        let w = w_hh.contiguous()?;
+        let w: Vec<f32> = w_hh.flatten_all()?.to_vec1()?;
+        let mut dh_prev = vec![0f32; b * n];
         let mut h_prev = vec![0f32; t * b * n];
         let mut c_prev = vec![0f32; n];
         let mut da = vec![0f32; t * b * 4 * n];
@@ -298,7 +378,9 @@ impl CustomOp2 for Recurrence {
                 dc_carry.fill(0.0);
                 continue;
             }
-            let dh_prev = matmul(&da[s * b * 4 * n..(s + 1) * b * 4 * n], b, 4 * n, &w)?;
+            // δh₋ = δa W_hh
+            let da_s = Operand::new(&da[s * b * 4 * n..(s + 1) * b * 4 * n], b, 4 * n);
+            matmul(&mut dh_prev, false, da_s, Operand::new(&w, 4 * n, n))?;
             for j in 0..b {
                 let keep = self.keep[s * b + j];
                 for k in 0..n {
@@ -307,9 +389,18 @@ impl CustomOp2 for Recurrence {
                 }
             }
         }
+        // δW_hh = Σ_s δa_sᵀ h₋_s, one product over all steps.
+        let mut dw = vec![0f32; 4 * n * n];
+        matmul(
+            &mut dw,
+            false,
+            Operand::new(&da, t * b, 4 * n).t(),
+            Operand::new(&h_prev, t * b, n),
+        )?;
         let dev = xp.device();
-        let da = Tensor::from_vec(da, (t * b, 4 * n), dev)?;
-        let dw = da.t()?.matmul(&Tensor::from_vec(h_prev, (t * b, n), dev)?)?;
-        Ok((Some(da), Some(dw)))
+        Ok((
+            Some(Tensor::from_vec(da, (t * b, 4 * n), dev)?),
+            Some(Tensor::from_vec(dw, (4 * n, n), dev)?),
+        ))
     }
 }
