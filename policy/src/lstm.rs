@@ -20,14 +20,17 @@
 //!   δxp_s = δa           δW_hh += δaᵀ h₋        δh₋ = δa W_hh        δc₋ = δc·f
 //! ```
 //!
-//! The forward pass keeps each step's gate activations beside `h` and `c`
-//! for the backward pass, which therefore needs one matrix product per
-//! step (`δa W_hh`) and one over all steps (`δW_hh`).
+//! The op's output is `h` alone; the forward pass keeps `c` and each
+//! step's gate activations beside the op for the backward pass, which
+//! therefore needs one matrix product per step (`δa W_hh`) and one over
+//! all steps (`δW_hh`).
 //!
 //! The state is reset (multiplied by `keep`, 0 at an episode start) before
 //! a step, and gradients stop every `max_seq_len` steps (truncated BPTT,
 //! RLlib's `max_seq_len`), exactly as the step-by-step unroll did; the
 //! tests check both against that unroll and against finite differences.
+
+use std::sync::{Arc, Mutex};
 
 use candle_core::{backend::BackendStorage, CpuStorage, CustomOp2, Layout, Result, Shape, Tensor};
 
@@ -99,6 +102,7 @@ pub fn sequence(
             c0.dims()
         );
     }
+    let saved = Arc::new(Mutex::new(Saved::default()));
     let op = Recurrence {
         h0: h0.flatten_all()?.to_vec1()?,
         c0: c0.flatten_all()?.to_vec1()?,
@@ -107,16 +111,18 @@ pub fn sequence(
         b,
         cells,
         max_seq_len,
+        saved: saved.clone(),
     };
-    let out = xp.contiguous()?.apply_op2(&w_hh.contiguous()?, op)?;
-    Ok(LstmSequence {
-        h: out.narrow(1, 0, cells)?,
-        c: out.narrow(1, cells, cells)?.detach(),
-    })
+    let h = xp.contiguous()?.apply_op2(&w_hh.contiguous()?, op)?;
+    let c = Tensor::from_slice(&lock(&saved)?.c, (rows, cells), xp.device())?;
+    Ok(LstmSequence { h, c })
 }
 
-/// The fused op: output `[t·b, 6·cells]`, each row `h | c | i f g o` after
-/// its step (the gate activations are kept for the backward pass).
+/// The fused op: its output is `h` after each step, `[t·b, cells]`; `c`
+/// and the gate activations of each step go to [`Saved`], where the
+/// backward pass (and [`sequence`], for `c`) reads them. Only `h` is an
+/// output so that nothing else enters the autograd graph: no narrowing of
+/// a wider output, no zero-padded gradients for the parts nobody uses.
 struct Recurrence {
     h0: Vec<f32>,
     c0: Vec<f32>,
@@ -125,10 +131,23 @@ struct Recurrence {
     b: usize,
     cells: usize,
     max_seq_len: usize,
+    saved: Arc<Mutex<Saved>>,
 }
 
-/// Width of an output row per cell: `h`, `c` and the four gates.
-const ROW: usize = 6;
+/// What the forward pass keeps beside its output.
+#[derive(Default)]
+struct Saved {
+    /// `c` after each step, `[t·b, cells]`.
+    c: Vec<f32>,
+    /// Gate activations `i f g o` of each step, `[t·b, 4·cells]`.
+    gates: Vec<f32>,
+}
+
+fn lock(saved: &Mutex<Saved>) -> Result<std::sync::MutexGuard<'_, Saved>> {
+    saved
+        .lock()
+        .map_err(|_| candle_core::Error::Msg("lstm: saved states poisoned by a panic".into()))
+}
 
 /// Gate pre-activations `a = [a_i a_f a_g a_o]` to activations in place:
 /// σ, σ, tanh, σ (separate passes over contiguous blocks, so they vectorise).
@@ -243,21 +262,21 @@ impl Recurrence {
     }
 
     /// Writes the state before step `s` of row `j` (after the reset) into
-    /// `h, c [cells]`, from the outputs so far.
-    fn state_before(&self, out: &[f32], s: usize, j: usize, h: &mut [f32], c: &mut [f32]) {
+    /// `h, c [cells]`, from the states `hs, cs [t·b, cells]` so far.
+    fn state_before(&self, (hs, cs): (&[f32], &[f32]), s: usize, j: usize, h: &mut [f32], c: &mut [f32]) {
         let n = self.cells;
         let row = s * self.b + j;
         let keep = self.keep[row];
-        let (hs, cs) = if s == 0 {
+        let (hv, cv) = if s == 0 {
             (&self.h0[j * n..(j + 1) * n], &self.c0[j * n..(j + 1) * n])
         } else {
-            let src = (row - self.b) * ROW * n;
-            (&out[src..src + n], &out[src + n..src + 2 * n])
+            let src = (row - self.b) * n;
+            (&hs[src..src + n], &cs[src..src + n])
         };
-        for (d, &v) in h.iter_mut().zip(hs) {
+        for (d, &v) in h.iter_mut().zip(hv) {
             *d = keep * v;
         }
-        for (d, &v) in c.iter_mut().zip(cs) {
+        for (d, &v) in c.iter_mut().zip(cv) {
             *d = keep * v;
         }
     }
@@ -288,35 +307,41 @@ impl CustomOp2 for Recurrence {
         let (xp, w) = (&xp[xl..xh], &w[wl..wh]);
         let (b, n) = (self.b, self.cells);
         let w_t = Operand::new(w, 4 * n, n).t();
-        let mut out = vec![0f32; self.t * b * ROW * n];
+        let rows = self.t * b;
+        let mut hs = vec![0f32; rows * n];
+        let mut cs = vec![0f32; rows * n];
+        let mut gates = vec![0f32; rows * 4 * n];
         let mut h = vec![0f32; b * n];
         let mut c = vec![0f32; b * n];
-        let mut a = vec![0f32; b * 4 * n];
         for s in 0..self.t {
             for j in 0..b {
                 let (hj, cj) = (&mut h[j * n..(j + 1) * n], &mut c[j * n..(j + 1) * n]);
-                self.state_before(&out, s, j, hj, cj);
+                self.state_before((&hs, &cs), s, j, hj, cj);
             }
-            // a = xp_s + h₋ W_hhᵀ
+            // a = xp_s + h₋ W_hhᵀ, activated in place.
+            let a = &mut gates[s * b * 4 * n..(s + 1) * b * 4 * n];
             a.copy_from_slice(&xp[s * b * 4 * n..(s + 1) * b * 4 * n]);
-            matmul(&mut a, true, Operand::new(&h, b, n), w_t)?;
+            matmul(a, true, Operand::new(&h, b, n), w_t)?;
             for j in 0..b {
                 let row = s * b + j;
-                let o = &mut out[row * ROW * n..(row + 1) * ROW * n];
-                let (hc, gates) = o.split_at_mut(2 * n);
-                gates.copy_from_slice(&a[j * 4 * n..(j + 1) * 4 * n]);
-                activate(gates, n);
-                let (i, rest) = gates.split_at(n);
+                let act = &mut a[j * 4 * n..(j + 1) * 4 * n];
+                activate(act, n);
+                let (i, rest) = act.split_at(n);
                 let (f, rest) = rest.split_at(n);
                 let (g, o) = rest.split_at(n);
-                let (h2, c2) = hc.split_at_mut(n);
-                for k in 0..n {
-                    c2[k] = f[k] * c[j * n + k] + i[k] * g[k];
-                    h2[k] = o[k] * fast_tanh(c2[k]);
+                let c2 = &mut cs[row * n..(row + 1) * n];
+                for ((((c2, &cp), &i), &f), &g) in
+                    c2.iter_mut().zip(&c[j * n..(j + 1) * n]).zip(i).zip(f).zip(g)
+                {
+                    *c2 = f * cp + i * g;
+                }
+                for ((h2, &c2), &o) in hs[row * n..(row + 1) * n].iter_mut().zip(&*c2).zip(o) {
+                    *h2 = o * fast_tanh(c2);
                 }
             }
         }
-        Ok((CpuStorage::F32(out), Shape::from((self.t * b, ROW * n))))
+        *lock(&self.saved)? = Saved { c: cs, gates };
+        Ok((CpuStorage::F32(hs), Shape::from((rows, n))))
     }
 
     fn bwd(
@@ -327,8 +352,10 @@ impl CustomOp2 for Recurrence {
         grad_res: &Tensor,
     ) -> Result<(Option<Tensor>, Option<Tensor>)> {
         let (b, n, t) = (self.b, self.cells, self.t);
-        let out: Vec<f32> = res.flatten_all()?.to_vec1()?;
+        let hs: Vec<f32> = res.flatten_all()?.to_vec1()?;
         let grad: Vec<f32> = grad_res.flatten_all()?.to_vec1()?;
+        let saved = lock(&self.saved)?;
+        let (cs, gates) = (&saved.c, &saved.gates);
         let w: Vec<f32> = w_hh.flatten_all()?.to_vec1()?;
         let mut dh_prev = vec![0f32; b * n];
         let mut h_prev = vec![0f32; t * b * n];
@@ -341,20 +368,20 @@ impl CustomOp2 for Recurrence {
             for j in 0..b {
                 let row = s * b + j;
                 self.state_before(
-                    &out,
+                    (&hs, cs),
                     s,
                     j,
                     &mut h_prev[row * n..(row + 1) * n],
                     &mut c_prev,
                 );
-                let o_row = &out[row * ROW * n..(row + 1) * ROW * n];
-                let g_row = &grad[row * ROW * n..(row + 1) * ROW * n];
-                let (c, gates) = (&o_row[n..2 * n], &o_row[2 * n..]);
+                let c = &cs[row * n..(row + 1) * n];
+                let gh = &grad[row * n..(row + 1) * n];
+                let g_row = &gates[row * 4 * n..(row + 1) * 4 * n];
                 let (i, f, g, o) = (
-                    &gates[..n],
-                    &gates[n..2 * n],
-                    &gates[2 * n..3 * n],
-                    &gates[3 * n..],
+                    &g_row[..n],
+                    &g_row[n..2 * n],
+                    &g_row[2 * n..3 * n],
+                    &g_row[3 * n..],
                 );
                 let d = &mut da[row * 4 * n..(row + 1) * 4 * n];
                 let (dhc, dcc, dcp) = (
@@ -364,8 +391,8 @@ impl CustomOp2 for Recurrence {
                 );
                 for k in 0..n {
                     let tc = fast_tanh(c[k]);
-                    let dh = g_row[k] + dhc[k];
-                    let dc = g_row[n + k] + dcc[k] + dh * o[k] * (1.0 - tc * tc);
+                    let dh = gh[k] + dhc[k];
+                    let dc = dcc[k] + dh * o[k] * (1.0 - tc * tc);
                     d[k] = dc * g[k] * i[k] * (1.0 - i[k]);
                     d[n + k] = dc * c_prev[k] * f[k] * (1.0 - f[k]);
                     d[2 * n + k] = dc * i[k] * (1.0 - g[k] * g[k]);
