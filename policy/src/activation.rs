@@ -126,6 +126,28 @@ pub fn tanh(x: &Tensor) -> Result<Tensor> {
     x.apply_op1(FastTanh)
 }
 
+/// The two f32 operands of a binary custom op as slices: an error names
+/// the op when either is another dtype or not contiguous.
+pub(crate) fn contiguous_f32_pair<'a>(
+    op: &'static str,
+    (s1, l1): (&'a CpuStorage, &Layout),
+    (s2, l2): (&'a CpuStorage, &Layout),
+) -> Result<(&'a [f32], &'a [f32])> {
+    let (CpuStorage::F32(a), CpuStorage::F32(b)) = (s1, s2) else {
+        let dtype = if matches!(s1, CpuStorage::F32(_)) {
+            s2.dtype()
+        } else {
+            s1.dtype()
+        };
+        return Err(candle_core::Error::UnsupportedDTypeForOp(dtype, op));
+    };
+    let (Some((al, ah)), Some((bl, bh))) = (l1.contiguous_offsets(), l2.contiguous_offsets())
+    else {
+        candle_core::bail!("{op} needs contiguous inputs");
+    };
+    Ok((&a[al..ah], &b[bl..bh]))
+}
+
 struct BiasAdd;
 
 impl candle_core::CustomOp2 for BiasAdd {
@@ -140,17 +162,7 @@ impl candle_core::CustomOp2 for BiasAdd {
         s2: &CpuStorage,
         l2: &Layout,
     ) -> Result<(CpuStorage, Shape)> {
-        let (CpuStorage::F32(x), CpuStorage::F32(b)) = (s1, s2) else {
-            return Err(candle_core::Error::UnsupportedDTypeForOp(
-                s1.dtype(),
-                "bias-add",
-            ));
-        };
-        let (Some((xl, xh)), Some((bl, bh))) = (l1.contiguous_offsets(), l2.contiguous_offsets())
-        else {
-            candle_core::bail!("bias-add needs contiguous inputs");
-        };
-        let (x, b) = (&x[xl..xh], &b[bl..bh]);
+        let (x, b) = contiguous_f32_pair("bias-add", (s1, l1), (s2, l2))?;
         let cols = b.len();
         if cols == 0 || x.len() % cols != 0 {
             candle_core::bail!(

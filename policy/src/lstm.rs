@@ -32,9 +32,9 @@
 
 use std::sync::{Arc, Mutex};
 
-use candle_core::{backend::BackendStorage, CpuStorage, CustomOp2, Layout, Result, Shape, Tensor};
+use candle_core::{CpuStorage, CustomOp2, Layout, Result, Shape, Tensor};
 
-use crate::activation::fast_tanh;
+use crate::activation::{contiguous_f32_pair, fast_tanh};
 
 #[inline(always)]
 fn sigmoid(x: f32) -> f32 {
@@ -263,7 +263,14 @@ impl Recurrence {
 
     /// Writes the state before step `s` of row `j` (after the reset) into
     /// `h, c [cells]`, from the states `hs, cs [t·b, cells]` so far.
-    fn state_before(&self, (hs, cs): (&[f32], &[f32]), s: usize, j: usize, h: &mut [f32], c: &mut [f32]) {
+    fn state_before(
+        &self,
+        (hs, cs): (&[f32], &[f32]),
+        s: usize,
+        j: usize,
+        h: &mut [f32],
+        c: &mut [f32],
+    ) {
         let n = self.cells;
         let row = s * self.b + j;
         let keep = self.keep[row];
@@ -294,17 +301,7 @@ impl CustomOp2 for Recurrence {
         s2: &CpuStorage,
         l2: &Layout,
     ) -> Result<(CpuStorage, Shape)> {
-        let (CpuStorage::F32(xp), CpuStorage::F32(w)) = (s1, s2) else {
-            return Err(candle_core::Error::UnsupportedDTypeForOp(
-                s1.dtype(),
-                "lstm-recurrence",
-            ));
-        };
-        let (Some((xl, xh)), Some((wl, wh))) = (l1.contiguous_offsets(), l2.contiguous_offsets())
-        else {
-            candle_core::bail!("lstm-recurrence needs contiguous inputs");
-        };
-        let (xp, w) = (&xp[xl..xh], &w[wl..wh]);
+        let (xp, w) = contiguous_f32_pair("lstm-recurrence", (s1, l1), (s2, l2))?;
         let (b, n) = (self.b, self.cells);
         let w_t = Operand::new(w, 4 * n, n).t();
         let rows = self.t * b;
@@ -330,8 +327,12 @@ impl CustomOp2 for Recurrence {
                 let (f, rest) = rest.split_at(n);
                 let (g, o) = rest.split_at(n);
                 let c2 = &mut cs[row * n..(row + 1) * n];
-                for ((((c2, &cp), &i), &f), &g) in
-                    c2.iter_mut().zip(&c[j * n..(j + 1) * n]).zip(i).zip(f).zip(g)
+                for ((((c2, &cp), &i), &f), &g) in c2
+                    .iter_mut()
+                    .zip(&c[j * n..(j + 1) * n])
+                    .zip(i)
+                    .zip(f)
+                    .zip(g)
                 {
                     *c2 = f * cp + i * g;
                 }

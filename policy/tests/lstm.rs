@@ -71,10 +71,7 @@ fn reference(c: &Case, max_seq_len: usize) -> (Tensor, Tensor) {
         h = h2;
         cs = c2;
     }
-    (
-        Tensor::cat(&hs, 0).unwrap(),
-        Tensor::cat(&css, 0).unwrap(),
-    )
+    (Tensor::cat(&hs, 0).unwrap(), Tensor::cat(&css, 0).unwrap())
 }
 
 fn fused(c: &Case, max_seq_len: usize) -> lstm::LstmSequence {
@@ -100,7 +97,10 @@ fn flat(t: &Tensor) -> Vec<f32> {
 
 fn max_diff(a: &[f32], b: &[f32]) -> f32 {
     assert_eq!(a.len(), b.len());
-    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max)
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
 }
 
 /// Gradients of the loss with respect to `xp` and `W_hh`.
@@ -118,8 +118,14 @@ fn the_fused_recurrence_equals_the_step_by_step_unroll() {
         let c = case(seed);
         let (h_ref, c_ref) = reference(&c, max_seq_len);
         let seq = fused(&c, max_seq_len);
-        assert!(max_diff(&flat(&seq.h), &flat(&h_ref)) < 1e-6, "h, seed {seed}");
-        assert!(max_diff(&flat(&seq.c), &flat(&c_ref)) < 1e-6, "c, seed {seed}");
+        assert!(
+            max_diff(&flat(&seq.h), &flat(&h_ref)) < 1e-6,
+            "h, seed {seed}"
+        );
+        assert!(
+            max_diff(&flat(&seq.c), &flat(&c_ref)) < 1e-6,
+            "c, seed {seed}"
+        );
         let (dxp_ref, dw_ref) = grads(&c, &h_ref);
         let (dxp, dw) = grads(&c, &seq.h);
         assert!(dxp.iter().any(|&v| v.abs() > 1e-3));
@@ -177,7 +183,11 @@ fn hand_derived_gradients_match_finite_differences() {
         let xp = Tensor::from_vec(xp, (T * B, 4 * N), &dev).unwrap();
         let w = Tensor::from_vec(w, (4 * N, N), &dev).unwrap();
         let s = lstm::sequence(&xp, &w, &c.h0, &c.c0, &c.keep, T, 0).unwrap();
-        loss(&c, &s.h).to_dtype(DType::F32).unwrap().to_scalar().unwrap()
+        loss(&c, &s.h)
+            .to_dtype(DType::F32)
+            .unwrap()
+            .to_scalar()
+            .unwrap()
     };
     let mut checked = 0;
     for (which, analytic) in [(0, &dxp), (1, &dw)] {
@@ -202,16 +212,7 @@ fn hand_derived_gradients_match_finite_differences() {
 fn mismatched_shapes_are_errors_not_panics() {
     let c = case(8);
     let wrong_w = Tensor::zeros((4 * N, N + 1), DType::F32, &Device::Cpu).unwrap();
-    let err = lstm::sequence(
-        c.xp.as_tensor(),
-        &wrong_w,
-        &c.h0,
-        &c.c0,
-        &c.keep,
-        T,
-        0,
-    )
-    .unwrap_err();
+    let err = lstm::sequence(c.xp.as_tensor(), &wrong_w, &c.h0, &c.c0, &c.keep, T, 0).unwrap_err();
     assert!(err.to_string().contains("W_hh"), "{err}");
     let err = lstm::sequence(
         c.xp.as_tensor(),
