@@ -24,7 +24,9 @@ for f in plan.json experiment.toml table.md table.csv table.json cells.csv cells
 done
 cp "$SRC"/*.png "$DEST/" 2>/dev/null || true
 cp "$SRC/plan.json" "$SRC/experiment.toml" "$DEST/study/"
-(cd "$SRC" && find runs evals \( -name summary.json -o -name config.toml -o -name command.txt \) -print0 2>/dev/null |
+# Checkpoints carry their own copy of the run's config.toml: those stay
+# behind (a checkpoint directory without weights would look resumable).
+(cd "$SRC" && find runs evals -path '*/checkpoints' -prune -o \( -name summary.json -o -name config.toml -o -name command.txt \) -print0 2>/dev/null |
   while IFS= read -r -d '' f; do
     mkdir -p "$DEST/study/$(dirname "$f")"
     cp "$f" "$DEST/study/$f"
@@ -32,8 +34,8 @@ cp "$SRC/plan.json" "$SRC/experiment.toml" "$DEST/study/"
 if [ "$POLICIES" = "--policies" ]; then
   (cd "$SRC" && find runs -type d -path '*/checkpoints/final' -print0 |
     while IFS= read -r -d '' d; do
-      mkdir -p "$DEST/study/$(dirname "$d")"
-      cp -r "$d" "$DEST/study/$d"
+      mkdir -p "$DEST/study/$d"
+      cp -r "$d/." "$DEST/study/$d/"
     done)
 fi
 du -sh "$DEST" | sed 's/^/kept: /'
