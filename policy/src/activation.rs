@@ -51,6 +51,16 @@ pub fn fast_tanh(x: f32) -> f32 {
     }
 }
 
+/// Logistic sigmoid of one float, `½ + ½·tanh(x/2)` with [`fast_tanh`].
+///
+/// ```
+/// assert!((buridan_policy::activation::fast_sigmoid(2.0) - 0.880797).abs() < 1e-5);
+/// ```
+#[inline(always)]
+pub fn fast_sigmoid(x: f32) -> f32 {
+    0.5 + 0.5 * fast_tanh(0.5 * x)
+}
+
 struct FastTanh;
 
 impl CustomOp1 for FastTanh {
@@ -87,11 +97,10 @@ impl CustomOp1 for FastSigmoid {
     }
 
     fn cpu_fwd(&self, storage: &CpuStorage, layout: &Layout) -> Result<(CpuStorage, Shape)> {
-        let f = |x: f32| 0.5 + 0.5 * fast_tanh(0.5 * x);
         let out = match storage {
             CpuStorage::F32(data) => match layout.contiguous_offsets() {
-                Some((lo, hi)) => data[lo..hi].iter().map(|&x| f(x)).collect(),
-                None => candle_core::cpu_backend::unary_map(data, layout, f),
+                Some((lo, hi)) => data[lo..hi].iter().map(|&x| fast_sigmoid(x)).collect(),
+                None => candle_core::cpu_backend::unary_map(data, layout, fast_sigmoid),
             },
             _ => {
                 return Err(candle_core::Error::UnsupportedDTypeForOp(

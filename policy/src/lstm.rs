@@ -34,12 +34,7 @@ use std::sync::{Arc, Mutex};
 
 use candle_core::{CpuStorage, CustomOp2, Layout, Result, Shape, Tensor};
 
-use crate::activation::{contiguous_f32_pair, fast_tanh};
-
-#[inline(always)]
-fn sigmoid(x: f32) -> f32 {
-    0.5 + 0.5 * fast_tanh(0.5 * x)
-}
+use crate::activation::{contiguous_f32_pair, fast_sigmoid, fast_tanh};
 
 /// The states of an LSTM after each step of a time-major sequence.
 #[derive(Debug, Clone)]
@@ -155,7 +150,7 @@ fn activate(a: &mut [f32], n: usize) {
     let (ifg, o) = a.split_at_mut(3 * n);
     let (i_f, g) = ifg.split_at_mut(2 * n);
     for v in i_f.iter_mut().chain(o.iter_mut()) {
-        *v = sigmoid(*v);
+        *v = fast_sigmoid(*v);
     }
     for v in g.iter_mut() {
         *v = fast_tanh(*v);

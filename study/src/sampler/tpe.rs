@@ -144,30 +144,39 @@ impl Model {
     /// from ℓ (one draw: a plain sample of ℓ).
     fn propose<R: Rng>(&self, best_of: usize, rng: &mut R) -> f64 {
         match self {
-            Model::Choice { l, g } => {
-                let mut best = (f64::NEG_INFINITY, 0usize);
-                for _ in 0..best_of {
-                    let c = draw_index(l, rng);
-                    let ratio = l[c].ln() - g[c].ln();
-                    if ratio > best.0 {
-                        best = (ratio, c);
-                    }
-                }
-                best.1 as f64
-            }
-            Model::Numeric { l, g, mid } => {
-                let mut best = (f64::NEG_INFINITY, *mid);
-                for _ in 0..best_of {
-                    let c = l.sample(rng);
-                    let ratio = l.log_pdf(c) - g.log_pdf(c);
-                    if ratio > best.0 {
-                        best = (ratio, c);
-                    }
-                }
-                best.1
-            }
+            Model::Choice { l, g } => best_draw(
+                best_of,
+                0.0,
+                || draw_index(l, rng) as f64,
+                |c| l[c as usize].ln() - g[c as usize].ln(),
+            ),
+            Model::Numeric { l, g, mid } => best_draw(
+                best_of,
+                *mid,
+                || l.sample(rng),
+                |c| l.log_pdf(c) - g.log_pdf(c),
+            ),
         }
     }
+}
+
+/// Of `n` values from `draw`, the first with the largest `score` (`fallback`
+/// when none scores above −∞).
+fn best_draw(
+    n: usize,
+    fallback: f64,
+    mut draw: impl FnMut() -> f64,
+    score: impl Fn(f64) -> f64,
+) -> f64 {
+    let mut best = (f64::NEG_INFINITY, fallback);
+    for _ in 0..n {
+        let c = draw();
+        let ratio = score(c);
+        if ratio > best.0 {
+            best = (ratio, c);
+        }
+    }
+    best.1
 }
 
 /// hyperopt's linear forgetting: the newest `LF` observations weigh 1, older
