@@ -311,7 +311,7 @@ impl Inference {
                     h: Tensor::from_slice(&self.scratch_h, (n, cells), &dev)?,
                     c: Tensor::from_slice(&self.scratch_c, (n, cells), &dev)?,
                 };
-                let (out, (h, c)) = net.step(&obs_t, &input)?;
+                let (logits, (h, c)) = net.step_logits(&obs_t, &input)?;
                 let h = h.flatten_all()?.to_vec1::<f32>()?;
                 let c = c.flatten_all()?.to_vec1::<f32>()?;
                 for (j, &r) in idx.iter().enumerate() {
@@ -320,7 +320,7 @@ impl Inference {
                     st.c[r * cells..(r + 1) * cells]
                         .copy_from_slice(&c[j * cells..(j + 1) * cells]);
                 }
-                out.logits
+                logits
             } else {
                 net.forward_logits(&obs_t)?
             };

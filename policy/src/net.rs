@@ -324,15 +324,42 @@ impl Net {
         let Some((cell, _)) = &self.lstm else {
             return Ok((self.forward(obs)?, (input.h.clone(), input.c.clone())));
         };
-        let feat = self.pi.forward(obs)?;
-        let x = self.lstm_input(&feat, &input.prev_action, &input.prev_reward)?;
-        let xp = cell.project_input(&x)?;
-        let (h, c) = cell.step(&xp, &input.h, &input.c)?;
+        let (h, c) = self.recur(cell, obs, input)?;
         let out = NetOutput {
             logits: self.logits.forward(&h)?,
             value: self.value.forward(&h)?.squeeze(D::Minus1)?,
         };
         Ok((out, (h, c)))
+    }
+
+    /// One recurrent step's logits and new `(h, c)`, without the value
+    /// head: the actors' fast path (like [`Net::forward_logits`]).
+    pub fn step_logits(
+        &self,
+        obs: &Tensor,
+        input: &RecurrentInput,
+    ) -> Result<(Tensor, (Tensor, Tensor)), PolicyError> {
+        let Some((cell, _)) = &self.lstm else {
+            return Ok((
+                self.forward_logits(obs)?,
+                (input.h.clone(), input.c.clone()),
+            ));
+        };
+        let (h, c) = self.recur(cell, obs, input)?;
+        Ok((self.logits.forward(&h)?, (h, c)))
+    }
+
+    /// The LSTM state after one step of a recurrent net.
+    fn recur(
+        &self,
+        cell: &LstmCell,
+        obs: &Tensor,
+        input: &RecurrentInput,
+    ) -> Result<(Tensor, Tensor), PolicyError> {
+        let feat = self.pi.forward(obs)?;
+        let x = self.lstm_input(&feat, &input.prev_action, &input.prev_reward)?;
+        let xp = cell.project_input(&x)?;
+        cell.step(&xp, &input.h, &input.c)
     }
 
     /// Unrolls over a time-major sequence of `t` steps and `b` rows.

@@ -60,6 +60,76 @@ impl NetBatch {
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+
+    /// Rows `rows` of every step: the trajectories of those rows, a batch of
+    /// its own (V-trace and GAE run per row, so a row range is a share of
+    /// the batch's update, [`crate::algo::shards`]).
+    ///
+    /// ```
+    /// use buridan_learner::algo::batch::NetBatch;
+    /// let b = NetBatch {
+    ///     t: 2, rows: 3, obs_dim: 1, heads: 1, actions_per_head: 1,
+    ///     obs: vec![0., 1., 2., 10., 11., 12.],
+    ///     masks: vec![1; 6], actions: vec![0; 6], behaviour_logits: vec![0.; 6],
+    ///     rewards: vec![0., 1., 2., 10., 11., 12.],
+    ///     terminated: vec![false; 6], truncated: vec![false, false, false, false, true, false],
+    ///     final_obs: vec![99.], final_index: vec![4],
+    ///     last_obs: vec![20., 21., 22.],
+    ///     ..Default::default()
+    /// };
+    /// let s = b.select_rows(1..3);
+    /// assert_eq!((s.t, s.rows), (2, 2));
+    /// assert_eq!(s.obs, [1., 2., 11., 12.]);
+    /// assert_eq!(s.final_index, [2]); // step 1, row 0 of the share
+    /// assert_eq!(s.last_obs, [21., 22.]);
+    /// ```
+    pub fn select_rows(&self, rows: std::ops::Range<usize>) -> NetBatch {
+        let (t, r, n) = (self.t, self.rows, rows.len());
+        fn per_row<T: Clone>(v: &[T], t: usize, r: usize, rows: &std::ops::Range<usize>) -> Vec<T> {
+            let width = v.len() / (t * r).max(1);
+            (0..t)
+                .flat_map(|s| &v[(s * r + rows.start) * width..(s * r + rows.end) * width])
+                .cloned()
+                .collect()
+        }
+        let (mut final_obs, mut final_index) = (Vec::new(), Vec::new());
+        for (q, &idx) in self.final_index.iter().enumerate() {
+            let (s, j) = (idx / r, idx % r);
+            if rows.contains(&j) {
+                final_index.push(s * n + j - rows.start);
+                final_obs
+                    .extend_from_slice(&self.final_obs[q * self.obs_dim..(q + 1) * self.obs_dim]);
+            }
+        }
+        let initial_state = self.initial_state.as_ref().map(|st| RecurrentState {
+            rows: n,
+            cells: st.cells,
+            heads: st.heads,
+            h: st.h[rows.start * st.cells..rows.end * st.cells].to_vec(),
+            c: st.c[rows.start * st.cells..rows.end * st.cells].to_vec(),
+            prev_actions: st.prev_actions[rows.start * st.heads..rows.end * st.heads].to_vec(),
+            prev_rewards: st.prev_rewards[rows.clone()].to_vec(),
+        });
+        NetBatch {
+            t,
+            rows: n,
+            obs_dim: self.obs_dim,
+            heads: self.heads,
+            actions_per_head: self.actions_per_head,
+            obs: per_row(&self.obs, t, r, &rows),
+            masks: per_row(&self.masks, t, r, &rows),
+            actions: per_row(&self.actions, t, r, &rows),
+            behaviour_logits: per_row(&self.behaviour_logits, t, r, &rows),
+            rewards: per_row(&self.rewards, t, r, &rows),
+            terminated: per_row(&self.terminated, t, r, &rows),
+            truncated: per_row(&self.truncated, t, r, &rows),
+            final_obs,
+            final_index,
+            last_obs: self.last_obs[rows.start * self.obs_dim..rows.end * self.obs_dim].to_vec(),
+            initial_state,
+            env_steps: self.env_steps,
+        }
+    }
 }
 
 /// Splits fragments into one [`NetBatch`] per weight set of `spec`

@@ -12,8 +12,9 @@ use buridan_policy::{dist, Policy};
 use candle_core::{Device, Tensor};
 
 use crate::algo::batch::{build_net_batches, evaluate, BatchTensors, NetBatch};
-use crate::algo::optim::ClippedAdam;
+use crate::algo::optim::{collect_grads, ClippedAdam};
 use crate::algo::ppo::LossTerms;
+use crate::algo::shards::{add_grads, on_threads, share_count, share_range};
 use crate::algo::vtrace::{vtrace, VTraceParams};
 use crate::algo::{add_loss, Result, UpdateStats};
 
@@ -70,6 +71,17 @@ pub struct ImpalaSettings {
     pub vtrace: VTraceParams,
     /// Truncated-BPTT length for recurrent nets.
     pub max_seq_len: usize,
+    /// Threads that share the train batch's gradient (rows cut into
+    /// shares, [`crate::algo::shards`]); 0 or 1: the calling thread alone.
+    pub update_threads: usize,
+}
+
+/// One share's gradient (none if it held no rows), its weighted loss terms
+/// per weight set and weighted mean ρ sum.
+struct BatchGrads {
+    grads: Option<Vec<Vec<f32>>>,
+    terms: Vec<LossTerms>,
+    rho_sum: f64,
 }
 
 /// IMPALA learner state.
@@ -100,25 +112,65 @@ impl Impala {
     }
 
     /// One gradient step on prepared per-net batches: the V-trace loss of
-    /// every weight set, summed.
+    /// every weight set, summed. With `update_threads` above 1 each weight
+    /// set's rows (whole trajectories) are cut into shares, one per thread,
+    /// each share's loss weighted by its fraction of the rows: the same
+    /// gradient, up to float rounding ([`crate::algo::shards`]).
     pub fn update_batches(&mut self, policy: &Policy, batches: &[NetBatch]) -> Result<UpdateStats> {
-        let mut total = None;
-        let mut terms = Vec::with_capacity(batches.len());
+        let samples = batches.iter().map(NetBatch::len).sum();
+        let shares = share_count(self.settings.update_threads, samples);
+        let share = |i: usize| -> Result<BatchGrads> {
+            let mut total = None;
+            let mut terms = Vec::with_capacity(batches.len());
+            let mut rho_sum = 0.0;
+            for (k, b) in batches.iter().enumerate() {
+                let rows = share_range(i, shares, b.rows);
+                if rows.is_empty() {
+                    terms.push(LossTerms::default());
+                    continue;
+                }
+                let weight = rows.len() as f64 / b.rows as f64;
+                let (loss, t, mean_rho) = if shares == 1 {
+                    self.net_loss(policy, k, b)?
+                } else {
+                    self.net_loss(policy, k, &b.select_rows(rows))?
+                };
+                terms.push(t.scaled(weight));
+                rho_sum += mean_rho * weight;
+                total = add_loss(total, (loss * weight)?)?;
+            }
+            let grads = match total {
+                Some(total) => Some(collect_grads(&total.backward()?, self.optim.adam.vars())?),
+                None => None,
+            };
+            Ok(BatchGrads {
+                grads,
+                terms,
+                rho_sum,
+            })
+        };
+        let mut grads: Option<Vec<Vec<f32>>> = None;
+        let mut terms = vec![LossTerms::default(); batches.len()];
         let mut rho_sum = 0.0;
-        for (k, b) in batches.iter().enumerate() {
-            let (loss, t, mean_rho) = self.net_loss(policy, k, b)?;
-            terms.push(t);
-            rho_sum += mean_rho;
-            total = add_loss(total, loss)?;
+        for part in on_threads(shares, share)? {
+            match (&mut grads, part.grads) {
+                (Some(sum), Some(g)) => add_grads(sum, g),
+                (sum @ None, g) => *sum = g,
+                (Some(_), None) => {}
+            }
+            for (sum, t) in terms.iter_mut().zip(part.terms) {
+                *sum = sum.plus(&t);
+            }
+            rho_sum += part.rho_sum;
         }
         let mut stats = UpdateStats::default();
-        if let Some(total) = total {
-            let grad_norm = self.optim.step(&total)?;
+        if let Some(mut grads) = grads {
+            let grad_norm = self.optim.step_grads(&mut grads)?;
             stats.add_minibatch(&terms, grad_norm);
         }
         stats.finish();
         stats.mean_rho = rho_sum / batches.len().max(1) as f64;
-        stats.samples = batches.iter().map(|b| b.len()).sum();
+        stats.samples = samples;
         Ok(stats)
     }
 

@@ -8,6 +8,7 @@
 //! - [`impala`]: the V-trace actor-critic update.
 //! - [`batch`]: fragments → per-weight-set batches → tensors, value pass.
 //! - [`optim`]: Adam and global-norm gradient clipping.
+//! - [`shards`]: one gradient computed on several threads.
 //! - [`schedule`]: piecewise-linear learning-rate and entropy schedules.
 
 pub mod batch;
@@ -16,6 +17,7 @@ pub mod impala;
 pub mod optim;
 pub mod ppo;
 pub mod schedule;
+pub mod shards;
 pub mod trajectory;
 pub mod vtrace;
 

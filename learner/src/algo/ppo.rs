@@ -18,6 +18,7 @@ use rand::Rng;
 use crate::algo::batch::{build_net_batches, evaluate, BatchTensors, NetBatch};
 use crate::algo::gae::{gae, standardize, GaeParams};
 use crate::algo::optim::{collect_grads, zeros_like, ClippedAdam};
+use crate::algo::shards::{add_grads, on_threads, share_count, share_range};
 use crate::algo::{add_loss, AlgoError, Result, UpdateStats};
 
 /// Coefficients of the PPO loss.
@@ -52,7 +53,7 @@ pub struct LossTerms {
 
 impl LossTerms {
     /// Every term times `w` (a share's weight in a mean over shares).
-    fn scaled(self, w: f64) -> Self {
+    pub(crate) fn scaled(self, w: f64) -> Self {
         Self {
             total: self.total * w,
             policy: self.policy * w,
@@ -63,7 +64,7 @@ impl LossTerms {
     }
 
     /// Term-wise sum.
-    fn plus(self, o: &Self) -> Self {
+    pub(crate) fn plus(self, o: &Self) -> Self {
         Self {
             total: self.total + o.total,
             policy: self.policy + o.policy,
@@ -73,10 +74,6 @@ impl LossTerms {
         }
     }
 }
-
-/// Fewest samples worth a thread of their own in a minibatch's forward
-/// and backward pass: below it, waking the thread costs more than it saves.
-pub const MIN_SHARE: usize = 512;
 
 /// The PPO loss over one minibatch: `logits [N, heads·A]` and `values [N]`
 /// from the current network, behaviour data from `bt`, standardised
@@ -293,13 +290,8 @@ impl Ppo {
     /// weight set's loss terms (`None` where it has no units in this
     /// minibatch), or `None` if no weight set has any.
     ///
-    /// The units are cut into `update_threads` shares, one per thread, each
-    /// thread running its share's forward and backward pass. Every loss
-    /// term is a mean over rows and every unit holds as many rows, so the
-    /// shares' gradients weighted by their share of the units add up to the
-    /// whole minibatch's gradient — the same update on more cores, up to
-    /// float rounding. Shares below [`MIN_SHARE`] samples are not worth a
-    /// thread.
+    /// The units are cut into `update_threads` shares, one per thread
+    /// ([`crate::algo::shards`]): the same gradient, up to float rounding.
     fn minibatch_grads(
         &self,
         policy: &Policy,
@@ -317,10 +309,7 @@ impl Ppo {
         if samples == 0 {
             return Ok(None);
         }
-        let threads = self
-            .settings
-            .update_threads
-            .clamp(1, (samples / MIN_SHARE).max(1));
+        let shares = share_count(self.settings.update_threads, samples);
         let share = |i: usize| -> Result<MinibatchGrads> {
             let mut total = None;
             let mut terms = Vec::with_capacity(units.len());
@@ -329,13 +318,13 @@ impl Ppo {
                     terms.push(None);
                     continue;
                 };
-                let (lo, hi) = (i * u.len() / threads, (i + 1) * u.len() / threads);
-                if hi == lo {
+                let part = share_range(i, shares, u.len());
+                if part.is_empty() {
                     terms.push(None);
                     continue;
                 }
-                let weight = (hi - lo) as f64 / u.len() as f64;
-                let (loss, t) = self.minibatch_loss(policy, k, &prepared[k], &u[lo..hi])?;
+                let weight = part.len() as f64 / u.len() as f64;
+                let (loss, t) = self.minibatch_loss(policy, k, &prepared[k], &u[part])?;
                 terms.push(Some(t.scaled(weight)));
                 total = add_loss(total, (loss * weight)?)?;
             }
@@ -345,28 +334,13 @@ impl Ppo {
             };
             Ok(MinibatchGrads { grads, terms })
         };
-        let mut results = std::thread::scope(|scope| {
-            let others: Vec<_> = (1..threads)
-                .map(|i| scope.spawn(move || share(i)))
-                .collect();
-            let mine = share(0);
-            std::iter::once(mine)
-                .chain(others.into_iter().map(|h| {
-                    h.join().unwrap_or_else(|_| {
-                        Err(AlgoError::Batch("an update thread panicked".into()))
-                    })
-                }))
-                .collect::<Result<Vec<_>>>()
-        })?
-        .into_iter();
+        let mut results = on_threads(shares, share)?.into_iter();
         let MinibatchGrads {
             mut grads,
             mut terms,
         } = results.next().expect("at least one share");
         for MinibatchGrads { grads: g, terms: t } in results {
-            for (sum, part) in grads.iter_mut().zip(g) {
-                sum.iter_mut().zip(part).for_each(|(s, x)| *s += x);
-            }
+            add_grads(&mut grads, g);
             for (sum, part) in terms.iter_mut().zip(t) {
                 *sum = match (*sum, part) {
                     (Some(a), Some(b)) => Some(a.plus(&b)),

@@ -158,11 +158,12 @@ impl Learner {
         }
     }
 
-    /// Sizes PPO's update to the cores this run may use now
+    /// Sizes the update to the cores this run may use now
     /// ([`cores::share`] unless `update_threads` fixes it).
     fn follow_cores(&mut self, cfg: &TrainConfig) {
-        if let Learner::Ppo(p) = self {
-            p.settings.update_threads = cfg.ppo.threads();
+        match self {
+            Learner::Ppo(p) => p.settings.update_threads = cfg.ppo.threads(),
+            Learner::Impala(i) => i.settings.update_threads = cfg.impala.threads(),
         }
     }
 

@@ -1,8 +1,9 @@
-//! PPO's minibatch gradient shared across threads: the same update as on
-//! one thread, up to float rounding, for feed-forward and recurrent nets and
-//! for several weight sets.
+//! The update's gradient shared across threads (PPO's minibatches, IMPALA's
+//! train batch): the same update as on one thread, up to float rounding,
+//! for feed-forward and recurrent nets and for several weight sets.
 
 use buridan_env::Starts;
+use buridan_learner::algo::impala::{Impala, ImpalaSettings};
 use buridan_learner::algo::ppo::{Ppo, PpoSettings};
 use buridan_learner::train::{Run, TrainConfig};
 use buridan_policy::{Fragment, Mode, ModelSpec, Policy};
@@ -34,27 +35,47 @@ fn flat_weights(policy: &Policy) -> Vec<f32> {
     w
 }
 
-/// All weights of a fresh policy before and after two PPO epochs with
-/// `threads` threads, and the update's mean loss, KL and gradient norm.
-fn update_with(cfg: &TrainConfig, threads: usize) -> (Vec<f32>, Vec<f32>, [f64; 3]) {
+#[derive(Clone, Copy)]
+enum Algo {
+    Ppo,
+    Impala,
+}
+
+/// All weights of a fresh policy before and after one update with
+/// `threads` threads (PPO: two epochs), and the update's mean loss, KL and
+/// gradient norm.
+fn update_with(algo: Algo, cfg: &TrainConfig, threads: usize) -> (Vec<f32>, Vec<f32>, [f64; 4]) {
     let (spec, frags) = fragments(cfg, 2);
     let policy = Policy::new(spec, 11).unwrap();
-    let settings = PpoSettings {
-        epochs: 2,
-        update_threads: threads,
-        ..PpoSettings::from(cfg)
-    };
     let before = flat_weights(&policy);
-    let mut ppo = Ppo::new(&policy, settings);
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-    let stats = ppo.update(&policy, &frags, &mut rng).unwrap();
-    let means = [stats.total_loss, stats.kl, stats.grad_norm];
+    let stats = match algo {
+        Algo::Ppo => {
+            let settings = PpoSettings {
+                epochs: 2,
+                update_threads: threads,
+                ..PpoSettings::from(cfg)
+            };
+            let mut ppo = Ppo::new(&policy, settings);
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+            ppo.update(&policy, &frags, &mut rng).unwrap()
+        }
+        Algo::Impala => {
+            let settings = ImpalaSettings {
+                update_threads: threads,
+                ..ImpalaSettings::from(cfg)
+            };
+            Impala::new(&policy, settings)
+                .update(&policy, &frags)
+                .unwrap()
+        }
+    };
+    let means = [stats.total_loss, stats.kl, stats.grad_norm, stats.mean_rho];
     (before, flat_weights(&policy), means)
 }
 
-fn assert_same_update(cfg: TrainConfig) {
-    let (before, one, means1) = update_with(&cfg, 1);
-    let (_, three, means3) = update_with(&cfg, 3);
+fn assert_same_update(algo: Algo, cfg: TrainConfig) {
+    let (before, one, means1) = update_with(algo, &cfg, 1);
+    let (_, three, means3) = update_with(algo, &cfg, 3);
     assert_eq!(one.len(), three.len());
     let worst = one
         .iter()
@@ -72,7 +93,7 @@ fn assert_same_update(cfg: TrainConfig) {
     );
     // Adam is blind to a gradient's scale; the norm is not (a share
     // weighted twice would show here, not in the weights).
-    for (name, a, b) in ["loss", "kl", "grad norm"]
+    for (name, a, b) in ["loss", "kl", "grad norm", "mean rho"]
         .iter()
         .zip(means1.iter().zip(&means3))
         .map(|(n, (a, b))| (n, a, b))
@@ -99,15 +120,33 @@ fn cfg(mode: Mode, lstm: bool) -> TrainConfig {
 
 #[test]
 fn three_threads_update_a_shared_net_as_one_does() {
-    assert_same_update(cfg(Mode::Ctde, false));
+    assert_same_update(Algo::Ppo, cfg(Mode::Ctde, false));
 }
 
 #[test]
 fn three_threads_update_one_net_per_agent_as_one_does() {
-    assert_same_update(cfg(Mode::Dte, false));
+    assert_same_update(Algo::Ppo, cfg(Mode::Dte, false));
 }
 
 #[test]
 fn three_threads_update_a_recurrent_net_as_one_does() {
-    assert_same_update(cfg(Mode::Ctde, true));
+    assert_same_update(Algo::Ppo, cfg(Mode::Ctde, true));
+}
+
+// IMPALA: 2 fragments × 16 envs × 40 steps × 4 agents = 5,120 samples, three
+// shares of whole trajectories (rows), V-trace per share.
+
+#[test]
+fn three_threads_take_impalas_step_on_a_shared_net_as_one_does() {
+    assert_same_update(Algo::Impala, cfg(Mode::Ctde, false));
+}
+
+#[test]
+fn three_threads_take_impalas_step_on_one_net_per_agent_as_one_does() {
+    assert_same_update(Algo::Impala, cfg(Mode::Dte, false));
+}
+
+#[test]
+fn three_threads_take_impalas_step_on_a_recurrent_net_as_one_does() {
+    assert_same_update(Algo::Impala, cfg(Mode::Ctde, true));
 }
