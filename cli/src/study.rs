@@ -296,7 +296,7 @@ pub fn run(args: &StudyArgs) -> Result<StudyOutcome> {
         }
         x.parallel = p;
     }
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let _lock = buridan_study::lock::DirLock::acquire(out)?;
     std::fs::write(out.join(PLAN_FILE), serde_json::to_string_pretty(&x)?)?;
     std::fs::copy(file, out.join("experiment.toml"))?;
     let todo = jobs(&x, out);

@@ -272,6 +272,7 @@ pub fn run(args: &TuneArgs) -> Result<StudyState> {
             out.display()
         );
     }
+    let _lock = buridan_study::lock::DirLock::acquire(out)?;
     save_copies(out, file, &base)?;
     let mut study = Study::open(out, config.clone())?;
     let multi = MultiProgress::with_draw_target(if args.quiet {

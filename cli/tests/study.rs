@@ -143,6 +143,52 @@ fn bad_study_files_name_the_file_and_the_problem() {
     );
 }
 
+#[test]
+fn a_directory_in_use_is_refused_before_anything_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    tiny_config(dir.path());
+    let out = dir.path().join("busy");
+    // Another `learner tune` or `learner study` holding the directory.
+    let held = buridan_study::lock::DirLock::acquire(&out).unwrap();
+    let tune_err = tune::run(&tune_args(tune_file(dir.path(), 1), out.clone(), false)).unwrap_err();
+    let study_args = StudyArgs {
+        out: Some(out.clone()),
+        ..tiny_experiment(
+            dir.path(),
+            r#"
+[experiment]
+name = "x"
+layouts = ["rm-1.1"]
+seeds = 1
+steps = 2000
+[experiment.eval]
+episodes = 5
+[[method]]
+name = "ppo"
+config = "tiny.toml"
+"#,
+        )
+    };
+    let study_err = study::run(&study_args).unwrap_err();
+    for e in [tune_err, study_err] {
+        let msg = format!("{e:#}");
+        assert!(
+            msg.contains("in use") && msg.contains(&std::process::id().to_string()),
+            "{msg}"
+        );
+    }
+    // Nothing ran: no trial, no plan, no copies — only the lock file.
+    let entries: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    assert_eq!(entries, [buridan_study::lock::LOCK_FILE]);
+    drop(held);
+    // Free again: the study runs.
+    study::run(&study_args).unwrap();
+    assert!(out.join("plan.json").is_file());
+}
+
 /// A study of `experiment` (TOML) over the tiny PPO config, written into
 /// `dir`: its arguments, one cell at a time, output in `dir/out`.
 fn tiny_experiment(dir: &Path, experiment: &str) -> StudyArgs {

@@ -18,6 +18,7 @@
 //! - [`study`]: the driver — parallel trials, budgets, resume.
 //! - [`population`]: the PBT driver — the population in rounds, exploit and explore.
 //! - [`lineage`]: PBT's record — who copied whom, the best member's schedule.
+//! - [`lock`]: one `learner tune` or `learner study` per directory.
 //! - [`batch`]: trial specs and results on a shared volume for cluster runs.
 //! - [`k8s`]: Kubernetes Indexed Job manifests.
 //! - [`stats`]: mean, IQM, percentile-bootstrap intervals.
@@ -67,6 +68,7 @@ pub mod config;
 pub mod figures;
 pub mod k8s;
 pub mod lineage;
+pub mod lock;
 pub mod objective;
 pub mod output;
 pub mod overrides;
