@@ -258,7 +258,7 @@ fn matmul(dst: &mut [f32], accumulate: bool, a: Operand, b: Operand) -> Result<(
 impl Recurrence {
     /// Whether gradients stop between step `s − 1` and step `s`.
     fn cut_before(&self, s: usize) -> bool {
-        s == 0 || (self.max_seq_len > 0 && s % self.max_seq_len == 0)
+        s == 0 || (self.max_seq_len > 0 && s.is_multiple_of(self.max_seq_len))
     }
 
     /// Writes the state before step `s` of row `j` (after the reset) into

@@ -152,7 +152,7 @@ pub fn check_fragment(f: &Fragment) -> Result<(), ConvertError> {
             f.len, f.rows, f.obs_dim, f.heads, f.actions_per_head
         )));
     }
-    if f.rows_per_env == 0 || f.rows % f.rows_per_env != 0 {
+    if f.rows_per_env == 0 || !f.rows.is_multiple_of(f.rows_per_env) {
         return Err(ConvertError::Invalid(format!(
             "rows {} is not a multiple of rows_per_env {}",
             f.rows, f.rows_per_env
@@ -222,7 +222,7 @@ pub fn f32_to_le_bytes(values: &[f32]) -> Vec<u8> {
 
 /// Little-endian bytes as floats; the length must be a multiple of 4.
 pub fn le_bytes_to_f32(field: &'static str, bytes: &[u8]) -> Result<Vec<f32>, ConvertError> {
-    if bytes.len() % 4 != 0 {
+    if !bytes.len().is_multiple_of(4) {
         return Err(ConvertError::Invalid(format!(
             "{field} holds {} bytes, not a whole number of f32 values",
             bytes.len()

@@ -579,7 +579,7 @@ impl Run {
             progress.on_update(&row);
             progress.on_exchange(&self.exchange_status(exchange));
             let every = self.cfg.checkpoint_every;
-            if every > 0 && self.state.updates % every == 0 {
+            if every > 0 && self.state.updates.is_multiple_of(every) {
                 let dir = checkpoint::update_dir(&self.out, self.state.updates);
                 self.save_checkpoint(&dir)?;
                 progress.on_checkpoint(&dir);

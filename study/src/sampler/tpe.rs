@@ -18,9 +18,9 @@
 //! (hyperopt's linear forgetting), so an early unlucky draw of a category
 //! does not bar it for good.
 //!
-//! Why not the `tpe` crate: its current version needs rand 0.10 and Rust
-//! 1.88 (the workspace is on rand 0.9 and Rust 1.85), the older one rand 0.8
-//! and statrs; the algorithm is this file.
+//! Why not the `tpe` crate: its current version needs rand 0.10 (the
+//! workspace is on rand 0.9), the older one rand 0.8 and statrs; the
+//! algorithm is this file.
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
