@@ -247,17 +247,6 @@ pub struct PpoConfig {
     pub update_threads: usize,
 }
 
-impl PpoConfig {
-    /// The update's thread count: `update_threads`, or the run's share of
-    /// the cores when it is 0.
-    pub fn threads(&self) -> usize {
-        match self.update_threads {
-            0 => super::cores::share(),
-            n => n,
-        }
-    }
-}
-
 impl Default for PpoConfig {
     fn default() -> Self {
         Self {
@@ -331,17 +320,6 @@ pub struct ImpalaConfig {
     /// takes the actors' (measured on 2 cores: MLP 71k against 85k env
     /// steps/s with one thread, LSTM unchanged; `docs/results/lstm/`).
     pub update_threads: usize,
-}
-
-impl ImpalaConfig {
-    /// The update's thread count: `update_threads`, or the run's share of
-    /// the cores when it is 0.
-    pub fn threads(&self) -> usize {
-        match self.update_threads {
-            0 => super::cores::share(),
-            n => n,
-        }
-    }
 }
 
 impl Default for ImpalaConfig {
@@ -822,7 +800,7 @@ impl From<&TrainConfig> for PpoSettings {
             grad_clip: p.grad_clip,
             standardize_advantages: p.standardize_advantages,
             max_seq_len: cfg.max_seq_len,
-            update_threads: p.threads(),
+            update_threads: super::cores::update_threads(p.update_threads),
         }
     }
 }
@@ -843,7 +821,7 @@ impl From<&TrainConfig> for ImpalaSettings {
                 pg_rho_bar: i.pg_rho_bar,
             },
             max_seq_len: cfg.max_seq_len,
-            update_threads: i.threads(),
+            update_threads: super::cores::update_threads(i.update_threads),
         }
     }
 }

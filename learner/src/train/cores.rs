@@ -45,6 +45,21 @@ pub fn share() -> usize {
     share_of(cores, RUNS_LEARNING.load(Ordering::SeqCst))
 }
 
+/// The threads an `update_threads` setting (`[ppo]`, `[impala]`) asks for:
+/// the number itself, or this run's [`share`] of the cores when it is 0.
+///
+/// ```
+/// use buridan_learner::train::cores;
+/// assert_eq!(cores::update_threads(3), 3);
+/// assert!(cores::update_threads(0) >= 1);
+/// ```
+pub fn update_threads(setting: usize) -> usize {
+    match setting {
+        0 => share(),
+        n => n,
+    }
+}
+
 /// `cores` divided among `runs` runs (a run alone gets them all), at least 1.
 ///
 /// ```

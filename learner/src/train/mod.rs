@@ -162,8 +162,12 @@ impl Learner {
     /// ([`cores::share`] unless `update_threads` fixes it).
     fn follow_cores(&mut self, cfg: &TrainConfig) {
         match self {
-            Learner::Ppo(p) => p.settings.update_threads = cfg.ppo.threads(),
-            Learner::Impala(i) => i.settings.update_threads = cfg.impala.threads(),
+            Learner::Ppo(p) => {
+                p.settings.update_threads = cores::update_threads(cfg.ppo.update_threads)
+            }
+            Learner::Impala(i) => {
+                i.settings.update_threads = cores::update_threads(cfg.impala.update_threads)
+            }
         }
     }
 
