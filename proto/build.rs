@@ -5,7 +5,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let protoc = protoc_bin_vendored::protoc_bin_path()?;
     std::env::set_var("PROTOC", protoc);
     println!("cargo:rerun-if-changed=proto/buridan/v1/learner.proto");
+    // Undecodable requests get INVALID_ARGUMENT (src/codec.rs).
     tonic_prost_build::configure()
+        .codec_path("crate::codec::WireCodec")
         .compile_protos(&["proto/buridan/v1/learner.proto"], &["proto"])?;
     Ok(())
 }

@@ -328,10 +328,13 @@ pub async fn run(connect: Connector, opts: ActorOptions) -> Result<ActorReport, 
 }
 
 /// Whether a status means "join again" rather than "this actor is broken".
+/// `RESOURCE_EXHAUSTED` is the learner's session cap (`--max-sessions`):
+/// full now, with room once another actor leaves or idles out.
 fn retryable(status: &Status) -> bool {
     matches!(
         status.code(),
         Code::Unavailable
+            | Code::ResourceExhausted
             | Code::NotFound
             | Code::Cancelled
             | Code::Unknown

@@ -121,6 +121,13 @@ pub fn parse_agent_counts(text: &str) -> Result<Vec<usize>> {
         if n == 0 {
             bail!("agent counts must be at least 1");
         }
+        // The env's limit; it also bounds a range's length (`1..1000000000000`
+        // was collected in full; found by cli/tests/fuzz_experiment.rs).
+        // The env's limit (`EnvConfig::validate`).
+        const MAX: usize = u16::MAX as usize - 1;
+        if n > MAX {
+            bail!("agent counts must be at most {MAX}");
+        }
         Ok(n)
     };
     if let Some((lo, rest)) = text.split_once("..") {

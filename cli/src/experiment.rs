@@ -56,6 +56,9 @@ use crate::trial::chain;
 /// The resolved plan inside an experiment directory (what `report` reads).
 pub const PLAN_FILE: &str = "plan.json";
 
+/// The most training plus evaluation runs an experiment may plan.
+pub const MAX_CELLS: usize = 100_000;
+
 /// An experiment file that cannot be used: the file and the problem.
 ///
 /// ```
@@ -430,6 +433,13 @@ impl Experiment {
             return Err(bad("[experiment] layouts: name at least one layout".into()));
         }
         let seeds: Vec<u64> = match x.seeds {
+            // Checked before collecting: `seeds = 1e18` asked for exabytes
+            // (found by cli/tests/fuzz_experiment.rs).
+            SeedsToml::Count(n) if n > MAX_CELLS as u64 => {
+                return Err(bad(format!(
+                    "[experiment] seeds = {n}: at most {MAX_CELLS} runs per method and layout"
+                )))
+            }
             SeedsToml::Count(n) => (0..n).collect(),
             SeedsToml::List(v) => v,
         };
@@ -557,6 +567,25 @@ impl Experiment {
         }
         let mut train = Vec::new();
         let mut evals = Vec::new();
+        // The plan's size before building it: a few short lists multiply
+        // into billions of cells (found by cli/tests/fuzz_experiment.rs).
+        let counts = eval.agents.as_ref().map_or(1, Vec::len);
+        let targets = eval.layouts.as_ref().map_or(1, Vec::len);
+        let cells = [
+            parsed.method.len(),
+            x.layouts.len(),
+            seeds.len(),
+            1 + targets
+                .saturating_mul(eval.actions.len())
+                .saturating_mul(counts),
+        ]
+        .iter()
+        .fold(1usize, |n, &k| n.saturating_mul(k));
+        if cells > MAX_CELLS {
+            return Err(bad(format!(
+                "the plan has {cells} training and evaluation runs; at most {MAX_CELLS}"
+            )));
+        }
         // Planners run on the evaluation layouts, with every agent count a
         // policy there is evaluated with.
         let mut planner_agents: BTreeMap<String, BTreeSet<usize>> = BTreeMap::new();

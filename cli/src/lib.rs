@@ -14,6 +14,7 @@ pub mod metrics_tail;
 pub mod process;
 pub mod replay;
 pub mod serve;
+pub mod signals;
 pub mod study;
 pub mod train;
 pub mod trial;

@@ -2,17 +2,20 @@
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{bail, Result};
 
+use crate::signals::{stop_when_stdin_closes, watch_signals};
 use crate::train::{
-    check_out, install_metrics, report, resolve_config, stop_when_stdin_closes, TerminalProgress,
-    TrainArgs,
+    check_out, install_metrics, report, resolve_config, TerminalProgress, TrainArgs,
 };
-use buridan_learner::serve::{serve, Listener, ServeOptions, DEFAULT_MAX_MESSAGE_BYTES};
+use buridan_learner::serve::{
+    check_session_limits, serve, Listener, ServeOptions, SessionLimits, DEFAULT_IDLE_TIMEOUT,
+    DEFAULT_MAX_MESSAGE_BYTES, DEFAULT_MAX_SESSIONS,
+};
 use buridan_learner::train::Summary;
 
 use crate::dashboard::{DashboardProgress, Live};
@@ -42,10 +45,35 @@ pub struct ServeArgs {
     /// Fragments the learner queue holds (0: impala.queue_capacity if set, else one train batch).
     #[arg(long, default_value_t = 0)]
     pub queue: usize,
+    /// Seconds a session without a parameter stream may go without a
+    /// fragment before it expires (a watching actor never expires).
+    #[arg(long, value_name = "SECS", default_value_t = DEFAULT_IDLE_TIMEOUT.as_secs_f64())]
+    pub session_idle_timeout: f64,
+    /// Sessions open at once; a join beyond gets RESOURCE_EXHAUSTED.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_SESSIONS)]
+    pub max_sessions: usize,
+}
+
+/// The session limits of `args`, refused with a clear error when zero,
+/// negative or absurd.
+fn session_limits(args: &ServeArgs) -> Result<SessionLimits> {
+    let Ok(idle_timeout) = Duration::try_from_secs_f64(args.session_idle_timeout) else {
+        bail!(
+            "--session-idle-timeout {} is not a number of seconds",
+            args.session_idle_timeout
+        );
+    };
+    let limits = SessionLimits {
+        idle_timeout,
+        max_sessions: args.max_sessions,
+    };
+    check_session_limits(&limits)?;
+    Ok(limits)
 }
 
 /// Runs `learner serve`.
 pub fn run(args: &ServeArgs) -> Result<Summary> {
+    let sessions = session_limits(args)?;
     let cfg = resolve_config(&args.run)?;
     check_out(&args.run, &cfg)?;
     if !args.listen.ip().is_loopback() && args.token.is_none() && args.tls_cert.is_none() {
@@ -75,6 +103,7 @@ pub fn run(args: &ServeArgs) -> Result<Summary> {
         queue_capacity: args.queue,
         linger: Duration::from_secs(1),
         interrupt: Some(interrupt.clone()),
+        sessions,
         ..ServeOptions::default()
     };
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
@@ -121,37 +150,43 @@ pub fn run(args: &ServeArgs) -> Result<Summary> {
     Ok(summary)
 }
 
-/// Sets `flag` on Ctrl-C or SIGTERM (a supervisor stopping the learner):
-/// the run checkpoints and exits, actors wait for its restart.
-fn watch_signals(flag: Arc<AtomicBool>) {
-    std::thread::spawn(move || {
-        let Ok(rt) = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-        else {
-            return;
-        };
-        rt.block_on(async {
-            #[cfg(unix)]
-            {
-                let mut term =
-                    match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
-                    {
-                        Ok(t) => t,
-                        Err(_) => {
-                            let _ = tokio::signal::ctrl_c().await;
-                            return;
-                        }
-                    };
-                tokio::select! {
-                    _ = tokio::signal::ctrl_c() => {}
-                    _ = term.recv() => {}
-                }
-            }
-            #[cfg(not(unix))]
-            let _ = tokio::signal::ctrl_c().await;
-        });
-        tracing::warn!("stopping: checkpointing after the current update");
-        flag.store(true, Ordering::SeqCst);
-    });
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        serve: ServeArgs,
+    }
+
+    /// The session limits of `learner serve --out run FLAGS`.
+    fn limits(flags: &[&str]) -> Result<SessionLimits> {
+        let argv = ["serve", "--out", "run"]
+            .into_iter()
+            .chain(flags.iter().copied());
+        let cli = Cli::try_parse_from(argv)?;
+        session_limits(&cli.serve)
+    }
+
+    #[test]
+    fn session_flags_have_defaults_and_refuse_nonsense() {
+        assert_eq!(limits(&[]).unwrap(), SessionLimits::default());
+        let l = limits(&["--session-idle-timeout", "2.5", "--max-sessions", "8"]).unwrap();
+        assert_eq!(
+            (l.idle_timeout, l.max_sessions),
+            (Duration::from_millis(2500), 8)
+        );
+        for (bad, flag) in [
+            ("--session-idle-timeout=0", "--session-idle-timeout"),
+            ("--session-idle-timeout=-1", "--session-idle-timeout"),
+            ("--session-idle-timeout=1e12", "--session-idle-timeout"),
+            ("--max-sessions=0", "--max-sessions"),
+            ("--max-sessions=99999999", "--max-sessions"),
+        ] {
+            let err = limits(&[bad]).unwrap_err().to_string();
+            assert!(err.contains(flag), "{bad}: {err}");
+        }
+    }
 }

@@ -1,7 +1,7 @@
 //! `learner train`: the embedded default — learner and actors in one process.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
@@ -10,6 +10,7 @@ use buridan_eval::plot::{line_chart, Series};
 use buridan_policy::Mode;
 
 use crate::dashboard::{DashboardProgress, Live};
+use crate::signals::{stop_when_stdin_closes, watch_signals};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use buridan_learner::train::{
@@ -312,6 +313,7 @@ pub fn run(args: &TrainArgs) -> Result<Summary> {
     let live = Live::start(&args.dashboard)?;
     let mut terminal = TerminalProgress::new(cfg.steps, args.quiet);
     let interrupt = Arc::new(AtomicBool::new(false));
+    watch_signals(interrupt.clone());
     if args.stop_when_stdin_closes {
         stop_when_stdin_closes(interrupt.clone());
     }
@@ -348,15 +350,6 @@ pub fn train_interruptible(
         .map_err(|e| Box::new(e.into()))?;
     run.interrupt_on(interrupt);
     Ok(run.learn(&mut exchange, progress)?)
-}
-
-/// Sets `flag` once stdin reaches its end (its writer closed it or died).
-pub fn stop_when_stdin_closes(flag: Arc<AtomicBool>) {
-    std::thread::spawn(move || {
-        let _ = std::io::copy(&mut std::io::stdin().lock(), &mut std::io::sink());
-        tracing::info!("stdin closed: stopping with a checkpoint");
-        flag.store(true, Ordering::SeqCst);
-    });
 }
 
 /// Refuses to overwrite a finished run.

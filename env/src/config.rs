@@ -143,6 +143,10 @@ impl From<EnvConfigFile> for EnvConfig {
     }
 }
 
+/// The largest deadlock-detector window [`EnvConfig::validate`] accepts
+/// (steps; the monitor keeps two bytes of history per agent and step).
+pub const MAX_STALL_WINDOW: u32 = 4096;
+
 impl EnvConfig {
     /// The default configuration under `rules`, with that rule set's `T_max`.
     ///
@@ -180,6 +184,15 @@ impl EnvConfig {
             return Err(EnvError::InvalidConfig(
                 "stall_window must be at least 1".into(),
             ));
+        }
+        // The deadlock monitor keeps `stall_window` steps of history per
+        // agent: a window of billions (a nonsensical wire message, found by
+        // proto/tests/fuzz.rs) asked for tens of gigabytes.
+        if self.stall_window > MAX_STALL_WINDOW {
+            return Err(EnvError::InvalidConfig(format!(
+                "stall_window must be at most {MAX_STALL_WINDOW}, got {}",
+                self.stall_window
+            )));
         }
         if let Some(shaping) = &self.shaping {
             shaping.validate().map_err(EnvError::InvalidConfig)?;

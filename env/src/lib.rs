@@ -30,6 +30,7 @@ pub mod mixture;
 pub mod monitor;
 pub mod obs;
 pub mod recipe;
+pub mod reward;
 pub mod rules;
 pub mod seed;
 pub mod stats;
@@ -45,6 +46,7 @@ pub use obs::{central_obs_dim, local_obs_dim, ObsKind};
 pub use recipe::{
     priority_feature_dim, ObsFeatures, Shaping, PATH_FEATURE_DIM, PRESSURE_FEATURE_DIM,
 };
+pub use reward::RewardRange;
 pub use rules::{Rules, UnknownRules, POGEMA_T_MAX, THESIS_T_MAX};
 pub use stats::EpisodeStats;
 pub use vec_env::{EnvSlot, VecEnv};

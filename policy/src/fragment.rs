@@ -118,20 +118,33 @@ impl Fragment {
 
     /// Checks that every buffer has the length its shape fields imply.
     pub fn validate(&self) -> Result<(), PolicyError> {
+        // Saturating: shapes come from the wire, and their products may not
+        // fit a usize (found by proto/tests/fuzz.rs); a saturated size
+        // matches no buffer, so such a shape is refused as a length error.
+        let mul = |xs: &[usize]| xs.iter().fold(1usize, |n, &x| n.saturating_mul(x));
         let (t, b, d) = (self.len, self.rows, self.obs_dim);
-        let w = self.heads * self.actions_per_head;
+        let w = mul(&[self.heads, self.actions_per_head]);
         let k = self.final_obs_index.len();
+        let steps = mul(&[t, b]);
         for (what, expected, got) in [
-            ("fragment obs", t * b * d, self.obs.len()),
-            ("fragment masks", t * b * w, self.masks.len()),
-            ("fragment actions", t * b * self.heads, self.actions.len()),
-            ("fragment logits", t * b * w, self.behaviour_logits.len()),
-            ("fragment logp", t * b, self.behaviour_logp.len()),
-            ("fragment rewards", t * b, self.rewards.len()),
-            ("fragment terminated", t * b, self.terminated.len()),
-            ("fragment truncated", t * b, self.truncated.len()),
-            ("fragment final_obs", k * d, self.final_obs.len()),
-            ("fragment last_obs", b * d, self.last_obs.len()),
+            ("fragment obs", mul(&[steps, d]), self.obs.len()),
+            ("fragment masks", mul(&[steps, w]), self.masks.len()),
+            (
+                "fragment actions",
+                mul(&[steps, self.heads]),
+                self.actions.len(),
+            ),
+            (
+                "fragment logits",
+                mul(&[steps, w]),
+                self.behaviour_logits.len(),
+            ),
+            ("fragment logp", steps, self.behaviour_logp.len()),
+            ("fragment rewards", steps, self.rewards.len()),
+            ("fragment terminated", steps, self.terminated.len()),
+            ("fragment truncated", steps, self.truncated.len()),
+            ("fragment final_obs", mul(&[k, d]), self.final_obs.len()),
+            ("fragment last_obs", mul(&[b, d]), self.last_obs.len()),
         ] {
             if expected != got {
                 return Err(PolicyError::WrongLength {

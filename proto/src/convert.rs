@@ -358,8 +358,14 @@ pub fn weights_from_message(m: v1::Parameters) -> Result<Weights, ConvertError> 
     let mut tensors = Vec::with_capacity(m.tensors.len());
     for t in m.tensors {
         let shape: Vec<usize> = t.shape.iter().map(|&d| d as usize).collect();
-        let expected: usize = shape.iter().product();
-        if expected != t.data.len() {
+        // Checked: dimensions near u32::MAX multiply past usize, and a
+        // wrapped product could match the data (found by proto/tests/fuzz.rs).
+        let expected = if shape.contains(&0) {
+            Some(0)
+        } else {
+            shape.iter().try_fold(1usize, |n, &d| n.checked_mul(d))
+        };
+        if expected != Some(t.data.len()) {
             return Err(ConvertError::Invalid(format!(
                 "tensor '{}' has shape {shape:?} but {} values",
                 t.name,

@@ -7,6 +7,7 @@
 //! assert_eq!(join.api_version, 1);
 //! ```
 
+pub mod codec;
 pub mod convert;
 
 /// Generated messages and the `Learner` client and server.

@@ -295,7 +295,9 @@ pub fn parse_duration(v: &toml::Value) -> Result<Duration, String> {
         toml::Value::Integer(s) if *s > 0 => *s as f64,
         toml::Value::String(s) => {
             let s = s.trim();
-            let (num, unit) = s.split_at(s.len().saturating_sub(1));
+            // The unit is the last character, which may take several bytes
+            // (`4ß` panicked here; found by study/tests/fuzz.rs).
+            let (num, unit) = s.split_at(s.char_indices().next_back().map_or(0, |(i, _)| i));
             let scale = match unit {
                 "s" => 1.0,
                 "m" => 60.0,
@@ -310,7 +312,9 @@ pub fn parse_duration(v: &toml::Value) -> Result<Duration, String> {
         }
         _ => return Err("expected seconds or a string like \"4h\"".into()),
     };
-    if !(secs.is_finite() && secs > 0.0 && secs < 1e12) {
+    // A positive number of seconds can still round to no time at all
+    // (`1e-320h`, found by study/tests/fuzz.rs).
+    if !(1e-9..1e12).contains(&secs) {
         return Err("must be positive".into());
     }
     Ok(Duration::from_secs_f64(secs))

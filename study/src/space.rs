@@ -124,9 +124,18 @@ pub enum Problem {
     /// `step` is not a positive integer.
     #[error("`step` must be a positive integer")]
     BadStep,
-    /// A bound is NaN or infinite.
-    #[error("bounds must be finite")]
+    /// A bound or a choice is NaN or infinite.
+    #[error("bounds and choices must be finite")]
     NotFinite,
+    /// An `int` range wider than 2^53: its values are not exact as the
+    /// float coordinates samplers work in.
+    #[error("int range [{low}, {high}] is wider than 2^53 (values must stay exact as floats)")]
+    TooWide {
+        /// Lower bound.
+        low: i64,
+        /// Upper bound.
+        high: i64,
+    },
     /// The space varies nothing.
     #[error("the search space has no parameters")]
     Empty,
@@ -237,6 +246,16 @@ fn collect(table: &toml::Table, prefix: &str, out: &mut Vec<Param>) -> Result<()
     Ok(())
 }
 
+/// Whether every float in `v` (arrays and tables included) is finite.
+fn all_finite(v: &toml::Value) -> bool {
+    match v {
+        toml::Value::Float(x) => x.is_finite(),
+        toml::Value::Array(a) => a.iter().all(all_finite),
+        toml::Value::Table(t) => t.values().all(all_finite),
+        _ => true,
+    }
+}
+
 fn parse_domain(t: &toml::Table) -> Result<Domain, Problem> {
     let kinds: Vec<&str> = t
         .keys()
@@ -259,6 +278,11 @@ fn parse_domain(t: &toml::Table) -> Result<Domain, Problem> {
             if list.is_empty() {
                 return Err(Problem::EmptyChoice);
             }
+            // NaN equals nothing, itself included: a sampled NaN has no
+            // coordinate (found by study/tests/fuzz.rs).
+            if !list.iter().all(all_finite) {
+                return Err(Problem::NotFinite);
+            }
             Ok(Domain::Choice(list.clone()))
         }
         "int" => {
@@ -271,6 +295,12 @@ fn parse_domain(t: &toml::Table) -> Result<Domain, Problem> {
                     low: low as f64,
                     high: high as f64,
                 });
+            }
+            // Coordinates are floats: beyond 2^53 a lattice index rounds to
+            // a value outside the range (found by study/tests/fuzz.rs), and
+            // `high - low` overflows.
+            if high.checked_sub(low).is_none_or(|span| span > 1 << 53) {
+                return Err(Problem::TooWide { low, high });
             }
             let step = match t.get("step") {
                 None => 1,

@@ -2,16 +2,18 @@
 //! sessions, the on-policy gate, the latest weights and the fragment
 //! queue. The learner loop reaches it through [`RemoteExchange`].
 
-use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use buridan_policy::{Fragment, Weights};
 use buridan_proto::convert::weights_to_message;
 use buridan_proto::v1;
 use tokio::sync::{mpsc, watch};
 
+use super::plausible::Plausibility;
+pub use super::sessions::Session;
+use super::sessions::{SessionCap, SessionLimits, SessionTable};
 use crate::train::gate::{Gate, Refusal, Staleness};
 use crate::train::{Exchange, ExchangeError};
 
@@ -50,21 +52,6 @@ pub struct RunInfo {
     pub actions_per_head: u32,
     /// Rows per env (agents for local observations, 1 for central).
     pub rows_per_env: u32,
-}
-
-/// One actor's session.
-#[derive(Debug, Clone)]
-pub struct Session {
-    /// Actor id.
-    pub actor_id: u32,
-    /// Name the actor gave.
-    pub name: String,
-    /// Envs it runs.
-    pub envs: u32,
-    /// Highest fragment sequence number received.
-    pub last_seq: Option<u64>,
-    /// Open parameter streams (its liveness).
-    pub watchers: usize,
 }
 
 /// What happened to a submitted fragment.
@@ -129,8 +116,9 @@ impl FragmentCounters {
 pub struct Hub {
     /// What joining actors are told.
     pub info: RunInfo,
-    sessions: Mutex<HashMap<u64, Session>>,
-    next_session: AtomicU64,
+    /// What submitted fragments are checked against.
+    pub plausibility: Plausibility,
+    sessions: SessionTable,
     gate: Mutex<Gate>,
     params: watch::Sender<Arc<v1::Parameters>>,
     queue: mpsc::Sender<Fragment>,
@@ -140,9 +128,15 @@ pub struct Hub {
 }
 
 impl Hub {
-    /// A hub whose queue holds `capacity` fragments; returns the learner's
-    /// end of the queue.
-    pub fn new(info: RunInfo, capacity: usize) -> (Arc<Hub>, mpsc::Receiver<Fragment>) {
+    /// A hub whose queue holds `capacity` fragments, whose sessions follow
+    /// `limits` and whose fragments are checked against `plausibility`;
+    /// returns the learner's end of the queue.
+    pub fn new(
+        info: RunInfo,
+        capacity: usize,
+        limits: SessionLimits,
+        plausibility: Plausibility,
+    ) -> (Arc<Hub>, mpsc::Receiver<Fragment>) {
         let staleness = if info.on_policy {
             Staleness::OnPolicy
         } else {
@@ -155,8 +149,8 @@ impl Hub {
         }));
         let hub = Hub {
             info,
-            sessions: Mutex::new(HashMap::new()),
-            next_session: AtomicU64::new(1),
+            plausibility,
+            sessions: SessionTable::new(limits),
             gate: Mutex::new(Gate::new(staleness)),
             params,
             queue: tx,
@@ -166,74 +160,58 @@ impl Hub {
         (Arc::new(hub), rx)
     }
 
-    /// Opens a session for an actor.
-    pub fn open_session(&self, name: String, envs: u32) -> (u64, Session) {
-        let id = self.next_session.fetch_add(1, Ordering::SeqCst);
-        let session = Session {
-            actor_id: (id - 1) as u32,
-            name,
-            envs,
-            last_seq: None,
-            watchers: 0,
-        };
-        self.sessions
-            .lock()
-            .expect("sessions lock")
-            .insert(id, session.clone());
-        (id, session)
+    /// Opens a session for an actor, unless the session cap is reached.
+    pub fn open_session(&self, name: String, envs: u32) -> Result<(u64, Session), SessionCap> {
+        self.sessions.open(name, envs)
     }
 
     /// The session `id`, if open.
     pub fn session(&self, id: u64) -> Option<Session> {
-        self.sessions
-            .lock()
-            .expect("sessions lock")
-            .get(&id)
-            .cloned()
+        self.sessions.get(id)
     }
 
-    /// Records a parameter stream opening (`+1`) or closing (`-1`); a
-    /// session whose last stream closes is gone (its actor died or cut
-    /// the connection).
-    pub fn watcher(&self, id: u64, opened: bool) {
-        let mut sessions = self.sessions.lock().expect("sessions lock");
-        if let Some(s) = sessions.get_mut(&id) {
-            if opened {
-                s.watchers += 1;
-            } else {
-                s.watchers = s.watchers.saturating_sub(1);
-                if s.watchers == 0 {
-                    tracing::info!(session = id, actor = s.actor_id, name = %s.name, "actor left");
-                    sessions.remove(&id);
-                }
-            }
-        }
-        ::metrics::gauge!("buridan_connected_actors")
-            .set(sessions.values().filter(|s| s.watchers > 0).count() as f64);
+    /// Records a parameter stream of session `id` opening; false if the
+    /// session is not open (unknown, left or expired).
+    pub fn open_watch(&self, id: u64) -> bool {
+        self.sessions.open_watch(id)
+    }
+
+    /// Records a parameter stream of session `id` closing; a session whose
+    /// last stream closes is gone (its actor died or cut the connection).
+    pub fn close_watch(&self, id: u64) {
+        self.sessions.close_watch(id)
     }
 
     /// Sessions with an open parameter stream.
     pub fn connected(&self) -> usize {
-        self.sessions
-            .lock()
-            .expect("sessions lock")
-            .values()
-            .filter(|s| s.watchers > 0)
-            .count()
+        self.sessions.connected()
+    }
+
+    /// Sessions open.
+    pub fn open_sessions(&self) -> usize {
+        self.sessions.len()
+    }
+
+    /// The session limits.
+    pub fn session_limits(&self) -> SessionLimits {
+        self.sessions.limits()
     }
 
     /// Marks `seq` of session `id` as received; `Err(last)` if it is not
-    /// newer than the last one, `None` if the session is unknown.
+    /// newer than the last one, `None` if the session is not open.
     pub fn claim_seq(&self, id: u64, seq: u64) -> Option<Result<(), u64>> {
-        let mut sessions = self.sessions.lock().expect("sessions lock");
-        let s = sessions.get_mut(&id)?;
-        Some(match s.last_seq {
-            Some(last) if seq <= last => Err(last),
-            _ => {
-                s.last_seq = Some(seq);
-                Ok(())
-            }
-        })
+        self.sessions.claim_seq(id, seq)
+    }
+
+    /// Removes idle sessions every [`SessionTable::sweep_every`], until
+    /// the runtime it is spawned on shuts down.
+    pub async fn expire_idle_sessions(self: Arc<Self>) {
+        let mut every = tokio::time::interval(self.sessions.sweep_every());
+        every.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        loop {
+            every.tick().await;
+            self.sessions.expire_idle(Instant::now());
+        }
     }
 
     /// A receiver of the weights: the latest at once, then each new one.

@@ -22,9 +22,24 @@
 //! - IMPALA: older than `impala.max_policy_lag` versions → refused, `stale`;
 //! - otherwise queued (`accepted`); the handler waits while the queue is
 //!   full, so actors slow down rather than the learner's memory growing.
+//!
+//! Hardening:
+//! - a well-formed fragment the run's env cannot have produced (a reward
+//!   outside [`buridan_env::EnvConfig::step_reward_range`], episode
+//!   statistics that contradict the fragment or the rules, a logit not
+//!   finite where the mask allows the action) → `INVALID_ARGUMENT` naming
+//!   the field, `invalid`, and `buridan_implausible_fragments_total{field}`
+//!   ([`plausible`]);
+//! - a request whose bytes do not decode → `INVALID_ARGUMENT`, counted in
+//!   `buridan_undecodable_messages_total` ([`buridan_proto::codec`]);
+//! - sessions without a parameter stream expire when idle, and their number
+//!   is capped: a join beyond the cap gets `RESOURCE_EXHAUSTED`
+//!   ([`sessions`]).
 
 pub mod hub;
+pub mod plausible;
 pub mod service;
+pub mod sessions;
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -33,6 +48,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use buridan_env::MapSource;
+use buridan_proto::codec::UNDECODABLE_METADATA;
 use buridan_proto::convert::{env_to_message, map_to_message};
 use buridan_proto::v1::learner_server::LearnerServer;
 use rand::Rng;
@@ -45,6 +61,8 @@ use tonic::{Request, Status};
 
 use crate::train::{env_config, Progress, Run, Summary, TrainConfig, TrainError};
 pub use hub::{Hub, RemoteExchange, RunInfo};
+pub use plausible::{Implausible, Plausibility};
+pub use sessions::{SessionLimits, DEFAULT_IDLE_TIMEOUT, DEFAULT_MAX_SESSIONS};
 
 impl From<TrainError> for ServeError {
     fn from(e: TrainError) -> Self {
@@ -86,6 +104,9 @@ pub enum ServeError {
     /// An empty token would accept everyone.
     #[error("an empty --token would accept everyone; leave it out instead")]
     EmptyToken,
+    /// The session limits are zero or absurd.
+    #[error(transparent)]
+    SessionLimits(#[from] LimitsError),
     /// The run trains on several layouts, which remote actors cannot run yet.
     #[error("this run trains on several layouts ({0}); remote actors receive one map, so train it embedded with `learner train`")]
     SeveralLayouts(String),
@@ -119,6 +140,48 @@ pub struct ServeOptions {
     /// Once set, the learner checkpoints and stops without telling actors
     /// the run is over (they reconnect to the restarted learner).
     pub interrupt: Option<Arc<AtomicBool>>,
+    /// How long a session without a parameter stream may stay idle, and how
+    /// many sessions may be open ([`sessions`]); checked by
+    /// [`check_session_limits`].
+    pub sessions: SessionLimits,
+}
+
+/// Longest accepted idle timeout of a session.
+pub const MAX_IDLE_TIMEOUT: Duration = Duration::from_secs(30 * 24 * 3600);
+
+/// Largest accepted session cap.
+pub const MAX_SESSIONS_LIMIT: usize = 1_000_000;
+
+/// Session limits that cannot be meant.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum LimitsError {
+    /// An idle timeout of zero or beyond [`MAX_IDLE_TIMEOUT`].
+    #[error("a session idle timeout of {0:?} is not usable: give 1 ms to 30 days (--session-idle-timeout SECS)")]
+    IdleTimeout(Duration),
+    /// A session cap of zero or beyond [`MAX_SESSIONS_LIMIT`].
+    #[error("a cap of {0} sessions is not usable: give 1 to 1000000 (--max-sessions N)")]
+    MaxSessions(usize),
+}
+
+/// Checks that `limits` are usable: an idle timeout of 1 ms to 30 days, a
+/// cap of 1 to 1,000,000 sessions.
+///
+/// ```
+/// use std::time::Duration;
+/// use buridan_learner::serve::{check_session_limits, LimitsError, SessionLimits};
+/// assert!(check_session_limits(&SessionLimits::default()).is_ok());
+/// let none = SessionLimits { max_sessions: 0, ..SessionLimits::default() };
+/// assert_eq!(check_session_limits(&none), Err(LimitsError::MaxSessions(0)));
+/// ```
+pub fn check_session_limits(limits: &SessionLimits) -> Result<(), LimitsError> {
+    let t = limits.idle_timeout;
+    if t < Duration::from_millis(1) || t > MAX_IDLE_TIMEOUT {
+        return Err(LimitsError::IdleTimeout(t));
+    }
+    if limits.max_sessions == 0 || limits.max_sessions > MAX_SESSIONS_LIMIT {
+        return Err(LimitsError::MaxSessions(limits.max_sessions));
+    }
+    Ok(())
 }
 
 impl Default for ServeOptions {
@@ -131,6 +194,7 @@ impl Default for ServeOptions {
             queue_capacity: 0,
             linger: Duration::from_millis(500),
             interrupt: None,
+            sessions: SessionLimits::default(),
         }
     }
 }
@@ -159,6 +223,7 @@ pub fn serve(
     if cfg.maps.as_ref().is_some_and(|m| m.len() > 1) {
         return Err(ServeError::SeveralLayouts(cfg.map_label()));
     }
+    check_session_limits(&opts.sessions)?;
     let mut run = Run::prepare(cfg, out)?;
     if let Some(flag) = &opts.interrupt {
         run.interrupt_on(flag.clone());
@@ -169,7 +234,8 @@ pub fn serve(
     } else {
         cfg.queue_capacity().max(2)
     };
-    let (hub, rx) = Hub::new(info, capacity);
+    let plausibility = plausibility(&run, &info);
+    let (hub, rx) = Hub::new(info, capacity, opts.sessions, plausibility);
     let wanted = cfg.on_policy().then_some(cfg.train_batch());
     hub.publish(&run.weights()?, wanted);
 
@@ -207,6 +273,7 @@ pub fn serve(
             spawn_server(&runtime, hub.clone(), opts, incoming, stop_rx)?
         }
     };
+    runtime.spawn(hub.clone().expire_idle_sessions());
     let mut exchange = RemoteExchange::new(hub.clone(), rx, runtime.handle().clone());
     let result = run.learn(&mut exchange, progress);
     // Let the actors hear that the run is over, then stop serving.
@@ -231,6 +298,25 @@ pub fn serve(
         tracing::warn!("gRPC server ended with an error: {e}");
     }
     Ok(summary)
+}
+
+/// What the run's env can produce, for the fragment checks: its rules on
+/// its maps (any reachable goal distance is below a map's free cells; a
+/// mixture's largest map bounds them all).
+fn plausibility(run: &Run, info: &RunInfo) -> Plausibility {
+    let cfg = run.config();
+    let max_goal_distance = run
+        .layouts()
+        .iter()
+        .map(|layout| layout.0.grid.free_cells().len().saturating_sub(1))
+        .max()
+        .unwrap_or(0);
+    Plausibility::new(
+        &env_config(cfg, 0),
+        u32::try_from(max_goal_distance).unwrap_or(u32::MAX),
+        info.rows_per_env,
+        cfg.layouts().len() as u32,
+    )
 }
 
 fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
@@ -259,8 +345,21 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
 }
 
 /// Counts every gRPC error status the server sends (whether from a
-/// handler or from tonic itself, e.g. an oversized message) by code.
-fn count_status(resp: http::Response<tonic::body::Body>) -> http::Response<tonic::body::Body> {
+/// handler or from tonic itself, e.g. an oversized message) by code, and
+/// requests that did not decode ([`buridan_proto::codec`] marks them) in
+/// `buridan_undecodable_messages_total`; the mark is not sent on.
+fn count_status(mut resp: http::Response<tonic::body::Body>) -> http::Response<tonic::body::Body> {
+    if resp.headers_mut().remove(UNDECODABLE_METADATA).is_some() {
+        ::metrics::counter!("buridan_undecodable_messages_total").increment(1);
+        tracing::warn!(
+            message = resp
+                .headers()
+                .get("grpc-message")
+                .and_then(|v| v.to_str().ok())
+                .unwrap_or(""),
+            "undecodable request refused"
+        );
+    }
     if let Some(code) = resp
         .headers()
         .get("grpc-status")

@@ -47,6 +47,15 @@ impl LearnerService {
         })
     }
 
+    /// The status of a call naming a session that is not open: never
+    /// opened, left (its last parameter stream closed) or expired.
+    fn unknown_session(&self, id: u64) -> Status {
+        Status::not_found(format!(
+            "unknown session {id} (it left, or expired after {} s without a parameter stream or a fragment): join again",
+            self.hub.session_limits().idle_timeout.as_secs_f64()
+        ))
+    }
+
     fn refuse(&self, outcome: Outcome, status: Status) -> Status {
         self.hub.counters.count(outcome);
         tracing::warn!(code = ?status.code(), message = status.message(), "fragment refused");
@@ -84,7 +93,7 @@ impl Stream for ParameterStream {
 
 impl Drop for ParameterStream {
     fn drop(&mut self) {
-        self.hub.watcher(self.session, false);
+        self.hub.close_watch(self.session);
     }
 }
 
@@ -125,7 +134,12 @@ impl Learner for LearnerService {
         } else {
             req.actor_name.chars().take(128).collect()
         };
-        let (session, s) = self.hub.open_session(name.clone(), envs);
+        let (session, s) = self.hub.open_session(name.clone(), envs).map_err(|cap| {
+            ::metrics::counter!("buridan_joins_refused_total", "reason" => "max_sessions")
+                .increment(1);
+            tracing::warn!(%name, open = cap.open, cap = cap.cap, "join refused: session cap");
+            Status::resource_exhausted(cap.to_string())
+        })?;
         tracing::info!(session, actor = s.actor_id, %name, envs, "actor joined");
         Ok(Response::new(v1::JoinReply {
             run_id: info.run_id.clone(),
@@ -153,13 +167,9 @@ impl Learner for LearnerService {
     ) -> Result<Response<Self::WatchParametersStream>, Status> {
         let req = request.into_inner();
         self.check_run(&req.run_id)?;
-        if self.hub.session(req.session).is_none() {
-            return Err(Status::not_found(format!(
-                "unknown session {}: join again",
-                req.session
-            )));
+        if !self.hub.open_watch(req.session) {
+            return Err(self.unknown_session(req.session));
         }
-        self.hub.watcher(req.session, true);
         Ok(Response::new(ParameterStream {
             inner: WatchStream::new(self.hub.subscribe()),
             hub: self.hub.clone(),
@@ -184,12 +194,10 @@ impl Learner for LearnerService {
         if self.hub.finished() {
             return Ok(self.finished_reply());
         }
-        let session = self.hub.session(tag.session).ok_or_else(|| {
-            self.refuse(
-                Outcome::Invalid,
-                Status::not_found(format!("unknown session {}: join again", tag.session)),
-            )
-        })?;
+        let session = self
+            .hub
+            .session(tag.session)
+            .ok_or_else(|| self.refuse(Outcome::Invalid, self.unknown_session(tag.session)))?;
         for (what, got, expected) in [
             ("obs_dim", f.obs_dim as u64, u64::from(info.obs_dim)),
             ("heads", f.heads as u64, u64::from(info.heads)),
@@ -229,13 +237,16 @@ impl Learner for LearnerService {
                 )),
             ));
         }
+        if let Err(implausible) = self.hub.plausibility.check(&f) {
+            ::metrics::counter!("buridan_implausible_fragments_total", "field" => implausible.field())
+                .increment(1);
+            return Err(self.refuse(
+                Outcome::Invalid,
+                Status::invalid_argument(implausible.to_string()),
+            ));
+        }
         match self.hub.claim_seq(tag.session, tag.seq) {
-            None => {
-                return Err(self.refuse(
-                    Outcome::Invalid,
-                    Status::not_found(format!("unknown session {}: join again", tag.session)),
-                ))
-            }
+            None => return Err(self.refuse(Outcome::Invalid, self.unknown_session(tag.session))),
             Some(Err(last)) => {
                 return Err(self.refuse(
                     Outcome::Duplicate,

@@ -37,6 +37,17 @@ pub enum ConfigError {
     /// A value is out of its range.
     #[error("invalid configuration: {0}")]
     Invalid(&'static str),
+    /// A hyperparameter is not a number in its range (NaN, infinite, or
+    /// e.g. a negative learning rate).
+    #[error("invalid configuration: {key} = {value} must be {range}")]
+    OutOfRange {
+        /// The key, as in the file (`ppo.lr`).
+        key: &'static str,
+        /// Its value.
+        value: f64,
+        /// What it must be ("finite and positive", ...).
+        range: &'static str,
+    },
     /// The `[imitation]` section is out of range.
     #[error("invalid configuration")]
     Imitation(#[source] Box<buridan_imitate::ImitationError>),
@@ -640,6 +651,46 @@ impl TrainConfig {
         Ok(())
     }
 
+    /// Checks that every real-valued hyperparameter is a finite number in
+    /// its range: a NaN learning rate would otherwise train on, silently
+    /// turning every weight into NaN.
+    fn validate_hyperparameters(&self) -> Result<(), ConfigError> {
+        const POSITIVE: &str = "finite and positive";
+        const NON_NEGATIVE: &str = "finite and at least 0";
+        const UNIT: &str = "in [0, 1]";
+        let (p, i) = (&self.ppo, &self.impala);
+        let checks: [(&'static str, f64, &'static str); 17] = [
+            ("ppo.lr", p.lr, POSITIVE),
+            ("ppo.clip", p.clip.into(), POSITIVE),
+            ("ppo.vf_clip", p.vf_clip.into(), POSITIVE),
+            ("ppo.kl_target", p.kl_target, POSITIVE),
+            ("ppo.grad_clip", p.grad_clip.unwrap_or(1.0), POSITIVE),
+            ("ppo.entropy_coeff", p.entropy_coeff.into(), NON_NEGATIVE),
+            ("ppo.vf_coeff", p.vf_coeff.into(), NON_NEGATIVE),
+            ("ppo.kl_coeff", p.kl_coeff, NON_NEGATIVE),
+            ("ppo.lambda", p.lambda.into(), UNIT),
+            ("impala.lr", i.lr, POSITIVE),
+            ("impala.grad_clip", i.grad_clip.unwrap_or(1.0), POSITIVE),
+            ("impala.rho_bar", i.rho_bar.into(), POSITIVE),
+            ("impala.c_bar", i.c_bar.into(), POSITIVE),
+            ("impala.pg_rho_bar", i.pg_rho_bar.into(), POSITIVE),
+            ("impala.vf_coeff", i.vf_coeff.into(), NON_NEGATIVE),
+            ("impala.entropy_coeff", i.entropy_coeff.into(), NON_NEGATIVE),
+            ("impala.lambda", i.lambda.into(), UNIT),
+        ];
+        for (key, value, range) in checks {
+            let ok = match range {
+                POSITIVE => value.is_finite() && value > 0.0,
+                NON_NEGATIVE => value.is_finite() && value >= 0.0,
+                _ => (0.0..=1.0).contains(&value),
+            };
+            if !ok {
+                return Err(ConfigError::OutOfRange { key, value, range });
+            }
+        }
+        Ok(())
+    }
+
     /// Checks ranges.
     pub fn validate(&self) -> Result<(), ConfigError> {
         ensure(self.agents >= 1, "agents must be at least 1")?;
@@ -680,6 +731,7 @@ impl TrainConfig {
             "impala.greedy_mix needs algo = \"impala\" (PPO's ratio assumes sampled rollouts)",
         )?;
         ensure(self.lstm_cells >= 1, "lstm_cells must be positive")?;
+        self.validate_hyperparameters()?;
         if let Some(im) = &self.imitation {
             im.validate()
                 .map_err(|e| ConfigError::Imitation(Box::new(e)))?;
@@ -822,6 +874,61 @@ impl From<&TrainConfig> for ImpalaSettings {
             },
             max_seq_len: cfg.max_seq_len,
             update_threads: super::cores::update_threads(i.update_threads),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The default config with one field changed, validated.
+    fn with(change: impl Fn(&mut TrainConfig)) -> Result<(), ConfigError> {
+        let mut cfg = TrainConfig::default();
+        change(&mut cfg);
+        cfg.validate()
+    }
+
+    #[test]
+    fn hyperparameters_outside_their_range_are_refused_by_name() {
+        type Change = fn(&mut TrainConfig);
+        let bad: [(&str, &str, Change); 7] = [
+            ("ppo.lr", "finite and positive", |c| c.ppo.lr = f64::NAN),
+            ("ppo.lr", "finite and positive", |c| c.ppo.lr = 0.0),
+            ("impala.lr", "finite and positive", |c| {
+                c.impala.lr = f64::INFINITY
+            }),
+            ("ppo.entropy_coeff", "finite and at least 0", |c| {
+                c.ppo.entropy_coeff = -0.01
+            }),
+            ("impala.rho_bar", "finite and positive", |c| {
+                c.impala.rho_bar = -1.0
+            }),
+            ("ppo.lambda", "in [0, 1]", |c| c.ppo.lambda = 1.5),
+            ("ppo.grad_clip", "finite and positive", |c| {
+                c.ppo.grad_clip = Some(f64::NAN)
+            }),
+        ];
+        for (key, range, change) in bad {
+            match with(change) {
+                Err(ConfigError::OutOfRange {
+                    key: k, range: r, ..
+                }) => {
+                    assert_eq!((k, r), (key, range));
+                }
+                other => panic!("{key}: expected OutOfRange, got {other:?}"),
+            }
+        }
+        // The legal edges stay legal.
+        let edges: [Change; 5] = [
+            |c| c.ppo.entropy_coeff = 0.0,
+            |c| c.ppo.kl_coeff = 0.0,
+            |c| c.ppo.lambda = 1.0,
+            |c| c.impala.lambda = 0.0,
+            |c| c.ppo.lr = 1e-8,
+        ];
+        for (i, change) in edges.into_iter().enumerate() {
+            assert!(with(change).is_ok(), "edge {i} refused");
         }
     }
 }

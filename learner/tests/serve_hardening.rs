@@ -1,0 +1,357 @@
+//! `learner serve` against clients that misbehave, over loopback TCP:
+//! implausible fragments and undecodable messages get `INVALID_ARGUMENT`
+//! (and the learner carries on), idle sessions expire while watching ones
+//! stay, and joins beyond the session cap get `RESOURCE_EXHAUSTED` until a
+//! session leaves or expires.
+
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use buridan_actor::client::build_collector;
+use buridan_learner::serve::{serve, Listener, ServeError, ServeOptions, SessionLimits};
+use buridan_learner::train::{NoProgress, Summary, TrainConfig};
+use buridan_proto::convert::{fragment_to_message, weights_from_message, WireTag};
+use buridan_proto::v1;
+use buridan_proto::v1::learner_client::LearnerClient;
+use prost::bytes::{Buf, BufMut};
+use prost::Message;
+use rand::{Rng, SeedableRng};
+use tonic::codec::{Codec, DecodeBuf, Decoder, EncodeBuf, Encoder};
+use tonic::transport::Channel;
+use tonic::{Code, Status};
+
+/// A learner serving on loopback until dropped (then interrupted).
+struct Learner {
+    addr: SocketAddr,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<Result<Summary, ServeError>>>,
+    _dir: tempfile::TempDir,
+}
+
+impl Learner {
+    /// Serves rm-1.1 with 2 agents (fixed starts), fragments of 20 steps,
+    /// with `sessions` limits.
+    fn start(sessions: SessionLimits) -> Learner {
+        let dir = tempfile::tempdir().unwrap();
+        let cfg = TrainConfig {
+            map: "rm-1.1".into(),
+            agents: 2,
+            starts: buridan_env::Starts::Fixed,
+            steps: 10_000_000,
+            envs_per_actor: 1,
+            fragment_len: 20,
+            ..TrainConfig::default()
+        };
+        let stop = Arc::new(AtomicBool::new(false));
+        let opts = ServeOptions {
+            interrupt: Some(stop.clone()),
+            linger: Duration::ZERO,
+            sessions,
+            ..ServeOptions::default()
+        };
+        let out = dir.path().to_path_buf();
+        let (ready_tx, ready) = std::sync::mpsc::channel();
+        let thread = std::thread::spawn(move || {
+            serve(
+                &cfg,
+                &out,
+                &opts,
+                Listener::Tcp("127.0.0.1:0".parse().unwrap()),
+                Some(ready_tx),
+                &mut NoProgress,
+            )
+        });
+        let addr = ready
+            .recv_timeout(Duration::from_secs(120))
+            .expect("the learner starts")
+            .expect("a TCP address");
+        Learner {
+            addr,
+            stop,
+            thread: Some(thread),
+            _dir: dir,
+        }
+    }
+
+    async fn channel(&self) -> Channel {
+        Channel::from_shared(format!("http://{}", self.addr))
+            .unwrap()
+            .connect()
+            .await
+            .unwrap()
+    }
+
+    async fn client(&self) -> LearnerClient<Channel> {
+        LearnerClient::new(self.channel().await)
+    }
+}
+
+impl Drop for Learner {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+async fn join(client: &mut LearnerClient<Channel>, name: &str) -> Result<v1::JoinReply, Status> {
+    client
+        .join(v1::JoinRequest {
+            api_version: 1,
+            actor_name: name.into(),
+            envs: 1,
+        })
+        .await
+        .map(|r| r.into_inner())
+}
+
+async fn watch(
+    client: &mut LearnerClient<Channel>,
+    join: &v1::JoinReply,
+) -> Result<tonic::Streaming<v1::Parameters>, Status> {
+    client
+        .watch_parameters(v1::WatchRequest {
+            run_id: join.run_id.clone(),
+            session: join.session,
+        })
+        .await
+        .map(|r| r.into_inner())
+}
+
+fn runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .unwrap()
+}
+
+#[test]
+fn implausible_rewards_are_refused_naming_the_field_and_training_goes_on() {
+    let learner = Learner::start(SessionLimits::default());
+    runtime().block_on(async {
+        let mut client = learner.client().await;
+        let joined = join(&mut client, "liar").await.unwrap();
+        let mut stream = watch(&mut client, &joined).await.unwrap();
+        let weights = stream.message().await.unwrap().expect("weights");
+        let mut collector = build_collector(&joined).unwrap();
+        collector
+            .load(&weights_from_message(weights).unwrap())
+            .unwrap();
+        let good = collector.collect().unwrap();
+        let tag = |seq| WireTag {
+            run_id: joined.run_id.clone(),
+            session: joined.session,
+            seq,
+        };
+
+        let mut bad = good.clone();
+        bad.rewards[17] = 1e30;
+        let status = client
+            .submit_fragment(fragment_to_message(bad, &tag(1)))
+            .await
+            .expect_err("a reward of 1e30 is refused");
+        assert_eq!(status.code(), Code::InvalidArgument, "{status:?}");
+        assert!(
+            status
+                .message()
+                .starts_with("fragment.rewards[17] = 1e30 is outside the env's reward range ["),
+            "{}",
+            status.message()
+        );
+
+        let reply = client
+            .submit_fragment(fragment_to_message(good, &tag(2)))
+            .await
+            .expect("the same fragment with its real rewards is taken")
+            .into_inner();
+        assert!(reply.accepted, "{reply:?}");
+    });
+}
+
+/// Sends `bytes` as the whole message body of a request (gRPC framing
+/// intact, so only the protobuf decode can fail).
+#[derive(Default)]
+struct RawCodec;
+
+struct RawEncoder;
+struct RawDecoder;
+
+impl Encoder for RawEncoder {
+    type Item = Vec<u8>;
+    type Error = Status;
+    fn encode(&mut self, item: Vec<u8>, dst: &mut EncodeBuf<'_>) -> Result<(), Status> {
+        dst.put_slice(&item);
+        Ok(())
+    }
+}
+
+impl Decoder for RawDecoder {
+    type Item = Vec<u8>;
+    type Error = Status;
+    fn decode(&mut self, src: &mut DecodeBuf<'_>) -> Result<Option<Vec<u8>>, Status> {
+        let bytes = src.copy_to_bytes(src.remaining());
+        Ok(Some(bytes.to_vec()))
+    }
+}
+
+impl Codec for RawCodec {
+    type Encode = Vec<u8>;
+    type Decode = Vec<u8>;
+    type Encoder = RawEncoder;
+    type Decoder = RawDecoder;
+    fn encoder(&mut self) -> RawEncoder {
+        RawEncoder
+    }
+    fn decoder(&mut self) -> RawDecoder {
+        RawDecoder
+    }
+}
+
+#[test]
+fn random_bytes_get_invalid_argument() {
+    let learner = Learner::start(SessionLimits::default());
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(16);
+    runtime().block_on(async {
+        let mut grpc = tonic::client::Grpc::new(learner.channel().await);
+        for method in ["Join", "WatchParameters", "SubmitFragment"] {
+            let bytes: Vec<u8> = (0..64).map(|_| rng.random()).collect();
+            // The bytes must really be undecodable as every request type.
+            assert!(v1::JoinRequest::decode(&bytes[..]).is_err());
+            assert!(v1::WatchRequest::decode(&bytes[..]).is_err());
+            assert!(v1::Fragment::decode(&bytes[..]).is_err());
+            grpc.ready().await.unwrap();
+            let path = format!("/buridan.v1.Learner/{method}").parse().unwrap();
+            let request = tonic::Request::new(bytes);
+            let status = if method == "WatchParameters" {
+                grpc.server_streaming(request, path, RawCodec)
+                    .await
+                    .map(|_| ())
+            } else {
+                grpc.unary(request, path, RawCodec).await.map(|_| ())
+            }
+            .expect_err("random bytes are refused");
+            assert_eq!(status.code(), Code::InvalidArgument, "{method}: {status:?}");
+            assert!(
+                status.message().contains("message could not be decoded"),
+                "{method}: {}",
+                status.message()
+            );
+            // The server's counting mark is not sent on.
+            assert!(status.metadata().get("buridan-undecodable").is_none());
+        }
+        // The learner still answers well-formed calls.
+        let mut client = learner.client().await;
+        join(&mut client, "after").await.unwrap();
+    });
+}
+
+#[test]
+fn idle_sessions_expire_while_watching_ones_stay() {
+    let idle_timeout = Duration::from_millis(400);
+    let learner = Learner::start(SessionLimits {
+        idle_timeout,
+        max_sessions: 16,
+    });
+    runtime().block_on(async {
+        let mut client = learner.client().await;
+        let idle = join(&mut client, "idle").await.unwrap();
+        let watching = join(&mut client, "watching").await.unwrap();
+        let mut stream = watch(&mut client, &watching).await.unwrap();
+        let weights = stream.message().await.unwrap().expect("weights");
+        tokio::time::sleep(idle_timeout * 3).await;
+
+        let status = watch(&mut client, &idle)
+            .await
+            .expect_err("the idle session expired");
+        assert_eq!(status.code(), Code::NotFound, "{status:?}");
+        assert!(
+            status
+                .message()
+                .starts_with(&format!("unknown session {}", idle.session)),
+            "{}",
+            status.message()
+        );
+        // A well-formed fragment naming it is refused the same way.
+        let mut collector = build_collector(&idle).unwrap();
+        collector
+            .load(&weights_from_message(weights).unwrap())
+            .unwrap();
+        let tag = WireTag {
+            run_id: idle.run_id.clone(),
+            session: idle.session,
+            seq: 1,
+        };
+        let status = client
+            .submit_fragment(fragment_to_message(collector.collect().unwrap(), &tag))
+            .await
+            .expect_err("the idle session expired");
+        assert_eq!(status.code(), Code::NotFound, "{status:?}");
+
+        // The watching session is still open: a second stream is accepted.
+        watch(&mut client, &watching)
+            .await
+            .expect("a session with an open stream never expires");
+    });
+}
+
+#[test]
+fn joins_beyond_the_cap_are_refused_until_a_session_leaves_or_expires() {
+    let idle_timeout = Duration::from_millis(800);
+    let learner = Learner::start(SessionLimits {
+        idle_timeout,
+        max_sessions: 2,
+    });
+    runtime().block_on(async {
+        let mut client = learner.client().await;
+        let a = join(&mut client, "a").await.unwrap();
+        let mut a_stream = watch(&mut client, &a).await.unwrap();
+        a_stream.message().await.unwrap().expect("weights");
+        join(&mut client, "b").await.unwrap();
+
+        let status = join(&mut client, "c").await.expect_err("the third join");
+        assert_eq!(status.code(), Code::ResourceExhausted, "{status:?}");
+        assert!(
+            status.message().contains("2 sessions") && status.message().contains("--max-sessions"),
+            "{}",
+            status.message()
+        );
+
+        // a leaves (its only stream closes): c gets in.
+        drop(a_stream);
+        let c = retry_join(&mut client, "c", Duration::from_secs(10)).await;
+        let status = join(&mut client, "d").await.expect_err("full again");
+        assert_eq!(status.code(), Code::ResourceExhausted, "{status:?}");
+
+        // b and c never watch: once they expire, d gets in.
+        let started = Instant::now();
+        retry_join(&mut client, "d", Duration::from_secs(10)).await;
+        assert!(
+            started.elapsed() >= idle_timeout / 2,
+            "d got in before b and c could expire"
+        );
+        let status = watch(&mut client, &c).await.expect_err("c expired");
+        assert_eq!(status.code(), Code::NotFound, "{status:?}");
+    });
+}
+
+/// Joins, retrying every 50 ms while the cap refuses, for at most `limit`.
+async fn retry_join(
+    client: &mut LearnerClient<Channel>,
+    name: &str,
+    limit: Duration,
+) -> v1::JoinReply {
+    let start = Instant::now();
+    loop {
+        match join(client, name).await {
+            Ok(j) => return j,
+            Err(s) if s.code() == Code::ResourceExhausted && start.elapsed() < limit => {
+                tokio::time::sleep(Duration::from_millis(50)).await;
+            }
+            Err(s) => panic!("join {name}: {s:?}"),
+        }
+    }
+}
