@@ -14,6 +14,28 @@ pub const TARGET: &str = "progress";
 /// Seconds between progress lines unless `BURIDAN_PROGRESS_SECS` says otherwise.
 pub const DEFAULT_SECS: f64 = 5.0;
 
+/// Points `bar` at a run of `len` steps of which `done` are done, so that
+/// its rate and ETA count only the steps made from here: a run resumed
+/// from a checkpoint would otherwise read its checkpoint's steps as done in
+/// its first second ("561k/s, eta 5s" for a run at 2.5k steps/s).
+///
+/// ```
+/// let bar = indicatif::ProgressBar::hidden();
+/// buridan_cli::heartbeat::start_at(&bar, 4_000_000, 2_000_000);
+/// std::thread::sleep(std::time::Duration::from_millis(20));
+/// bar.set_position(2_000_100);
+/// bar.tick();
+/// assert!(bar.per_sec() < 1e5, "{}", bar.per_sec()); // 100 steps in ~20 ms
+/// ```
+pub fn start_at(bar: &ProgressBar, len: u64, done: u64) {
+    bar.set_length(len);
+    bar.set_position(done);
+    // Record the position now (set_position is rate-limited), then
+    // forget the jump.
+    bar.tick();
+    bar.reset_eta();
+}
+
 /// The time between two progress lines: `BURIDAN_PROGRESS_SECS` if it is a
 /// positive number, else [`DEFAULT_SECS`].
 pub fn interval() -> Duration {

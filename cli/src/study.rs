@@ -92,8 +92,7 @@ struct BarProgress<'a>(&'a ProgressBar);
 
 impl Progress for BarProgress<'_> {
     fn on_start(&mut self, _cfg: &TrainConfig, total: u64, done: u64) {
-        self.0.set_length(total);
-        self.0.set_position(done);
+        crate::heartbeat::start_at(self.0, total, done);
     }
     fn on_update(&mut self, row: &MetricsRow) {
         self.0.set_position(row.env_steps);

@@ -219,8 +219,7 @@ pub fn install_metrics(addr: std::net::SocketAddr) -> Result<()> {
 
 impl Progress for TerminalProgress {
     fn on_start(&mut self, cfg: &TrainConfig, total_steps: u64, env_steps: u64) {
-        self.bar.set_length(total_steps);
-        self.bar.set_position(env_steps);
+        crate::heartbeat::start_at(&self.bar, total_steps, env_steps);
         self.bar.set_prefix(format!(
             "{} {} {} n={}",
             cfg.algo,

@@ -228,8 +228,7 @@ struct TrialProgress<'a> {
 impl Progress for TrialProgress<'_> {
     fn on_start(&mut self, _cfg: &TrainConfig, total_steps: u64, env_steps: u64) {
         if let Some(bar) = &self.bar {
-            bar.set_length(total_steps);
-            bar.set_position(env_steps);
+            crate::heartbeat::start_at(bar, total_steps, env_steps);
         }
     }
 
