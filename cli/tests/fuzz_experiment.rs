@@ -54,23 +54,7 @@ const TOML_WORDS: &[&str] = &[
 /// The shipped experiment files, each with its path (relative names in it
 /// resolve against its directory).
 fn seeds() -> Vec<(PathBuf, String)> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(root.join("learner/studies"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    for d in std::fs::read_dir(root.join("docs/results")).unwrap() {
-        paths.push(d.unwrap().path().join("experiment.toml"));
-    }
-    paths.sort();
-    paths
-        .into_iter()
-        .filter(|p| p.extension().is_some_and(|x| x == "toml") && p.is_file())
-        .filter_map(|p| {
-            let text = std::fs::read_to_string(&p).unwrap();
-            text.contains("[experiment]").then_some((p, text))
-        })
-        .collect()
+    fuzz_support::shipped_tomls("experiment.toml", "[experiment]")
 }
 
 /// Parses `text` as the file `path`; true if accepted (then checked).

@@ -11,8 +11,6 @@
 #[path = "../../env/tests/fuzz_support/mod.rs"]
 mod fuzz_support;
 
-use std::path::Path;
-
 use buridan_study::config::{parse_duration, ConfigError};
 use buridan_study::sampler::{trial_rng, SamplerKind};
 use buridan_study::StudyConfig;
@@ -60,20 +58,9 @@ const TOML_WORDS: &[&str] = &[
 
 /// The shipped study files.
 fn seeds() -> Vec<String> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let mut paths: Vec<_> = std::fs::read_dir(root.join("learner/studies"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    for d in std::fs::read_dir(root.join("docs/results")).unwrap() {
-        paths.push(d.unwrap().path().join("study.toml"));
-    }
-    paths.sort();
-    paths
-        .iter()
-        .filter(|p| p.extension().is_some_and(|x| x == "toml") && p.is_file())
-        .map(|p| std::fs::read_to_string(p).unwrap())
-        .filter(|t| t.contains("[study]"))
+    fuzz_support::shipped_tomls("study.toml", "[study]")
+        .into_iter()
+        .map(|(_, text)| text)
         .collect()
 }
 

@@ -13,6 +13,29 @@
 use proptest::prelude::*;
 
 /// Cases per target: `BURIDAN_FUZZ_CASES`, else a small count that keeps
+/// The shipped TOML files that contain `section` (`"[study]"`,
+/// `"[experiment]"`), with their paths, sorted: every file of
+/// `learner/studies/` and each kept result's `docs/results/*/kept`.
+pub fn shipped_tomls(kept: &str, section: &str) -> Vec<(std::path::PathBuf, String)> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut paths: Vec<_> = std::fs::read_dir(root.join("learner/studies"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    for d in std::fs::read_dir(root.join("docs/results")).unwrap() {
+        paths.push(d.unwrap().path().join(kept));
+    }
+    paths.sort();
+    paths
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|x| x == "toml") && p.is_file())
+        .filter_map(|p| {
+            let text = std::fs::read_to_string(&p).unwrap();
+            text.contains(section).then_some((p, text))
+        })
+        .collect()
+}
+
 /// the CI run of all targets well under a minute.
 pub fn cases() -> u32 {
     std::env::var("BURIDAN_FUZZ_CASES")
