@@ -1,6 +1,6 @@
 //! The distributed learner and actors in one process, connected by tonic
 //! over in-memory streams: learning, a dropped actor, malformed input,
-//! tokens, a learner restart.
+//! tokens, a learner restart, the session cap.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc as std_mpsc;
@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use anyhow::Result;
 use buridan_actor::client::{build_collector, run, ActorError, ActorOptions, ActorReport};
-use buridan_learner::serve::{serve, Listener, ServeError, ServeOptions};
+use buridan_learner::serve::{serve, Listener, ServeError, ServeOptions, SessionLimits};
 use buridan_learner::train::{MetricsRow, Progress, Summary, TrainConfig, TrainError};
 use buridan_proto::convert::{fragment_to_message, weights_from_message, WireTag};
 use buridan_proto::v1;
@@ -120,6 +120,47 @@ fn training_goes_on_when_an_actor_dies() {
     assert!(rt.block_on(doomed).unwrap_err().is_cancelled());
     // The survivor alone collected the last updates' batches.
     assert!(report.env_steps >= 4 * 4000 / 2, "{report:?}");
+}
+
+#[test]
+fn an_actor_refused_by_the_session_cap_waits_for_room_and_trains() {
+    let dir = tempfile::tempdir().unwrap();
+    let net = InMemoryNet::default();
+    let opts = ServeOptions {
+        sessions: SessionLimits {
+            idle_timeout: Duration::from_millis(800),
+            max_sessions: 1,
+        },
+        ..ServeOptions::default()
+    };
+    let (learner, _updates) = start_learner(&net, rm11_ppo(8_000, 4), dir.path().into(), opts);
+    let rt = runtime();
+    // A client that joins and then does nothing holds the only session
+    // until it idles out; the actor's joins meanwhile get RESOURCE_EXHAUSTED.
+    let idle = rt.block_on(async {
+        let mut client = LearnerClient::new(net.channel().await.unwrap());
+        client
+            .join(v1::JoinRequest {
+                api_version: 1,
+                actor_name: "idle".into(),
+                envs: 2,
+            })
+            .await
+            .unwrap()
+            .into_inner()
+    });
+    let started = std::time::Instant::now();
+    let report = rt
+        .block_on(run(net.connector(), actor_opts("patient")))
+        .unwrap_or_else(|e| panic!("the actor gave up instead of waiting for room: {e}"));
+    let summary = learner.join().unwrap().unwrap();
+    assert!(summary.env_steps >= 8_000, "{summary:?}");
+    assert!(report.accepted > 0, "{report:?}");
+    assert!(
+        started.elapsed() >= Duration::from_millis(800),
+        "the actor trained before the idle session ({}) expired",
+        idle.session
+    );
 }
 
 /// Joins as a raw client and collects one real fragment.
