@@ -323,16 +323,21 @@ fn joins_beyond_the_cap_are_refused_until_a_session_leaves_or_expires() {
         // a leaves (its only stream closes): c gets in.
         drop(a_stream);
         let c = retry_join(&mut client, "c", Duration::from_secs(10)).await;
+        let c_joined = Instant::now();
         let status = join(&mut client, "d").await.expect_err("full again");
         assert_eq!(status.code(), Code::ResourceExhausted, "{status:?}");
 
-        // b and c never watch: once they expire, d gets in.
+        // b and c never watch: once b expires, d gets in.
         let started = Instant::now();
         retry_join(&mut client, "d", Duration::from_secs(10)).await;
         assert!(
             started.elapsed() >= idle_timeout / 2,
-            "d got in before b and c could expire"
+            "d got in before b could expire"
         );
+        // c, joined after b, expires in its turn (the sweep runs every
+        // idle_timeout / 4).
+        let c_expired = c_joined + idle_timeout + idle_timeout / 2;
+        tokio::time::sleep(c_expired.saturating_duration_since(Instant::now())).await;
         let status = watch(&mut client, &c).await.expect_err("c expired");
         assert_eq!(status.code(), Code::NotFound, "{status:?}");
     });
