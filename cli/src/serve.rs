@@ -13,8 +13,8 @@ use crate::train::{
     check_out, install_metrics, report, resolve_config, TerminalProgress, TrainArgs,
 };
 use buridan_learner::serve::{
-    check_session_limits, serve, Listener, ServeOptions, SessionLimits, DEFAULT_IDLE_TIMEOUT,
-    DEFAULT_MAX_MESSAGE_BYTES, DEFAULT_MAX_SESSIONS,
+    serve, Listener, ServeOptions, SessionLimits, DEFAULT_IDLE_TIMEOUT, DEFAULT_MAX_MESSAGE_BYTES,
+    DEFAULT_MAX_SESSIONS,
 };
 use buridan_learner::train::Summary;
 
@@ -67,7 +67,7 @@ fn session_limits(args: &ServeArgs) -> Result<SessionLimits> {
         idle_timeout,
         max_sessions: args.max_sessions,
     };
-    check_session_limits(&limits)?;
+    limits.check()?;
     Ok(limits)
 }
 

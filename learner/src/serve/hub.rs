@@ -187,11 +187,6 @@ impl Hub {
         self.sessions.connected()
     }
 
-    /// Sessions open.
-    pub fn open_sessions(&self) -> usize {
-        self.sessions.len()
-    }
-
     /// The session limits.
     pub fn session_limits(&self) -> SessionLimits {
         self.sessions.limits()

@@ -62,7 +62,10 @@ use tonic::{Request, Status};
 use crate::train::{env_config, Progress, Run, Summary, TrainConfig, TrainError};
 pub use hub::{Hub, RemoteExchange, RunInfo};
 pub use plausible::{Implausible, Plausibility};
-pub use sessions::{SessionLimits, DEFAULT_IDLE_TIMEOUT, DEFAULT_MAX_SESSIONS};
+pub use sessions::{
+    LimitsError, SessionLimits, DEFAULT_IDLE_TIMEOUT, DEFAULT_MAX_SESSIONS, MAX_IDLE_TIMEOUT,
+    MAX_SESSIONS_LIMIT,
+};
 
 impl From<TrainError> for ServeError {
     fn from(e: TrainError) -> Self {
@@ -142,46 +145,8 @@ pub struct ServeOptions {
     pub interrupt: Option<Arc<AtomicBool>>,
     /// How long a session without a parameter stream may stay idle, and how
     /// many sessions may be open ([`sessions`]); checked by
-    /// [`check_session_limits`].
+    /// [`SessionLimits::check`].
     pub sessions: SessionLimits,
-}
-
-/// Longest accepted idle timeout of a session.
-pub const MAX_IDLE_TIMEOUT: Duration = Duration::from_secs(30 * 24 * 3600);
-
-/// Largest accepted session cap.
-pub const MAX_SESSIONS_LIMIT: usize = 1_000_000;
-
-/// Session limits that cannot be meant.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum LimitsError {
-    /// An idle timeout of zero or beyond [`MAX_IDLE_TIMEOUT`].
-    #[error("a session idle timeout of {0:?} is not usable: give 1 ms to 30 days (--session-idle-timeout SECS)")]
-    IdleTimeout(Duration),
-    /// A session cap of zero or beyond [`MAX_SESSIONS_LIMIT`].
-    #[error("a cap of {0} sessions is not usable: give 1 to 1000000 (--max-sessions N)")]
-    MaxSessions(usize),
-}
-
-/// Checks that `limits` are usable: an idle timeout of 1 ms to 30 days, a
-/// cap of 1 to 1,000,000 sessions.
-///
-/// ```
-/// use std::time::Duration;
-/// use buridan_learner::serve::{check_session_limits, LimitsError, SessionLimits};
-/// assert!(check_session_limits(&SessionLimits::default()).is_ok());
-/// let none = SessionLimits { max_sessions: 0, ..SessionLimits::default() };
-/// assert_eq!(check_session_limits(&none), Err(LimitsError::MaxSessions(0)));
-/// ```
-pub fn check_session_limits(limits: &SessionLimits) -> Result<(), LimitsError> {
-    let t = limits.idle_timeout;
-    if t < Duration::from_millis(1) || t > MAX_IDLE_TIMEOUT {
-        return Err(LimitsError::IdleTimeout(t));
-    }
-    if limits.max_sessions == 0 || limits.max_sessions > MAX_SESSIONS_LIMIT {
-        return Err(LimitsError::MaxSessions(limits.max_sessions));
-    }
-    Ok(())
 }
 
 impl Default for ServeOptions {
@@ -223,7 +188,7 @@ pub fn serve(
     if cfg.maps.as_ref().is_some_and(|m| m.len() > 1) {
         return Err(ServeError::SeveralLayouts(cfg.map_label()));
     }
-    check_session_limits(&opts.sessions)?;
+    opts.sessions.check()?;
     let mut run = Run::prepare(cfg, out)?;
     if let Some(flag) = &opts.interrupt {
         run.interrupt_on(flag.clone());

@@ -53,6 +53,45 @@ impl Default for SessionLimits {
     }
 }
 
+/// Longest accepted idle timeout of a session.
+pub const MAX_IDLE_TIMEOUT: Duration = Duration::from_secs(30 * 24 * 3600);
+
+/// Largest accepted session cap.
+pub const MAX_SESSIONS_LIMIT: usize = 1_000_000;
+
+/// Session limits that cannot be meant.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum LimitsError {
+    /// An idle timeout of zero or beyond [`MAX_IDLE_TIMEOUT`].
+    #[error("a session idle timeout of {0:?} is not usable: give 1 ms to 30 days (--session-idle-timeout SECS)")]
+    IdleTimeout(Duration),
+    /// A session cap of zero or beyond [`MAX_SESSIONS_LIMIT`].
+    #[error("a cap of {0} sessions is not usable: give 1 to 1000000 (--max-sessions N)")]
+    MaxSessions(usize),
+}
+
+impl SessionLimits {
+    /// Checks that the limits are usable: an idle timeout of 1 ms to 30
+    /// days, a cap of 1 to 1,000,000 sessions.
+    ///
+    /// ```
+    /// use buridan_learner::serve::{LimitsError, SessionLimits};
+    /// assert!(SessionLimits::default().check().is_ok());
+    /// let none = SessionLimits { max_sessions: 0, ..SessionLimits::default() };
+    /// assert_eq!(none.check(), Err(LimitsError::MaxSessions(0)));
+    /// ```
+    pub fn check(&self) -> Result<(), LimitsError> {
+        let t = self.idle_timeout;
+        if t < Duration::from_millis(1) || t > MAX_IDLE_TIMEOUT {
+            return Err(LimitsError::IdleTimeout(t));
+        }
+        if self.max_sessions == 0 || self.max_sessions > MAX_SESSIONS_LIMIT {
+            return Err(LimitsError::MaxSessions(self.max_sessions));
+        }
+        Ok(())
+    }
+}
+
 /// One actor's session.
 #[derive(Debug, Clone)]
 pub struct Session {
@@ -140,19 +179,9 @@ impl SessionTable {
         self.lock().get(&id).cloned()
     }
 
-    /// Sessions open.
-    pub fn len(&self) -> usize {
-        self.lock().len()
-    }
-
-    /// Whether no session is open.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
     /// Sessions with an open parameter stream.
     pub fn connected(&self) -> usize {
-        self.lock().values().filter(|s| s.watchers > 0).count()
+        watching(&self.lock())
     }
 
     /// Records a parameter stream opening in session `id`; false (and
@@ -239,10 +268,14 @@ impl SessionTable {
     }
 }
 
+/// Sessions with an open parameter stream.
+fn watching(sessions: &HashMap<u64, Session>) -> usize {
+    sessions.values().filter(|s| s.watchers > 0).count()
+}
+
 fn publish_gauges(sessions: &HashMap<u64, Session>) {
     ::metrics::gauge!("buridan_sessions").set(sessions.len() as f64);
-    ::metrics::gauge!("buridan_connected_actors")
-        .set(sessions.values().filter(|s| s.watchers > 0).count() as f64);
+    ::metrics::gauge!("buridan_connected_actors").set(watching(sessions) as f64);
 }
 
 #[cfg(test)]

@@ -655,40 +655,44 @@ impl TrainConfig {
     /// its range: a NaN learning rate would otherwise train on, silently
     /// turning every weight into NaN.
     fn validate_hyperparameters(&self) -> Result<(), ConfigError> {
-        const POSITIVE: &str = "finite and positive";
-        const NON_NEGATIVE: &str = "finite and at least 0";
-        const UNIT: &str = "in [0, 1]";
         let (p, i) = (&self.ppo, &self.impala);
-        let checks: [(&'static str, f64, &'static str); 17] = [
-            ("ppo.lr", p.lr, POSITIVE),
-            ("ppo.clip", p.clip.into(), POSITIVE),
-            ("ppo.vf_clip", p.vf_clip.into(), POSITIVE),
-            ("ppo.kl_target", p.kl_target, POSITIVE),
-            ("ppo.grad_clip", p.grad_clip.unwrap_or(1.0), POSITIVE),
-            ("ppo.entropy_coeff", p.entropy_coeff.into(), NON_NEGATIVE),
-            ("ppo.vf_coeff", p.vf_coeff.into(), NON_NEGATIVE),
-            ("ppo.kl_coeff", p.kl_coeff, NON_NEGATIVE),
-            ("ppo.lambda", p.lambda.into(), UNIT),
-            ("impala.lr", i.lr, POSITIVE),
-            ("impala.grad_clip", i.grad_clip.unwrap_or(1.0), POSITIVE),
-            ("impala.rho_bar", i.rho_bar.into(), POSITIVE),
-            ("impala.c_bar", i.c_bar.into(), POSITIVE),
-            ("impala.pg_rho_bar", i.pg_rho_bar.into(), POSITIVE),
-            ("impala.vf_coeff", i.vf_coeff.into(), NON_NEGATIVE),
-            ("impala.entropy_coeff", i.entropy_coeff.into(), NON_NEGATIVE),
-            ("impala.lambda", i.lambda.into(), UNIT),
+        let positive = [
+            ("ppo.lr", p.lr),
+            ("ppo.clip", p.clip.into()),
+            ("ppo.vf_clip", p.vf_clip.into()),
+            ("ppo.kl_target", p.kl_target),
+            ("ppo.grad_clip", p.grad_clip.unwrap_or(1.0)),
+            ("impala.lr", i.lr),
+            ("impala.grad_clip", i.grad_clip.unwrap_or(1.0)),
+            ("impala.rho_bar", i.rho_bar.into()),
+            ("impala.c_bar", i.c_bar.into()),
+            ("impala.pg_rho_bar", i.pg_rho_bar.into()),
         ];
-        for (key, value, range) in checks {
-            let ok = match range {
-                POSITIVE => value.is_finite() && value > 0.0,
-                NON_NEGATIVE => value.is_finite() && value >= 0.0,
-                _ => (0.0..=1.0).contains(&value),
-            };
-            if !ok {
-                return Err(ConfigError::OutOfRange { key, value, range });
-            }
-        }
-        Ok(())
+        let non_negative = [
+            ("ppo.entropy_coeff", p.entropy_coeff.into()),
+            ("ppo.vf_coeff", p.vf_coeff.into()),
+            ("ppo.kl_coeff", p.kl_coeff),
+            ("impala.vf_coeff", i.vf_coeff.into()),
+            ("impala.entropy_coeff", i.entropy_coeff.into()),
+        ];
+        let unit = [
+            ("ppo.lambda", p.lambda.into()),
+            ("impala.lambda", i.lambda.into()),
+        ];
+        let in_range = |keys: &[(&'static str, f64)], range, ok: fn(f64) -> bool| match keys
+            .iter()
+            .find(|(_, value)| !ok(*value))
+        {
+            Some(&(key, value)) => Err(ConfigError::OutOfRange { key, value, range }),
+            None => Ok(()),
+        };
+        in_range(&positive, "finite and positive", |v| {
+            v.is_finite() && v > 0.0
+        })?;
+        in_range(&non_negative, "finite and at least 0", |v| {
+            v.is_finite() && v >= 0.0
+        })?;
+        in_range(&unit, "in [0, 1]", |v| (0.0..=1.0).contains(&v))
     }
 
     /// Checks ranges.
