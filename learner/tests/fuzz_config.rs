@@ -101,6 +101,7 @@ fn check_config(path: &Path, text: &str) -> Result<bool, TestCaseError> {
             | ConfigError::NoMaps
             | ConfigError::BadWeight { .. }
             | ConfigError::DuplicateMap { .. }
+            | ConfigError::OutOfRange { .. }
             | ConfigError::CentralOnSeveralMaps,
         ) => return Ok(false),
         Err(other) => return Err(TestCaseError::fail(format!("unexpected error: {other:?}"))),

@@ -127,6 +127,21 @@ pub struct Hub {
     pub counters: FragmentCounters,
 }
 
+/// A reserved place in the learner's queue ([`Hub::reserve`]); dropped
+/// unused, it frees the place.
+pub struct QueueSlot<'a> {
+    permit: mpsc::Permit<'a, Fragment>,
+    queued: &'a AtomicUsize,
+}
+
+impl QueueSlot<'_> {
+    /// Queues `f` in the reserved place, without waiting.
+    pub fn send(self, f: Fragment) {
+        self.queued.fetch_add(1, Ordering::SeqCst);
+        self.permit.send(f);
+    }
+}
+
 impl Hub {
     /// A hub whose queue holds `capacity` fragments, whose sessions follow
     /// `limits` and whose fragments are checked against `plausibility`;
@@ -229,14 +244,19 @@ impl Hub {
             .admit(version, env_steps)
     }
 
-    /// Queues a fragment for the learner, waiting while the queue is full.
-    pub async fn enqueue(&self, f: Fragment) -> Result<(), ()> {
-        self.queued.fetch_add(1, Ordering::SeqCst);
-        let sent = self.queue.send(f).await;
-        if sent.is_err() {
-            self.queued.fetch_sub(1, Ordering::SeqCst);
-        }
-        sent.map_err(|_| ())
+    /// A place in the learner's queue, waited for while the queue is full;
+    /// `None` once the learner stopped taking fragments.
+    ///
+    /// The wait is the only await between a fragment's checks and its
+    /// queueing: a handler cancelled there (its client gone) has admitted
+    /// nothing and counted nothing, so the gate's step count and the queue
+    /// depth stay true.
+    pub async fn reserve(&self) -> Option<QueueSlot<'_>> {
+        let permit = self.queue.reserve().await.ok()?;
+        Some(QueueSlot {
+            permit,
+            queued: &self.queued,
+        })
     }
 
     /// Publishes weights to every parameter stream and resets the gate.
@@ -350,5 +370,57 @@ impl Exchange for RemoteExchange {
             self.hub.queued.fetch_sub(1, Ordering::SeqCst);
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn hub(capacity: usize) -> (Arc<Hub>, mpsc::Receiver<Fragment>) {
+        let info = RunInfo {
+            run_id: "test".into(),
+            config_toml: String::new(),
+            model_spec_json: String::new(),
+            map: v1::MapSource::default(),
+            env: v1::EnvSettings::default(),
+            envs_per_actor: 1,
+            max_envs: 1,
+            fragment_len: 1,
+            on_policy: true,
+            max_policy_lag: 0,
+            greedy_mix: 0.0,
+            seed_base: 0,
+            obs_dim: 1,
+            heads: 1,
+            actions_per_head: 5,
+            rows_per_env: 1,
+        };
+        let plausibility = Plausibility::new(&buridan_env::EnvConfig::default(), 10, 1, 1);
+        Hub::new(info, capacity, SessionLimits::default(), plausibility)
+    }
+
+    /// A submit handler cancelled while it waits for room in a full queue
+    /// (its client gone) must leave the gate's step count and the queue
+    /// depth as they were: on-policy, steps admitted but never queued would
+    /// leave the learner waiting for a batch that cannot fill.
+    #[tokio::test]
+    async fn a_wait_for_room_cancelled_admits_and_counts_nothing() {
+        let (hub, mut rx) = hub(1);
+        hub.publish(&Weights::default(), Some(2));
+        hub.reserve().await.expect("room").send(Fragment::default());
+        assert_eq!(hub.admit(0, 1), Ok(false), "one of two steps admitted");
+        assert_eq!(hub.queued.load(Ordering::SeqCst), 1);
+
+        let waiting = tokio::time::timeout(Duration::from_millis(50), hub.reserve()).await;
+        assert!(waiting.is_err(), "the queue is full, the wait times out");
+        assert_eq!(hub.queued.load(Ordering::SeqCst), 1, "the cancelled wait counted nothing");
+
+        rx.recv().await.expect("the queued fragment");
+        hub.queued.fetch_sub(1, Ordering::SeqCst);
+        let slot = hub.reserve().await.expect("room again");
+        assert_eq!(hub.admit(0, 1), Ok(true), "the batch's last step is still open");
+        slot.send(Fragment::default());
+        assert_eq!(hub.queued.load(Ordering::SeqCst), 1);
     }
 }

@@ -316,12 +316,10 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
 fn count_status(mut resp: http::Response<tonic::body::Body>) -> http::Response<tonic::body::Body> {
     if resp.headers_mut().remove(UNDECODABLE_METADATA).is_some() {
         ::metrics::counter!("buridan_undecodable_messages_total").increment(1);
+        // The header carries the message percent-encoded; tonic decodes it.
+        let status = tonic::Status::from_header_map(resp.headers());
         tracing::warn!(
-            message = resp
-                .headers()
-                .get("grpc-message")
-                .and_then(|v| v.to_str().ok())
-                .unwrap_or(""),
+            message = status.as_ref().map_or("", |s| s.message()),
             "undecodable request refused"
         );
     }

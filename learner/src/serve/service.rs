@@ -258,6 +258,11 @@ impl Learner for LearnerService {
             }
             Some(Ok(())) => {}
         }
+        // Room first: from here to the reply nothing awaits, so a cancelled
+        // handler never leaves steps admitted but not queued.
+        let Some(slot) = self.hub.reserve().await else {
+            return Ok(self.finished_reply());
+        };
         let wait_for_next_version = match self.hub.admit(f.policy_version, f.env_steps) {
             Ok(wait) => wait,
             Err(refusal) => {
@@ -272,9 +277,7 @@ impl Learner for LearnerService {
             }
         };
         f.actor = session.actor_id;
-        if self.hub.enqueue(f).await.is_err() {
-            return Ok(self.finished_reply());
-        }
+        slot.send(f);
         self.hub.counters.count(Outcome::Accepted);
         Ok(Response::new(v1::SubmitReply {
             accepted: true,
