@@ -5,8 +5,11 @@
 //!   in-process by `learner train` and here.
 //! - [`client`]: the stateless gRPC actor behind the `actor` binary — join,
 //!   receive weights, submit fragments, reconnect with backoff.
+//! - [`misbehave`]: a client that sends what a learner must refuse and
+//!   checks the answers (`learner bench soak`).
 
 pub mod client;
 pub mod collector;
+pub mod misbehave;
 
 pub use collector::{CollectError, Collector};

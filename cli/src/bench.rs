@@ -32,6 +32,11 @@ pub enum BenchCommand {
     /// PPO's update on one thread against every core): env steps/s, their
     /// ratio to the first variant, time to 96 % training success.
     Train(crate::bench_train::TrainBenchArgs),
+    /// A soak run: `learner serve` and actor processes on loopback for N
+    /// minutes, a misbehaving client mixed in, actors killed and
+    /// restarted at random; memory over time, the fragment books, the
+    /// training target.
+    Soak(crate::bench_soak::SoakArgs),
 }
 
 /// Arguments of `learner bench pogema`.
@@ -182,6 +187,7 @@ pub fn run(command: &BenchCommand) -> Result<()> {
     match command {
         BenchCommand::Pogema(args) => run_pogema(args).map(|_| ()),
         BenchCommand::Train(args) => crate::bench_train::run(args).map(|_| ()),
+        BenchCommand::Soak(args) => crate::bench_soak::run(args).map(|_| ()),
     }
 }
 

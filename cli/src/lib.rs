@@ -5,6 +5,7 @@
 
 pub mod aggregate;
 pub mod bench;
+pub mod bench_soak;
 pub mod bench_train;
 pub mod dashboard;
 pub mod eval;

@@ -414,12 +414,20 @@ mod tests {
 
         let waiting = tokio::time::timeout(Duration::from_millis(50), hub.reserve()).await;
         assert!(waiting.is_err(), "the queue is full, the wait times out");
-        assert_eq!(hub.queued.load(Ordering::SeqCst), 1, "the cancelled wait counted nothing");
+        assert_eq!(
+            hub.queued.load(Ordering::SeqCst),
+            1,
+            "the cancelled wait counted nothing"
+        );
 
         rx.recv().await.expect("the queued fragment");
         hub.queued.fetch_sub(1, Ordering::SeqCst);
         let slot = hub.reserve().await.expect("room again");
-        assert_eq!(hub.admit(0, 1), Ok(true), "the batch's last step is still open");
+        assert_eq!(
+            hub.admit(0, 1),
+            Ok(true),
+            "the batch's last step is still open"
+        );
         slot.send(Fragment::default());
         assert_eq!(hub.queued.load(Ordering::SeqCst), 1);
     }

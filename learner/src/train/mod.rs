@@ -573,6 +573,7 @@ impl Run {
             let t_learn = Instant::now();
             let stats = self.learner.update(&self.policy, &batch, &mut rng)?;
             let learn_seconds = t_learn.elapsed().as_secs_f64();
+            count_consumed(&batch);
             self.state.updates += 1;
             self.publish(exchange)?;
             let row = self.record_update(&stats, learn_seconds, &mut since);
@@ -795,6 +796,21 @@ fn read_trainer_state(dir: &Path) -> Result<TrainerState, TrainError> {
     let text =
         std::fs::read_to_string(&path).map_err(|e| TrainError::io("cannot read", &path, e))?;
     serde_json::from_str(&text).map_err(|source| TrainError::TrainerState { path, source })
+}
+
+/// Counts the fragments an update consumed, and their env steps as the
+/// buffers handed to the update hold them (`rewards` is `[T, B]`, `B` =
+/// envs × rows per env), in `buridan_fragments_consumed_total` and
+/// `buridan_fragment_steps_consumed_total` (`learner bench soak` checks
+/// that every consumed fragment was whole: steps = fragments × fragment
+/// length × envs).
+fn count_consumed(batch: &[Fragment]) {
+    let steps: usize = batch
+        .iter()
+        .map(|f| f.rewards.len() / f.rows_per_env.max(1))
+        .sum();
+    ::metrics::counter!("buridan_fragments_consumed_total").increment(batch.len() as u64);
+    ::metrics::counter!("buridan_fragment_steps_consumed_total").increment(steps as u64);
 }
 
 /// Publishes one update's figures as Prometheus metrics (no-ops unless an
