@@ -694,12 +694,27 @@ pub fn undecodable_bytes(rng: &mut impl Rng, len: usize) -> Vec<u8> {
 }
 
 /// Sends a `Vec<u8>` as the whole body of a request (gRPC framing intact,
-/// so only the protobuf decode can fail).
+/// so only the protobuf decode can fail), and hands back a reply's bytes
+/// undecoded.
+///
+/// ```no_run
+/// # async fn f(channel: tonic::transport::Channel) -> Result<(), tonic::Status> {
+/// use buridan_actor::misbehave::RawCodec;
+/// let mut grpc = tonic::client::Grpc::new(channel);
+/// grpc.ready().await.map_err(|e| tonic::Status::unavailable(e.to_string()))?;
+/// let path = "/buridan.v1.Learner/SubmitFragment".parse().expect("a gRPC path");
+/// let refused = grpc.unary(tonic::Request::new(vec![0xff; 8]), path, RawCodec).await;
+/// assert_eq!(refused.unwrap_err().code(), tonic::Code::InvalidArgument);
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Debug, Default, Clone, Copy)]
-struct RawCodec;
+pub struct RawCodec;
 
-struct RawEncoder;
-struct RawDecoder;
+/// [`RawCodec`]'s encoder: the bytes as they are.
+pub struct RawEncoder;
+/// [`RawCodec`]'s decoder: the body's bytes as they are.
+pub struct RawDecoder;
 
 impl Encoder for RawEncoder {
     type Item = Vec<u8>;

@@ -4,18 +4,18 @@
 //! kind of misbehaviour is sent and refused with the expected status, and
 //! nothing it sends is taken.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use buridan_actor::client::{run as run_actor, url_connector, ActorOptions};
 use buridan_actor::misbehave::{MisbehaveOptions, Misbehaver};
-use buridan_learner::serve::{serve, Listener, ServeOptions, SessionLimits};
-use buridan_learner::train::{Algo, ImpalaConfig, NoProgress, TrainConfig};
+use buridan_learner::serve::SessionLimits;
+use buridan_learner::train::{Algo, ImpalaConfig, TrainConfig};
+
+mod support;
+use support::Learner;
 
 #[test]
 fn every_misbehaviour_is_refused_with_the_expected_status() {
-    let dir = tempfile::tempdir().unwrap();
     // IMPALA, one 40-step fragment per update: the learner soon runs past
     // the misbehaving client's first fragment (lag 8), so it replays it.
     let cfg = TrainConfig {
@@ -36,30 +36,8 @@ fn every_misbehaviour_is_refused_with_the_expected_status() {
         idle_timeout: Duration::from_millis(400),
         max_sessions: 6,
     };
-    let stop = Arc::new(AtomicBool::new(false));
-    let opts = ServeOptions {
-        interrupt: Some(stop.clone()),
-        linger: Duration::ZERO,
-        sessions: limits,
-        ..ServeOptions::default()
-    };
-    let out = dir.path().to_path_buf();
-    let (ready_tx, ready) = std::sync::mpsc::channel();
-    let learner = std::thread::spawn(move || {
-        serve(
-            &cfg,
-            &out,
-            &opts,
-            Listener::Tcp("127.0.0.1:0".parse().unwrap()),
-            Some(ready_tx),
-            &mut NoProgress,
-        )
-    });
-    let addr = ready
-        .recv_timeout(Duration::from_secs(120))
-        .expect("the learner starts")
-        .expect("a TCP address");
-    let url = format!("http://{addr}");
+    let learner = Learner::serve(cfg, limits);
+    let url = learner.url();
 
     // A well-behaved actor, so that the policy version moves on (left
     // running: it retries until the test process ends).
@@ -99,8 +77,7 @@ fn every_misbehaviour_is_refused_with_the_expected_status() {
         std::thread::sleep(Duration::from_millis(100));
     }
     let t = m.stop();
-    stop.store(true, Ordering::SeqCst);
-    let _ = learner.join();
+    drop(learner);
 
     assert_eq!(
         (t.wrongly_accepted, t.unexpected),

@@ -4,97 +4,36 @@
 //! stay, and joins beyond the session cap get `RESOURCE_EXHAUSTED` until a
 //! session leaves or expires.
 
-use std::net::SocketAddr;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use buridan_actor::client::build_collector;
-use buridan_learner::serve::{serve, Listener, ServeError, ServeOptions, SessionLimits};
-use buridan_learner::train::{NoProgress, Summary, TrainConfig};
+use buridan_actor::misbehave::RawCodec;
+use buridan_learner::serve::SessionLimits;
+use buridan_learner::train::TrainConfig;
 use buridan_proto::convert::{fragment_to_message, weights_from_message, WireTag};
 use buridan_proto::v1;
 use buridan_proto::v1::learner_client::LearnerClient;
-use prost::bytes::{Buf, BufMut};
 use prost::Message;
 use rand::{Rng, SeedableRng};
-use tonic::codec::{Codec, DecodeBuf, Decoder, EncodeBuf, Encoder};
 use tonic::transport::Channel;
 use tonic::{Code, Status};
 
-/// A learner serving on loopback until dropped (then interrupted).
-struct Learner {
-    addr: SocketAddr,
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<Result<Summary, ServeError>>>,
-    _dir: tempfile::TempDir,
-}
+mod support;
+use support::Learner;
 
-impl Learner {
-    /// Serves rm-1.1 with 2 agents (fixed starts), fragments of 20 steps,
-    /// with `sessions` limits.
-    fn start(sessions: SessionLimits) -> Learner {
-        let dir = tempfile::tempdir().unwrap();
-        let cfg = TrainConfig {
-            map: "rm-1.1".into(),
-            agents: 2,
-            starts: buridan_env::Starts::Fixed,
-            steps: 10_000_000,
-            envs_per_actor: 1,
-            fragment_len: 20,
-            ..TrainConfig::default()
-        };
-        let stop = Arc::new(AtomicBool::new(false));
-        let opts = ServeOptions {
-            interrupt: Some(stop.clone()),
-            linger: Duration::ZERO,
-            sessions,
-            ..ServeOptions::default()
-        };
-        let out = dir.path().to_path_buf();
-        let (ready_tx, ready) = std::sync::mpsc::channel();
-        let thread = std::thread::spawn(move || {
-            serve(
-                &cfg,
-                &out,
-                &opts,
-                Listener::Tcp("127.0.0.1:0".parse().unwrap()),
-                Some(ready_tx),
-                &mut NoProgress,
-            )
-        });
-        let addr = ready
-            .recv_timeout(Duration::from_secs(120))
-            .expect("the learner starts")
-            .expect("a TCP address");
-        Learner {
-            addr,
-            stop,
-            thread: Some(thread),
-            _dir: dir,
-        }
-    }
-
-    async fn channel(&self) -> Channel {
-        Channel::from_shared(format!("http://{}", self.addr))
-            .unwrap()
-            .connect()
-            .await
-            .unwrap()
-    }
-
-    async fn client(&self) -> LearnerClient<Channel> {
-        LearnerClient::new(self.channel().await)
-    }
-}
-
-impl Drop for Learner {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::SeqCst);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
+/// Serves rm-1.1 with 2 agents (fixed starts), fragments of 20 steps,
+/// with `sessions` limits.
+fn start(sessions: SessionLimits) -> Learner {
+    let cfg = TrainConfig {
+        map: "rm-1.1".into(),
+        agents: 2,
+        starts: buridan_env::Starts::Fixed,
+        steps: 10_000_000,
+        envs_per_actor: 1,
+        fragment_len: 20,
+        ..TrainConfig::default()
+    };
+    Learner::serve(cfg, sessions)
 }
 
 async fn join(client: &mut LearnerClient<Channel>, name: &str) -> Result<v1::JoinReply, Status> {
@@ -131,7 +70,7 @@ fn runtime() -> tokio::runtime::Runtime {
 
 #[test]
 fn implausible_rewards_are_refused_naming_the_field_and_training_goes_on() {
-    let learner = Learner::start(SessionLimits::default());
+    let learner = start(SessionLimits::default());
     runtime().block_on(async {
         let mut client = learner.client().await;
         let joined = join(&mut client, "liar").await.unwrap();
@@ -172,48 +111,9 @@ fn implausible_rewards_are_refused_naming_the_field_and_training_goes_on() {
     });
 }
 
-/// Sends `bytes` as the whole message body of a request (gRPC framing
-/// intact, so only the protobuf decode can fail).
-#[derive(Default)]
-struct RawCodec;
-
-struct RawEncoder;
-struct RawDecoder;
-
-impl Encoder for RawEncoder {
-    type Item = Vec<u8>;
-    type Error = Status;
-    fn encode(&mut self, item: Vec<u8>, dst: &mut EncodeBuf<'_>) -> Result<(), Status> {
-        dst.put_slice(&item);
-        Ok(())
-    }
-}
-
-impl Decoder for RawDecoder {
-    type Item = Vec<u8>;
-    type Error = Status;
-    fn decode(&mut self, src: &mut DecodeBuf<'_>) -> Result<Option<Vec<u8>>, Status> {
-        let bytes = src.copy_to_bytes(src.remaining());
-        Ok(Some(bytes.to_vec()))
-    }
-}
-
-impl Codec for RawCodec {
-    type Encode = Vec<u8>;
-    type Decode = Vec<u8>;
-    type Encoder = RawEncoder;
-    type Decoder = RawDecoder;
-    fn encoder(&mut self) -> RawEncoder {
-        RawEncoder
-    }
-    fn decoder(&mut self) -> RawDecoder {
-        RawDecoder
-    }
-}
-
 #[test]
 fn random_bytes_get_invalid_argument() {
-    let learner = Learner::start(SessionLimits::default());
+    let learner = start(SessionLimits::default());
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(16);
     runtime().block_on(async {
         let mut grpc = tonic::client::Grpc::new(learner.channel().await);
@@ -252,7 +152,7 @@ fn random_bytes_get_invalid_argument() {
 #[test]
 fn idle_sessions_expire_while_watching_ones_stay() {
     let idle_timeout = Duration::from_millis(400);
-    let learner = Learner::start(SessionLimits {
+    let learner = start(SessionLimits {
         idle_timeout,
         max_sessions: 16,
     });
@@ -301,7 +201,7 @@ fn idle_sessions_expire_while_watching_ones_stay() {
 #[test]
 fn joins_beyond_the_cap_are_refused_until_a_session_leaves_or_expires() {
     let idle_timeout = Duration::from_millis(800);
-    let learner = Learner::start(SessionLimits {
+    let learner = start(SessionLimits {
         idle_timeout,
         max_sessions: 2,
     });
