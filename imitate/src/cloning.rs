@@ -11,6 +11,7 @@ use buridan_policy::Policy;
 
 use crate::dataset::Dataset;
 use crate::error::ImitationError;
+use crate::windows::Windows;
 
 /// The cloning loss `−mean_r log π(a*_r | o_r)` over rows, with the policy's
 /// logits `[rows, 5]` masked by `bias` (0 legal, −1e9 illegal) and the
@@ -44,6 +45,39 @@ pub fn cloning_loss(
         .mean_all()?
         .to_scalar::<f32>()?;
     Ok((loss, f64::from(hits)))
+}
+
+/// [`cloning_loss`] over the rows whose `weights [rows]` are 1 (steps the
+/// expert labelled); rows of weight 0 add nothing to the loss or the
+/// agreement. At least one row must have weight 1.
+///
+/// ```
+/// use candle_core::{Device, Tensor};
+/// let logits = Tensor::new(&[[0f32, 1.0, 0.0, 0.0, 0.0], [2.0, 0.0, 0.0, 0.0, 0.0]], &Device::Cpu).unwrap();
+/// let bias = Tensor::new(&[[0f32, 0.0, 0.0, 0.0, -1e9], [0.0, 0.0, -1e9, -1e9, -1e9]], &Device::Cpu).unwrap();
+/// let labels = Tensor::new(&[1u32, 1], &Device::Cpu).unwrap();
+/// let weights = Tensor::new(&[1f32, 0.0], &Device::Cpu).unwrap();
+/// let (loss, acc) = buridan_imitate::cloning::weighted_cloning_loss(&logits, &bias, &labels, &weights).unwrap();
+/// // Row 0 alone: −ln(e/(3+e)) = 0.7437, and it agrees.
+/// assert!((loss.to_scalar::<f32>().unwrap() - 0.7437).abs() < 1e-3);
+/// assert_eq!(acc, 1.0);
+/// ```
+pub fn weighted_cloning_loss(
+    logits: &Tensor,
+    bias: &Tensor,
+    labels: &Tensor,
+    weights: &Tensor,
+) -> Result<(Tensor, f64), ImitationError> {
+    let logp = masked_log_probs(logits, bias, 1)?.squeeze(1)?;
+    let chosen = logp
+        .gather(&labels.unsqueeze(D::Minus1)?, D::Minus1)?
+        .squeeze(D::Minus1)?;
+    let count = weights.sum_all()?.to_scalar::<f32>()?.max(1.0);
+    let loss = ((chosen * weights)?.sum_all()?.neg()? / f64::from(count))?;
+    let hits = (logp.argmax(D::Minus1)?.eq(labels)?.to_dtype(DType::F32)? * weights)?
+        .sum_all()?
+        .to_scalar::<f32>()?;
+    Ok((loss, f64::from(hits / count)))
 }
 
 /// What one pass of fitting achieved.
@@ -118,4 +152,112 @@ impl Cloner {
         }
         Ok(stats)
     }
+
+    /// `epochs` passes over recurrent `data` in shuffled minibatches of
+    /// whole windows (about `minibatch` steps each), each replayed by
+    /// [`replay_windows`], the loss taken over the labelled steps. The
+    /// policy must be recurrent with one network.
+    pub fn fit_windows<R: Rng + ?Sized>(
+        &mut self,
+        policy: &Policy,
+        data: &Windows,
+        epochs: usize,
+        rng: &mut R,
+    ) -> Result<FitStats, ImitationError> {
+        let per_batch = (self.minibatch / data.steps()).max(1);
+        let mut order: Vec<usize> = (0..data.len()).collect();
+        let mut stats = FitStats::default();
+        for _ in 0..epochs {
+            order.shuffle(rng);
+            let (mut loss_sum, mut acc_sum, mut batches) = (0.0, 0.0, 0usize);
+            for chunk in order.chunks(per_batch) {
+                let replay = replay_windows(policy, data, chunk)?;
+                let (loss, acc) = weighted_cloning_loss(
+                    &replay.logits,
+                    &replay.bias,
+                    &replay.labels,
+                    &replay.weights,
+                )?;
+                self.opt.backward_step(&loss)?;
+                loss_sum += f64::from(loss.to_scalar::<f32>()?);
+                acc_sum += acc;
+                batches += 1;
+                stats.steps += 1;
+            }
+            stats.loss = loss_sum / batches.max(1) as f64;
+            stats.accuracy = acc_sum / batches.max(1) as f64;
+        }
+        Ok(stats)
+    }
+}
+
+/// Windows replayed through a recurrent policy, time-major: row `s·b + j`
+/// is step `s` of the `j`-th window asked for (`b` windows).
+#[derive(Debug)]
+pub struct WindowReplay {
+    /// The policy's raw logits `[t·b, 5]`.
+    pub logits: Tensor,
+    /// The steps' action masks as a logit bias `[t·b, 5]` (0 legal, −1e9 not).
+    pub bias: Tensor,
+    /// The expert's actions `[t·b]` (u32).
+    pub labels: Tensor,
+    /// 1 where the expert labelled the step `[t·b]`.
+    pub weights: Tensor,
+}
+
+/// Replays `windows` of `data` through the first network of `policy`: each
+/// from its stored LSTM state, with the state reset where an episode starts
+/// inside it — the logits an actor computed step by step, recomputed with
+/// gradients (`Net::unroll`, the same path PPO and IMPALA train through).
+pub fn replay_windows(
+    policy: &Policy,
+    data: &Windows,
+    windows: &[usize],
+) -> Result<WindowReplay, ImitationError> {
+    let device = Device::Cpu;
+    let (t, d, w, k) = (data.steps(), data.obs_dim(), data.mask_dim(), data.cells());
+    let b = windows.len();
+    let rows = t * b;
+    let mut obs = Vec::with_capacity(rows * d);
+    let mut masks = Vec::with_capacity(rows * w);
+    let mut prev_a = Vec::with_capacity(rows * w);
+    let (mut prev_r, mut keep, mut labels, mut weights) = (
+        Vec::with_capacity(rows),
+        Vec::with_capacity(rows),
+        Vec::with_capacity(rows),
+        Vec::with_capacity(rows),
+    );
+    for s in 0..t {
+        for &win in windows {
+            let at = win * t + s;
+            obs.extend_from_slice(&data.obs[at * d..(at + 1) * d]);
+            masks.extend_from_slice(&data.masks[at * w..(at + 1) * w]);
+            prev_a.extend_from_slice(&data.prev_actions[at * w..(at + 1) * w]);
+            prev_r.push(data.prev_rewards[at]);
+            keep.push(data.keep[at]);
+            labels.push(u32::from(data.labels[at]));
+            weights.push(data.weights[at]);
+        }
+    }
+    let (mut h0, mut c0) = (Vec::with_capacity(b * k), Vec::with_capacity(b * k));
+    for &win in windows {
+        h0.extend_from_slice(&data.h0[win * k..(win + 1) * k]);
+        c0.extend_from_slice(&data.c0[win * k..(win + 1) * k]);
+    }
+    let out = policy.net(0).unroll(
+        &Tensor::from_vec(obs, (rows, d), &device)?,
+        &Tensor::from_vec(prev_a, (rows, w), &device)?,
+        &Tensor::from_vec(prev_r, (rows, 1), &device)?,
+        &Tensor::from_vec(keep, (rows, 1), &device)?,
+        &Tensor::from_vec(h0, (b, k), &device)?,
+        &Tensor::from_vec(c0, (b, k), &device)?,
+        t,
+        t,
+    )?;
+    Ok(WindowReplay {
+        logits: out.logits,
+        bias: mask_bias(&masks, rows, w, &device)?,
+        labels: Tensor::from_vec(labels, rows, &device)?,
+        weights: Tensor::from_vec(weights, rows, &device)?,
+    })
 }

@@ -54,6 +54,10 @@ pub struct ImitationConfig {
     pub lr: f64,
     /// Most labelled rows kept; beyond it new rows replace random old ones.
     pub max_rows: usize,
+    /// Steps per window for a recurrent policy: the windows it is cloned on
+    /// replay this many consecutive steps through the LSTM from a stored
+    /// state (the learner's `max_seq_len` by default).
+    pub window: usize,
 }
 
 impl Default for ImitationConfig {
@@ -70,6 +74,7 @@ impl Default for ImitationConfig {
             minibatch: 1024,
             lr: 1e-3,
             max_rows: 2_000_000,
+            window: 32,
         }
     }
 }
@@ -112,6 +117,9 @@ impl ImitationConfig {
         }
         if !(0.0..=1.0).contains(&self.beta) {
             return bad("beta", "must lie in [0, 1]");
+        }
+        if self.window == 0 {
+            return bad("window", "must be at least 1 step");
         }
         if self.epochs == 0 || self.minibatch == 0 || self.max_rows == 0 {
             return bad(

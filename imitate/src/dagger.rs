@@ -20,7 +20,8 @@
 //! agent's observation is the one the policy sees in training and
 //! execution, so the trained network is an ordinary checkpoint.
 
-use buridan_env::{EnvSlot, VecEnv};
+use buridan_env::{BatchedEnv, EnvSlot, VecEnv};
+use buridan_policy::infer::one_hot_prev;
 use buridan_policy::{ActMode, Inference, Policy};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -30,6 +31,14 @@ use crate::config::{ImitationConfig, Rollout};
 use crate::dataset::Dataset;
 use crate::error::ImitationError;
 use crate::expert::Expert;
+use crate::windows::{WindowStep, Windows};
+
+/// DAgger's aggregate: labelled rows for a feed-forward policy, windows of
+/// consecutive steps for a recurrent one.
+enum Data {
+    Rows(Dataset),
+    Windows(Windows),
+}
 
 /// What one DAgger round did.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -38,7 +47,8 @@ pub struct RoundReport {
     pub round: usize,
     /// Env steps collected in this round.
     pub env_steps: u64,
-    /// Labelled rows held after the round.
+    /// Labelled rows held after the round (for a recurrent policy: steps
+    /// in the windows held, labelled or not).
     pub rows: usize,
     /// Planner calls in this round.
     pub expert_calls: u64,
@@ -59,9 +69,13 @@ pub struct RoundReport {
 /// Trains `policy` in place by DAgger on the envs of `venv` (local
 /// observations, one row per agent); calls `on_round` after every round.
 ///
-/// The policy must be feed-forward with one shared network and one action
+/// The policy must have one network shared by all agents and one action
 /// head (CTDE); the env's observations must be the ones the policy was
-/// built for.
+/// built for. A recurrent policy (LSTM) is cloned on windows of
+/// consecutive steps ([`crate::windows`]): its rollouts carry the LSTM
+/// state, the previous action and reward from step to step as in
+/// training, also in round 0, where the expert acts and the policy only
+/// watches.
 pub fn dagger<S: EnvSlot>(
     cfg: &ImitationConfig,
     policy: &Policy,
@@ -71,15 +85,14 @@ pub fn dagger<S: EnvSlot>(
 ) -> Result<Vec<RoundReport>, ImitationError> {
     cfg.validate()?;
     let spec = policy.spec();
-    if spec.lstm.is_some() || policy.nets().len() != 1 || spec.heads != 1 {
+    if policy.nets().len() != 1 || spec.heads != 1 {
         return Err(ImitationError::Unsupported {
-            needed: "a feed-forward policy shared by all agents (CTDE)",
+            needed: "a policy shared by all agents (CTDE)",
             found: format!(
-                "{} ({} networks, {} heads{})",
+                "{} ({} networks, {} heads)",
                 spec.mode,
                 policy.nets().len(),
                 spec.heads,
-                if spec.lstm.is_some() { ", LSTM" } else { "" }
             ),
         });
     }
@@ -100,7 +113,17 @@ pub fn dagger<S: EnvSlot>(
     let rows = n * envs;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut expert = Expert::new(cfg);
-    let mut data = Dataset::new(d, w, cfg.max_rows);
+    let mut data = match spec.lstm {
+        None => Data::Rows(Dataset::new(d, w, cfg.max_rows)),
+        Some(l) => Data::Windows(Windows::new(
+            d,
+            w,
+            cfg.window,
+            l.cells,
+            (cfg.max_rows / cfg.window).max(1),
+            rows,
+        )),
+    };
     let mut cloner = Cloner::new(policy, cfg.lr, cfg.minibatch)?;
     let mut reports = Vec::with_capacity(cfg.rounds);
     let mode = match cfg.rollout {
@@ -109,19 +132,36 @@ pub fn dagger<S: EnvSlot>(
     };
     let (mut actions, mut policy_actions, mut logp) =
         (vec![0u8; rows], vec![0u8; rows], vec![0f32; rows]);
+    let (mut row_rewards, mut row_done) = (vec![0f32; rows], vec![0u8; rows]);
+    let mut prev_one_hot = Vec::new();
+    let mut actor: Option<Inference> = None;
+    // Rows whose next step starts an episode (the envs were just reset).
+    let mut episode_start = vec![true; rows];
     venv.drain_episodes();
     for round in 0..cfg.rounds {
         let t0 = std::time::Instant::now();
         let (calls0, failures0) = (expert.calls, expert.failures);
-        let mut actor = if round == 0 {
-            None
-        } else {
-            let copy = Policy::new(spec.clone(), seed)?;
-            copy.copy_from(policy)?;
-            Some(Inference::new(copy, rows, rng.random()))
-        };
+        // Round 0 follows the expert. A recurrent policy watches it all the
+        // same, so that its state is the one it would have after these
+        // steps, and keeps its memory from round to round as an actor does
+        // (with new weights); a feed-forward one starts afresh each round.
+        let expert_only = round == 0;
+        match actor.as_mut() {
+            Some(recurrent) if spec.lstm.is_some() => recurrent.policy().copy_from(policy)?,
+            _ if expert_only && spec.lstm.is_none() => {}
+            _ => {
+                let copy = Policy::new(spec.clone(), seed)?;
+                copy.copy_from(policy)?;
+                actor = Some(Inference::new(copy, rows, rng.random()));
+            }
+        }
         let mut steps = 0u64;
         while steps < cfg.steps_per_round {
+            // The recurrent inputs of this step, before `act` advances them.
+            let before = actor.as_ref().and_then(|a| a.state().cloned());
+            if let Some(st) = &before {
+                one_hot_prev(&st.prev_actions, spec.actions, &mut prev_one_hot);
+            }
             if let Some(actor) = actor.as_mut() {
                 actor.act(
                     venv.obs(),
@@ -134,27 +174,55 @@ pub fn dagger<S: EnvSlot>(
             for e in 0..envs {
                 let lo = e * n;
                 let labels = expert.label(venv.envs()[e].env());
-                if let Some(l) = labels {
-                    for a in 0..n {
-                        let r = lo + a;
-                        data.push(
-                            &venv.obs()[r * d..(r + 1) * d],
-                            &venv.masks()[r * w..(r + 1) * w],
-                            l.policy[a],
-                            &mut rng,
-                        );
+                for a in 0..n {
+                    let r = lo + a;
+                    let label = labels.map(|l| l.policy[a]);
+                    let obs = &venv.obs()[r * d..(r + 1) * d];
+                    let mask = &venv.masks()[r * w..(r + 1) * w];
+                    match (&mut data, &before) {
+                        (Data::Rows(labelled), _) => {
+                            if let Some(label) = label {
+                                labelled.push(obs, mask, label, &mut rng);
+                            }
+                        }
+                        (Data::Windows(windows), Some(st)) => {
+                            let k = st.cells;
+                            let step = WindowStep {
+                                obs,
+                                mask,
+                                prev_action: &prev_one_hot[r * w..(r + 1) * w],
+                                prev_reward: st.prev_rewards[r],
+                                episode_start: episode_start[r],
+                                label,
+                            };
+                            let (h, c) = (&st.h[r * k..(r + 1) * k], &st.c[r * k..(r + 1) * k]);
+                            windows.push(r, step, h, c, &mut rng);
+                        }
+                        // Windows are kept for a recurrent policy only,
+                        // whose actor always has a state.
+                        (Data::Windows(_), None) => {}
                     }
                 }
-                let follow_expert = actor.is_none() || rng.random_bool(cfg.beta);
+                let follow_expert = expert_only || rng.random_bool(cfg.beta);
                 let chosen = &mut actions[lo..lo + n];
                 match (labels, follow_expert) {
                     (Some(l), true) => chosen.copy_from_slice(&l.plan),
                     // Round 0 without a plan: wait (the episode truncates).
-                    _ if actor.is_none() => chosen.fill(0),
+                    _ if expert_only => chosen.fill(0),
                     _ => chosen.copy_from_slice(&policy_actions[lo..lo + n]),
                 }
             }
             venv.step(&actions)?;
+            venv.write_row_rewards(&mut row_rewards);
+            venv.write_row_done(&mut row_done);
+            if let Some(st) = actor.as_mut().and_then(|a| a.state_mut()) {
+                // The actions taken, the expert's or the policy's, are the
+                // ones the LSTM sees as "previous".
+                st.observe(&actions, &row_rewards, &row_done);
+            }
+            for (start, &done) in episode_start.iter_mut().zip(&row_done) {
+                *start = done != 0;
+            }
             steps += envs as u64;
         }
         let episodes = venv.drain_episodes();
@@ -163,11 +231,20 @@ pub fn dagger<S: EnvSlot>(
         } else {
             episodes.iter().filter(|e| e.success).count() as f64 / episodes.len() as f64
         };
-        let fit = cloner.fit(policy, &data, cfg.epochs, &mut rng)?;
+        let (fit, held) = match &data {
+            Data::Rows(labelled) => (
+                cloner.fit(policy, labelled, cfg.epochs, &mut rng)?,
+                labelled.len(),
+            ),
+            Data::Windows(windows) => (
+                cloner.fit_windows(policy, windows, cfg.epochs, &mut rng)?,
+                windows.len() * windows.steps(),
+            ),
+        };
         let report = RoundReport {
             round,
             env_steps: steps,
-            rows: data.len(),
+            rows: held,
             expert_calls: expert.calls - calls0,
             expert_failures: expert.failures - failures0,
             episodes: episodes.len(),

@@ -35,9 +35,11 @@ pub mod dagger;
 pub mod dataset;
 pub mod error;
 pub mod expert;
+pub mod windows;
 
 pub use config::{ImitationConfig, Rollout};
 pub use dagger::{dagger, RoundReport};
 pub use dataset::Dataset;
 pub use error::ImitationError;
 pub use expert::{Expert, Labels};
+pub use windows::Windows;

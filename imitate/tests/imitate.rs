@@ -4,9 +4,9 @@
 
 use std::sync::Arc;
 
-use buridan_env::{EnvConfig, EnvSlot, GridEnv, Map, ObsKind, VecEnv};
+use buridan_env::{BatchedEnv, EnvConfig, EnvSlot, GridEnv, Map, ObsKind, VecEnv};
 use buridan_imitate::{dagger, Expert, ImitationConfig};
-use buridan_policy::{ActMode, Inference, Mode, ModelSpec, Policy};
+use buridan_policy::{ActMode, Inference, LstmSpec, Mode, ModelSpec, Policy};
 
 fn map(name: &str) -> Arc<Map> {
     Arc::new(Map::load(name).unwrap())
@@ -75,6 +75,36 @@ fn labels_for_the_policy_are_legal_under_its_mask() {
     assert!(waits_for_following > 0);
 }
 
+/// Greedy success of `policy` on 10 envs of rm-2.1 (seed 42) over 100
+/// steps; a recurrent policy's state runs through the steps as in an actor.
+fn greedy_success(policy: &Policy, env_cfg: &EnvConfig) -> f64 {
+    let copy = Policy::new(policy.spec().clone(), 0).unwrap();
+    copy.copy_from(policy).unwrap();
+    let cfg = EnvConfig {
+        seed: 42,
+        ..env_cfg.clone()
+    };
+    let mut venv = VecEnv::new(map("rm-2.1"), cfg, 10, ObsKind::Local, 1).unwrap();
+    let rows = venv.rows();
+    let mut inference = Inference::new(copy, rows, 0);
+    let (mut actions, mut logp) = (vec![0u8; rows], vec![0f32; rows]);
+    let (mut rewards, mut done) = (vec![0f32; rows], vec![0u8; rows]);
+    for _ in 0..100 {
+        let (obs, masks) = (venv.obs().to_vec(), venv.masks().to_vec());
+        inference
+            .act(&obs, &masks, ActMode::Greedy, &mut actions, &mut logp)
+            .unwrap();
+        venv.step(&actions).unwrap();
+        venv.write_row_rewards(&mut rewards);
+        venv.write_row_done(&mut done);
+        if let Some(state) = inference.state_mut() {
+            state.observe(&actions, &rewards, &done);
+        }
+    }
+    let eps = venv.drain_episodes();
+    eps.iter().filter(|e| e.success).count() as f64 / eps.len() as f64
+}
+
 #[test]
 fn dagger_teaches_an_untrained_policy_the_planners_moves() {
     let env_cfg = EnvConfig {
@@ -84,28 +114,8 @@ fn dagger_teaches_an_untrained_policy_the_planners_moves() {
     };
     let mut venv = VecEnv::new(map("rm-2.1"), env_cfg.clone(), 8, ObsKind::Local, 1).unwrap();
     let spec = ModelSpec::new(Mode::Ctde, 2, venv.obs_dim());
-    let policy = Policy::new(spec.clone(), 0).unwrap();
-    let greedy_success = |policy: &Policy| {
-        let copy = Policy::new(spec.clone(), 0).unwrap();
-        copy.copy_from(policy).unwrap();
-        let cfg = EnvConfig {
-            seed: 42,
-            ..env_cfg.clone()
-        };
-        let mut venv = VecEnv::new(map("rm-2.1"), cfg, 10, ObsKind::Local, 1).unwrap();
-        let mut inference = Inference::new(copy, 20, 0);
-        let (mut actions, mut logp) = (vec![0u8; 20], vec![0f32; 20]);
-        for _ in 0..100 {
-            let (obs, masks) = (venv.obs().to_vec(), venv.masks().to_vec());
-            inference
-                .act(&obs, &masks, ActMode::Greedy, &mut actions, &mut logp)
-                .unwrap();
-            venv.step(&actions).unwrap();
-        }
-        let eps = venv.drain_episodes();
-        eps.iter().filter(|e| e.success).count() as f64 / eps.len() as f64
-    };
-    let before = greedy_success(&policy);
+    let policy = Policy::new(spec, 0).unwrap();
+    let before = greedy_success(&policy, &env_cfg);
     let cfg = ImitationConfig {
         rounds: 3,
         steps_per_round: 4_000,
@@ -113,8 +123,49 @@ fn dagger_teaches_an_untrained_policy_the_planners_moves() {
         ..ImitationConfig::default()
     };
     let reports = dagger(&cfg, &policy, &mut venv, 1, &mut |_| {}).unwrap();
-    let after = greedy_success(&policy);
+    let after = greedy_success(&policy, &env_cfg);
     assert_eq!(reports.len(), 3);
+    assert!(reports[0].success_rate > 0.95, "{:?}", reports[0]);
+    assert!(reports[2].accuracy > 0.8, "{:?}", reports[2]);
+    assert!(
+        after > before + 0.3 && after > 0.6,
+        "greedy success {before} -> {after}"
+    );
+}
+
+#[test]
+fn dagger_teaches_a_recurrent_policy_on_windows_of_its_own_steps() {
+    let env_cfg = EnvConfig {
+        agents: 2,
+        seed: 5,
+        ..EnvConfig::default()
+    };
+    let mut venv = VecEnv::new(map("rm-2.1"), env_cfg.clone(), 8, ObsKind::Local, 1).unwrap();
+    let mut spec = ModelSpec::new(Mode::Ctde, 2, venv.obs_dim());
+    spec.lstm = Some(LstmSpec {
+        cells: 16,
+        prev_action: true,
+        prev_reward: true,
+    });
+    let policy = Policy::new(spec, 0).unwrap();
+    let before = greedy_success(&policy, &env_cfg);
+    let cfg = ImitationConfig {
+        rounds: 3,
+        steps_per_round: 4_000,
+        envs: 8,
+        window: 16,
+        ..ImitationConfig::default()
+    };
+    let reports = dagger(&cfg, &policy, &mut venv, 1, &mut |_| {}).unwrap();
+    let after = greedy_success(&policy, &env_cfg);
+    assert_eq!(reports.len(), 3);
+    // Whole windows are held: a multiple of their length.
+    assert!(
+        reports
+            .iter()
+            .all(|r| r.rows > 0 && r.rows.is_multiple_of(16)),
+        "{reports:?}"
+    );
     assert!(reports[0].success_rate > 0.95, "{:?}", reports[0]);
     assert!(reports[2].accuracy > 0.8, "{:?}", reports[2]);
     assert!(
@@ -161,4 +212,69 @@ fn policies_it_cannot_clone_are_refused_with_the_reason() {
     )
     .unwrap_err();
     assert_eq!(err.to_string(), "imitation.rounds: must be at least 1");
+}
+
+#[test]
+fn replayed_windows_give_the_logits_the_actor_computed_step_by_step() {
+    use buridan_imitate::cloning::replay_windows;
+    use buridan_imitate::windows::{WindowStep, Windows};
+    use buridan_policy::infer::one_hot_prev;
+    // One agent, so windows follow each other in time; 240 steps cross two
+    // episode ends (T_max 100) inside windows (steps 100 and 200).
+    let env_cfg = EnvConfig {
+        agents: 1,
+        seed: 9,
+        ..EnvConfig::default()
+    };
+    let mut venv = VecEnv::new(map("rm-2.1"), env_cfg, 1, ObsKind::Local, 1).unwrap();
+    let mut spec = ModelSpec::new(Mode::Ctde, 1, venv.obs_dim());
+    spec.lstm = Some(LstmSpec::default());
+    let policy = Policy::new(spec.clone(), 3).unwrap();
+    let copy = Policy::new(spec, 0).unwrap();
+    copy.copy_from(&policy).unwrap();
+    let mut actor = Inference::new(copy, 1, 4);
+    let (len, steps) = (8, 240);
+    let mut windows = Windows::new(venv.obs_dim(), 5, len, 64, 1000, 1);
+    let mut rng = rand::rng();
+    let (mut action, mut logp, mut reward, mut done) = ([0u8], [0f32], [0f32], [0u8]);
+    let (mut logits, mut one_hot, mut start, mut resets) = (Vec::new(), Vec::new(), true, 0);
+    for _ in 0..steps {
+        let st = actor.state().unwrap().clone();
+        one_hot_prev(&st.prev_actions, 5, &mut one_hot);
+        let (obs, mask) = (venv.obs().to_vec(), venv.masks().to_vec());
+        let out = actor
+            .act(&obs, &mask, ActMode::Sample, &mut action, &mut logp)
+            .unwrap();
+        logits.extend_from_slice(out);
+        let step = WindowStep {
+            obs: &obs,
+            mask: &mask,
+            prev_action: &one_hot,
+            prev_reward: st.prev_rewards[0],
+            episode_start: start,
+            label: Some(action[0]),
+        };
+        windows.push(0, step, &st.h, &st.c, &mut rng);
+        venv.step(&action).unwrap();
+        venv.write_row_rewards(&mut reward);
+        venv.write_row_done(&mut done);
+        actor.state_mut().unwrap().observe(&action, &reward, &done);
+        start = done[0] != 0;
+        resets += usize::from(start);
+    }
+    assert_eq!((windows.len(), resets), (steps / len, 2));
+    let all: Vec<usize> = (0..windows.len()).collect();
+    let replay = replay_windows(&policy, &windows, &all).unwrap();
+    let replayed = replay.logits.to_vec2::<f32>().unwrap();
+    let b = windows.len();
+    for (step, actor_logits) in logits.chunks(5).enumerate() {
+        let (win, s) = (step / len, step % len);
+        let row = &replayed[s * b + win];
+        for (x, y) in row.iter().zip(actor_logits) {
+            assert!(
+                (x - y).abs() < 2e-6,
+                "step {step}: {row:?} vs {actor_logits:?}"
+            );
+        }
+    }
 }

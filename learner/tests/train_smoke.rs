@@ -232,7 +232,16 @@ fn imitation_runs_before_learning_and_logs_its_rounds() {
         trained.weights(0).unwrap().tensors[0].data,
         fresh.weights(0).unwrap().tensors[0].data
     );
+    // A recurrent policy imitates too (on windows of its own steps).
+    let lstm_dir = tempfile::tempdir().unwrap();
+    cfg.lstm = true;
+    train(&cfg, lstm_dir.path(), &mut NoProgress).unwrap();
+    let csv = std::fs::read_to_string(lstm_dir.path().join("imitation.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+    let trained = Policy::load(&final_checkpoint(lstm_dir.path())).unwrap();
+    assert!(trained.spec().is_recurrent());
     // Imitation needs a network shared by all agents.
+    cfg.lstm = false;
     cfg.mode = Mode::Dte;
     let err = train(&cfg, dir.path(), &mut NoProgress).unwrap_err();
     assert!(matches!(err, TrainError::Config(_)), "{err}");

@@ -740,8 +740,8 @@ impl TrainConfig {
             im.validate()
                 .map_err(|e| ConfigError::Imitation(Box::new(e)))?;
             ensure(
-                self.mode == Mode::Ctde && !self.lstm,
-                "[imitation] trains a feed-forward policy shared by all agents: mode = \"ctde\", lstm = false",
+                self.mode == Mode::Ctde,
+                "[imitation] trains a policy shared by all agents: mode = \"ctde\"",
             )?;
         }
         self.validate_maps()
