@@ -8,19 +8,13 @@ use anyhow::{bail, Context, Result};
 use buridan_env::{Map, Rules, Starts};
 use buridan_eval::instances::load_instance_set;
 use buridan_eval::output::{write_report, write_sweep};
-use buridan_eval::planner::PlannerController;
 use buridan_eval::replay::Warmup;
-use buridan_eval::{
-    evaluate, evaluate_instances, Controller, EvalReport, EvalSpec, EvalSummary, RandomController,
-};
+use buridan_eval::{evaluate, evaluate_instances, EvalReport, EvalSpec, EvalSummary};
 use buridan_policy::ActMode;
 
 use crate::replay::write_failed;
 
-use buridan_eval::policy::PolicyController;
-use buridan_eval::rescue::RescueController;
-use buridan_eval::shield::{Ranking, ShieldController};
-use buridan_mapf::{planner_for_rules, Limits, Planner};
+use buridan_mapf::Limits;
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// Arguments of `learner eval`.
@@ -141,44 +135,9 @@ pub fn parse_agent_counts(text: &str) -> Result<Vec<usize>> {
     text.split(',').map(num).collect()
 }
 
-/// The planner of `rescue:CONTROLLER` for small fleets: LaCAM answers in
-/// milliseconds where it answers at all; OD-A* takes over the dead-end
-/// orderings LaCAM does not finish (README, "Planners").
-pub const DEFAULT_RESCUE_PLANNER: &str = "lacam+od-astar";
-
-/// Fleets larger than this are rescued by [`CROWD_RESCUE_PLANNER`]: OD-A*'s
-/// state space grows as cellsⁿ, and at 16 agents it spends its whole share
-/// of every call without a plan (measured: rm-3.1, 16 agents, 30 episodes:
-/// the same 53 % success with LaCAM alone, 3 s against 0.14 s of compute per
-/// episode).
-pub const RESCUE_OD_ASTAR_MAX_AGENTS: usize = 8;
-
-/// The planner of `rescue:CONTROLLER` beyond [`RESCUE_OD_ASTAR_MAX_AGENTS`]
-/// agents: prioritized planning answers crowds in milliseconds (seed-42,
-/// 16 agents, 1 s: rm-3.1 100 % and rm-2.1 100 % planned, where LaCAM plans
-/// 32 % and 50 % within T_max); LaCAM, complete, takes the instances where
-/// every order PP tries fails.
-pub const CROWD_RESCUE_PLANNER: &str = "pp+lacam";
-
-/// Splits `rescue:INNER`, `rescue=PLANNER:INNER`, `lookahead:INNER` and
-/// `lookahead=PLANNER:INNER` into (kind, planner, inner); the default
-/// planner depends on the fleet size.
-fn rescue_parts(name: &str, agents: usize) -> Option<(&'static str, &str, &str)> {
-    ["rescue", "lookahead"].into_iter().find_map(|kind| {
-        let rest = name.strip_prefix(kind)?;
-        if let Some(inner) = rest.strip_prefix(':') {
-            let planner = if agents > RESCUE_OD_ASTAR_MAX_AGENTS {
-                CROWD_RESCUE_PLANNER
-            } else {
-                DEFAULT_RESCUE_PLANNER
-            };
-            return Some((kind, planner, inner));
-        }
-        let named = rest.strip_prefix('=')?;
-        let (planner, inner) = named.split_once(':').unwrap_or((named, ""));
-        Some((kind, planner, inner))
-    })
-}
+pub use buridan_eval::by_name::{
+    ControllerFactory, CROWD_RESCUE_PLANNER, DEFAULT_RESCUE_PLANNER, RESCUE_OD_ASTAR_MAX_AGENTS,
+};
 
 /// Planner limits from a time limit in seconds and a memory cap in MiB
 /// (`--time-limit`, `--memory-limit`, a study's `time_limit`).
@@ -199,30 +158,18 @@ pub fn planner_limits(time_limit: f64, memory_limit_mib: usize) -> Result<Limits
     })
 }
 
-/// A factory of fresh controllers, one per evaluation thread.
-pub type ControllerFactory = Box<dyn Fn() -> Box<dyn Controller> + Sync>;
-
 /// Resolves `--controller` (`ma-astar`, `cbs`, `random`, `checkpoint:DIR`,
-/// `shield:checkpoint:DIR`, …) to a factory for episodes with `agents` agents.
+/// `shield:checkpoint:DIR`, `rescue:CONTROLLER`, …) to a factory for
+/// episodes with `agents` agents under the thesis rules
+/// ([`buridan_eval::by_name`] has the language).
 ///
 /// ```
 /// use buridan_cli::eval::controller_factory;
 /// use buridan_policy::ActMode;
-/// let ckpt = "../docs/results/ppo-ctde-rm-2.1/checkpoint";
-/// let make = controller_factory(&format!("shield:checkpoint:{ckpt}"), 8, 42, Default::default(), ActMode::Greedy).unwrap();
-/// assert_eq!(make().name(), "ctde-policy+shield");
-/// let err = controller_factory("shield:cbs", 4, 42, Default::default(), ActMode::Greedy).err().unwrap();
-/// assert!(err.to_string().contains("trained policies only"), "{err}");
 /// let rescued = controller_factory("rescue:random", 4, 42, Default::default(), ActMode::Greedy).unwrap();
 /// assert_eq!(rescued().name(), "random+rescue-lacam+od-astar");
-/// let crowd = controller_factory("rescue:random", 16, 42, Default::default(), ActMode::Greedy).unwrap();
-/// assert_eq!(crowd().name(), "random+rescue-pp+lacam");
-/// let by_lacam = controller_factory("rescue=lacam:random", 4, 42, Default::default(), ActMode::Greedy).unwrap();
-/// assert_eq!(by_lacam().name(), "random+rescue-lacam");
-/// let ahead = controller_factory("lookahead=od-astar:random", 4, 42, Default::default(), ActMode::Greedy).unwrap();
-/// assert_eq!(ahead().name(), "random+lookahead-od-astar");
-/// let err = controller_factory("rescue=dijkstra:random", 4, 42, Default::default(), ActMode::Greedy).err().unwrap();
-/// assert!(err.to_string().contains("unknown rescue planner 'dijkstra'"), "{err}");
+/// let err = controller_factory("shield:cbs", 4, 42, Default::default(), ActMode::Greedy).err().unwrap();
+/// assert!(err.to_string().contains("trained policies only"), "{err}");
 /// ```
 pub fn controller_factory(
     name: &str,
@@ -234,23 +181,15 @@ pub fn controller_factory(
     controller_factory_for_rules(name, agents, seed, limits, act_mode, Rules::Thesis)
 }
 
-/// [`controller_factory`] for an env under `rules`: planners (also the
-/// rescue's) plan for that rule set; one that cannot (OD-A* under pogema)
-/// is an error. Under pogema rules the rescue's default planner is
-/// [`CROWD_RESCUE_PLANNER`] at every fleet size (it has no OD-A*).
-/// Policies act as trained; the shield keeps the thesis conflict model,
-/// whose joint moves POGEMA's rules execute too.
+/// [`controller_factory`] for an env under `rules`
+/// ([`buridan_eval::by_name::controller_factory`]).
 ///
 /// ```
 /// use buridan_cli::eval::controller_factory_for_rules;
 /// use buridan_env::Rules;
 /// use buridan_policy::ActMode;
-/// let lacam = controller_factory_for_rules("lacam", 32, 0, Default::default(), ActMode::Greedy, Rules::Pogema).unwrap();
-/// assert_eq!(lacam().name(), "lacam-simultaneous");
 /// let err = controller_factory_for_rules("od-astar", 4, 0, Default::default(), ActMode::Greedy, Rules::Pogema).err().unwrap();
 /// assert!(format!("{err:#}").contains("cannot plan under pogema rules"), "{err:#}");
-/// let rescued = controller_factory_for_rules("rescue:random", 4, 0, Default::default(), ActMode::Greedy, Rules::Pogema).unwrap();
-/// assert_eq!(rescued().name(), "random+rescue-pp-simultaneous+lacam-simultaneous");
 /// ```
 pub fn controller_factory_for_rules(
     name: &str,
@@ -260,68 +199,9 @@ pub fn controller_factory_for_rules(
     act_mode: ActMode,
     rules: Rules,
 ) -> Result<ControllerFactory> {
-    if let Some((kind, planner, inner)) = rescue_parts(name, agents) {
-        let planner = match (rules, name.contains('=')) {
-            (Rules::Pogema, false) => CROWD_RESCUE_PLANNER,
-            _ => planner,
-        };
-        let planner: Arc<dyn Planner> = match planner_for_rules(planner, rules) {
-            Ok(planner) => planner.into(),
-            Err(buridan_mapf::PlannerLookupError::Unknown { .. }) => bail!(
-                "'{name}': unknown rescue planner '{planner}' (expected pibt, lacam, lacam-star, od-astar, pp, cbs, ma-astar, or several joined by '+')"
-            ),
-            Err(err) => return Err(err).with_context(|| format!("'{name}': rescue planner")),
-        };
-        let inner = controller_factory_for_rules(inner, agents, seed, limits, act_mode, rules)?;
-        let foresight = kind == "lookahead";
-        return Ok(Box::new(move || {
-            let rescue = RescueController::new(inner(), planner.clone(), limits);
-            Box::new(if foresight {
-                rescue.with_foresight(inner())
-            } else {
-                rescue
-            })
-        }));
-    }
-    for (prefix, ranking) in [("shield:", Ranking::Walls), ("shield-env:", Ranking::Env)] {
-        if let Some(inner) = name.strip_prefix(prefix) {
-            let Some(dir) = inner.strip_prefix("checkpoint:") else {
-                bail!("'{name}': the shield drives trained policies only ({prefix}checkpoint:DIR)");
-            };
-            let dir = PathBuf::from(dir);
-            let load = move || ShieldController::load(&dir, agents, act_mode, seed, ranking);
-            // Load once here so that a bad checkpoint fails with its reason.
-            load()?;
-            return Ok(Box::new(move || {
-                Box::new(load().expect("loaded once already"))
-            }));
-        }
-    }
-    if let Some(dir) = name.strip_prefix("checkpoint:") {
-        let dir = PathBuf::from(dir);
-        // Load once here so that a bad checkpoint fails with its reason.
-        PolicyController::load(&dir, agents, act_mode, seed)?;
-        return Ok(Box::new(move || {
-            Box::new(
-                PolicyController::load(&dir, agents, act_mode, seed).expect("loaded once already"),
-            )
-        }));
-    }
-    if name == "random" {
-        return Ok(Box::new(move || Box::new(RandomController::new(seed))));
-    }
-    let planner: Arc<dyn Planner> = match planner_for_rules(name, rules) {
-        Ok(planner) => planner.into(),
-        Err(err @ buridan_mapf::PlannerLookupError::UnsupportedRules { .. }) => {
-            return Err(err).with_context(|| format!("controller '{name}'"))
-        }
-        Err(buridan_mapf::PlannerLookupError::Unknown { .. }) => bail!(
-            "unknown controller '{name}': expected ma-astar, od-astar, cbs, pibt, lacam, lacam-star, pp, random, checkpoint:DIR, shield:checkpoint:DIR or rescue:CONTROLLER"
-        ),
-    };
-    Ok(Box::new(move || {
-        Box::new(PlannerController::new(planner.clone(), limits))
-    }))
+    Ok(buridan_eval::by_name::controller_factory(
+        name, agents, seed, limits, act_mode, rules,
+    )?)
 }
 
 /// Runs `learner eval`.

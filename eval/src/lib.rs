@@ -18,6 +18,7 @@
 //! - [`replay`]: one episode recorded step by step, for drawing.
 
 pub mod benchmark;
+pub mod by_name;
 pub mod controller;
 pub mod instances;
 pub mod output;
