@@ -121,36 +121,23 @@ impl Cloner {
     ) -> Result<FitStats, ImitationError> {
         let device = Device::Cpu;
         let (d, w) = (data.obs_dim(), data.mask_dim());
-        let mut order: Vec<usize> = (0..data.len()).collect();
-        let mut stats = FitStats::default();
-        for _ in 0..epochs {
-            order.shuffle(rng);
-            let (mut loss_sum, mut acc_sum, mut batches) = (0.0, 0.0, 0usize);
-            for chunk in order.chunks(self.minibatch) {
-                let rows = chunk.len();
-                let mut obs = Vec::with_capacity(rows * d);
-                let mut masks = Vec::with_capacity(rows * w);
-                let mut labels = Vec::with_capacity(rows);
-                for &r in chunk {
-                    obs.extend_from_slice(&data.obs[r * d..(r + 1) * d]);
-                    masks.extend_from_slice(&data.masks[r * w..(r + 1) * w]);
-                    labels.push(u32::from(data.labels[r]));
-                }
-                let obs = Tensor::from_vec(obs, (rows, d), &device)?;
-                let bias = mask_bias(&masks, rows, w, &device)?;
-                let labels = Tensor::from_vec(labels, rows, &device)?;
-                let logits = policy.forward(&obs)?.logits;
-                let (loss, acc) = cloning_loss(&logits, &bias, &labels)?;
-                self.opt.backward_step(&loss)?;
-                loss_sum += f64::from(loss.to_scalar::<f32>()?);
-                acc_sum += acc;
-                batches += 1;
-                stats.steps += 1;
+        let minibatch = self.minibatch;
+        self.descend(data.len(), minibatch, epochs, rng, |chunk| {
+            let rows = chunk.len();
+            let mut obs = Vec::with_capacity(rows * d);
+            let mut masks = Vec::with_capacity(rows * w);
+            let mut labels = Vec::with_capacity(rows);
+            for &r in chunk {
+                obs.extend_from_slice(&data.obs[r * d..(r + 1) * d]);
+                masks.extend_from_slice(&data.masks[r * w..(r + 1) * w]);
+                labels.push(u32::from(data.labels[r]));
             }
-            stats.loss = loss_sum / batches.max(1) as f64;
-            stats.accuracy = acc_sum / batches.max(1) as f64;
-        }
-        Ok(stats)
+            let obs = Tensor::from_vec(obs, (rows, d), &device)?;
+            let bias = mask_bias(&masks, rows, w, &device)?;
+            let labels = Tensor::from_vec(labels, rows, &device)?;
+            let logits = policy.forward(&obs)?.logits;
+            cloning_loss(&logits, &bias, &labels)
+        })
     }
 
     /// `epochs` passes over recurrent `data` in shuffled minibatches of
@@ -165,19 +152,34 @@ impl Cloner {
         rng: &mut R,
     ) -> Result<FitStats, ImitationError> {
         let per_batch = (self.minibatch / data.steps()).max(1);
-        let mut order: Vec<usize> = (0..data.len()).collect();
+        self.descend(data.len(), per_batch, epochs, rng, |chunk| {
+            let replay = replay_windows(policy, data, chunk)?;
+            weighted_cloning_loss(
+                &replay.logits,
+                &replay.bias,
+                &replay.labels,
+                &replay.weights,
+            )
+        })
+    }
+
+    /// `epochs` passes over `items` items in shuffled chunks of `per_batch`:
+    /// one Adam step on each chunk's `(loss, agreement)`.
+    fn descend<R: Rng + ?Sized>(
+        &mut self,
+        items: usize,
+        per_batch: usize,
+        epochs: usize,
+        rng: &mut R,
+        mut loss_of: impl FnMut(&[usize]) -> Result<(Tensor, f64), ImitationError>,
+    ) -> Result<FitStats, ImitationError> {
+        let mut order: Vec<usize> = (0..items).collect();
         let mut stats = FitStats::default();
         for _ in 0..epochs {
             order.shuffle(rng);
             let (mut loss_sum, mut acc_sum, mut batches) = (0.0, 0.0, 0usize);
             for chunk in order.chunks(per_batch) {
-                let replay = replay_windows(policy, data, chunk)?;
-                let (loss, acc) = weighted_cloning_loss(
-                    &replay.logits,
-                    &replay.bias,
-                    &replay.labels,
-                    &replay.weights,
-                )?;
+                let (loss, acc) = loss_of(chunk)?;
                 self.opt.backward_step(&loss)?;
                 loss_sum += f64::from(loss.to_scalar::<f32>()?);
                 acc_sum += acc;
