@@ -11,7 +11,7 @@ use buridan_policy::Policy;
 
 use crate::dataset::Dataset;
 use crate::error::ImitationError;
-use crate::windows::Windows;
+use crate::windows::{Window, Windows};
 
 /// The cloning loss `−mean_r log π(a*_r | o_r)` over rows, with the policy's
 /// logits `[rows, 5]` masked by `bias` (0 legal, −1e9 illegal) and the
@@ -217,8 +217,14 @@ pub fn replay_windows(
     windows: &[usize],
 ) -> Result<WindowReplay, ImitationError> {
     let device = Device::Cpu;
-    let (t, d, w, k) = (data.steps(), data.obs_dim(), data.mask_dim(), data.cells());
-    let b = windows.len();
+    let (t, d, w, k) = (
+        data.steps(),
+        data.obs_dim(),
+        data.mask_dim(),
+        policy.net(0).cells(),
+    );
+    let picked: Vec<&Window> = windows.iter().map(|&i| &data.held()[i]).collect();
+    let b = picked.len();
     let rows = t * b;
     let mut obs = Vec::with_capacity(rows * d);
     let mut masks = Vec::with_capacity(rows * w);
@@ -230,22 +236,24 @@ pub fn replay_windows(
         Vec::with_capacity(rows),
     );
     for s in 0..t {
-        for &win in windows {
-            let at = win * t + s;
-            obs.extend_from_slice(&data.obs[at * d..(at + 1) * d]);
-            masks.extend_from_slice(&data.masks[at * w..(at + 1) * w]);
-            prev_a.extend_from_slice(&data.prev_actions[at * w..(at + 1) * w]);
-            prev_r.push(data.prev_rewards[at]);
-            keep.push(data.keep[at]);
-            labels.push(u32::from(data.labels[at]));
-            weights.push(data.weights[at]);
+        for win in &picked {
+            obs.extend_from_slice(&win.obs[s * d..(s + 1) * d]);
+            masks.extend_from_slice(&win.masks[s * w..(s + 1) * w]);
+            prev_a.extend_from_slice(&win.prev_actions[s * w..(s + 1) * w]);
+            prev_r.push(win.prev_rewards[s]);
+            keep.push(win.keep[s]);
+            labels.push(u32::from(win.labels[s]));
+            weights.push(win.weights[s]);
         }
     }
-    let (mut h0, mut c0) = (Vec::with_capacity(b * k), Vec::with_capacity(b * k));
-    for &win in windows {
-        h0.extend_from_slice(&data.h0[win * k..(win + 1) * k]);
-        c0.extend_from_slice(&data.c0[win * k..(win + 1) * k]);
-    }
+    let h0: Vec<f32> = picked
+        .iter()
+        .flat_map(|win| win.h0.iter().copied())
+        .collect();
+    let c0: Vec<f32> = picked
+        .iter()
+        .flat_map(|win| win.c0.iter().copied())
+        .collect();
     let out = policy.net(0).unroll(
         &Tensor::from_vec(obs, (rows, d), &device)?,
         &Tensor::from_vec(prev_a, (rows, w), &device)?,

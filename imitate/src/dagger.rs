@@ -22,7 +22,7 @@
 
 use buridan_env::{BatchedEnv, EnvSlot, VecEnv};
 use buridan_policy::infer::one_hot_prev;
-use buridan_policy::{ActMode, Inference, Policy};
+use buridan_policy::{ActMode, Inference, Policy, NO_ACTION};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -115,11 +115,10 @@ pub fn dagger<S: EnvSlot>(
     let mut expert = Expert::new(cfg);
     let mut data = match spec.lstm {
         None => Data::Rows(Dataset::new(d, w, cfg.max_rows)),
-        Some(l) => Data::Windows(Windows::new(
+        Some(_) => Data::Windows(Windows::new(
             d,
             w,
             cfg.window,
-            l.cells,
             (cfg.max_rows / cfg.window).max(1),
             rows,
         )),
@@ -135,8 +134,6 @@ pub fn dagger<S: EnvSlot>(
     let (mut row_rewards, mut row_done) = (vec![0f32; rows], vec![0u8; rows]);
     let mut prev_one_hot = Vec::new();
     let mut actor: Option<Inference> = None;
-    // Rows whose next step starts an episode (the envs were just reset).
-    let mut episode_start = vec![true; rows];
     venv.drain_episodes();
     for round in 0..cfg.rounds {
         let t0 = std::time::Instant::now();
@@ -192,7 +189,9 @@ pub fn dagger<S: EnvSlot>(
                                 mask,
                                 prev_action: &prev_one_hot[r * w..(r + 1) * w],
                                 prev_reward: st.prev_rewards[r],
-                                episode_start: episode_start[r],
+                                // The state marks a row's episode start with
+                                // "no previous action" (one head: CTDE).
+                                episode_start: st.prev_actions[r] == NO_ACTION,
                                 label,
                             };
                             let (h, c) = (&st.h[r * k..(r + 1) * k], &st.c[r * k..(r + 1) * k]);
@@ -213,15 +212,12 @@ pub fn dagger<S: EnvSlot>(
                 }
             }
             venv.step(&actions)?;
-            venv.write_row_rewards(&mut row_rewards);
-            venv.write_row_done(&mut row_done);
             if let Some(st) = actor.as_mut().and_then(|a| a.state_mut()) {
                 // The actions taken, the expert's or the policy's, are the
                 // ones the LSTM sees as "previous".
+                venv.write_row_rewards(&mut row_rewards);
+                venv.write_row_done(&mut row_done);
                 st.observe(&actions, &row_rewards, &row_done);
-            }
-            for (start, &done) in episode_start.iter_mut().zip(&row_done) {
-                *start = done != 0;
             }
             steps += envs as u64;
         }

@@ -32,15 +32,50 @@ pub struct WindowStep<'a> {
     pub label: Option<u8>,
 }
 
-/// Windows of `len` steps of one agent each, time-major inside a window,
-/// kept in a reservoir of at most `cap` windows; one window is filled per
-/// row (agent slot) at a time.
+/// One window: `len` consecutive steps of one agent, time-major, and the
+/// LSTM state before its first step.
+#[derive(Debug, Clone, Default)]
+pub struct Window {
+    /// Observations `[len, obs_dim]`.
+    pub obs: Vec<f32>,
+    /// Action masks `[len, mask_dim]`.
+    pub masks: Vec<u8>,
+    /// Previous actions, one-hot `[len, mask_dim]`.
+    pub prev_actions: Vec<f32>,
+    /// Previous rewards `[len]`.
+    pub prev_rewards: Vec<f32>,
+    /// 0 where an episode starts at the step, else 1 `[len]`.
+    pub keep: Vec<f32>,
+    /// The expert's actions `[len]` (0 where unlabelled).
+    pub labels: Vec<u8>,
+    /// 1 where the step has a label, else 0 `[len]`.
+    pub weights: Vec<f32>,
+    /// LSTM hidden state before the window `[cells]`.
+    pub h0: Vec<f32>,
+    /// LSTM cell state before the window `[cells]`.
+    pub c0: Vec<f32>,
+}
+
+impl Window {
+    /// Steps in the window so far.
+    pub fn steps(&self) -> usize {
+        self.labels.len()
+    }
+
+    /// Its labelled steps.
+    pub fn labelled(&self) -> usize {
+        self.weights.iter().filter(|&&x| x > 0.0).count()
+    }
+}
+
+/// Windows of `len` steps of one agent each, kept in a reservoir of at most
+/// `cap` windows; one window is filled per row (agent slot) at a time.
 ///
 /// ```
 /// use buridan_imitate::windows::{WindowStep, Windows};
-/// // Observations 2 wide, masks 5, windows of 3 steps, 1 LSTM cell,
-/// // at most 10 windows, 1 row.
-/// let mut w = Windows::new(2, 5, 3, 1, 10, 1);
+/// // Observations 2 wide, masks 5, windows of 3 steps, at most 10 windows,
+/// // 1 row.
+/// let mut w = Windows::new(2, 5, 3, 10, 1);
 /// let mut rng = rand::rng();
 /// for k in 0..4 {
 ///     let step = WindowStep {
@@ -52,92 +87,47 @@ pub struct WindowStep<'a> {
 ///     w.push(0, step, &[0.1], &[0.2], &mut rng);
 /// }
 /// assert_eq!(w.len(), 1); // three steps make one window, the fourth opens another
-/// assert_eq!(w.labelled(0), 2); // the expert did not answer one of them
+/// assert_eq!(w.held()[0].labelled(), 2); // the expert did not answer one of them
 /// ```
 #[derive(Debug, Clone)]
 pub struct Windows {
     obs_dim: usize,
     mask_dim: usize,
     len: usize,
-    cells: usize,
     cap: usize,
     seen: u64,
-    /// Observations `[windows, len, obs_dim]`.
-    pub obs: Vec<f32>,
-    /// Action masks `[windows, len, mask_dim]`.
-    pub masks: Vec<u8>,
-    /// Previous actions, one-hot `[windows, len, mask_dim]`.
-    pub prev_actions: Vec<f32>,
-    /// Previous rewards `[windows, len]`.
-    pub prev_rewards: Vec<f32>,
-    /// 0 where an episode starts at the step, else 1 `[windows, len]`.
-    pub keep: Vec<f32>,
-    /// The expert's actions `[windows, len]` (0 where unlabelled).
-    pub labels: Vec<u8>,
-    /// 1 where the step has a label, else 0 `[windows, len]`.
-    pub weights: Vec<f32>,
-    /// LSTM hidden state before each window `[windows, cells]`.
-    pub h0: Vec<f32>,
-    /// LSTM cell state before each window `[windows, cells]`.
-    pub c0: Vec<f32>,
-    open: Vec<Open>,
-}
-
-/// The window being filled.
-#[derive(Debug, Clone, Default)]
-struct Open {
-    steps: usize,
-    obs: Vec<f32>,
-    masks: Vec<u8>,
-    prev_actions: Vec<f32>,
-    prev_rewards: Vec<f32>,
-    keep: Vec<f32>,
-    labels: Vec<u8>,
-    weights: Vec<f32>,
-    h0: Vec<f32>,
-    c0: Vec<f32>,
+    held: Vec<Window>,
+    open: Vec<Window>,
 }
 
 impl Windows {
     /// An empty set of windows of `len` steps, observations `obs_dim` wide,
-    /// masks `mask_dim` wide, LSTM states of `cells`; at most `cap` windows,
-    /// filled from `rows` rows.
-    pub fn new(
-        obs_dim: usize,
-        mask_dim: usize,
-        len: usize,
-        cells: usize,
-        cap: usize,
-        rows: usize,
-    ) -> Self {
+    /// masks `mask_dim` wide; at most `cap` windows, filled from `rows` rows.
+    pub fn new(obs_dim: usize, mask_dim: usize, len: usize, cap: usize, rows: usize) -> Self {
         Self {
             obs_dim,
             mask_dim,
             len: len.max(1),
-            cells,
             cap: cap.max(1),
             seen: 0,
-            obs: Vec::new(),
-            masks: Vec::new(),
-            prev_actions: Vec::new(),
-            prev_rewards: Vec::new(),
-            keep: Vec::new(),
-            labels: Vec::new(),
-            weights: Vec::new(),
-            h0: Vec::new(),
-            c0: Vec::new(),
-            open: vec![Open::default(); rows],
+            held: Vec::new(),
+            open: vec![Window::default(); rows],
         }
     }
 
     /// Windows held.
     pub fn len(&self) -> usize {
-        self.h0.len() / self.cells.max(1)
+        self.held.len()
     }
 
     /// Whether no window is held.
     pub fn is_empty(&self) -> bool {
-        self.len() == 0
+        self.held.is_empty()
+    }
+
+    /// The windows held, in no particular order.
+    pub fn held(&self) -> &[Window] {
+        &self.held
     }
 
     /// Windows offered so far (held or replaced).
@@ -150,11 +140,6 @@ impl Windows {
         self.len
     }
 
-    /// LSTM cells of the stored states.
-    pub fn cells(&self) -> usize {
-        self.cells
-    }
-
     /// Row width of the observations.
     pub fn obs_dim(&self) -> usize {
         self.obs_dim
@@ -163,14 +148,6 @@ impl Windows {
     /// Row width of the masks (and of the one-hot previous actions).
     pub fn mask_dim(&self) -> usize {
         self.mask_dim
-    }
-
-    /// Labelled steps of window `w`.
-    pub fn labelled(&self, w: usize) -> usize {
-        self.weights[w * self.len..(w + 1) * self.len]
-            .iter()
-            .filter(|&&x| x > 0.0)
-            .count()
     }
 
     /// Adds row `row`'s next step to its window, opening one that starts
@@ -193,11 +170,9 @@ impl Windows {
         let Some(o) = self.open.get_mut(row) else {
             return;
         };
-        if o.steps == 0 {
-            o.h0.clear();
-            o.h0.extend_from_slice(h);
-            o.c0.clear();
-            o.c0.extend_from_slice(c);
+        if o.steps() == 0 {
+            o.h0 = h.to_vec();
+            o.c0 = c.to_vec();
         }
         o.obs.extend_from_slice(step.obs);
         o.masks.extend_from_slice(step.mask);
@@ -206,60 +181,24 @@ impl Windows {
         o.keep.push(if step.episode_start { 0.0 } else { 1.0 });
         o.labels.push(step.label.unwrap_or(0));
         o.weights.push(if step.label.is_some() { 1.0 } else { 0.0 });
-        o.steps += 1;
-        if o.steps == self.len {
+        if o.steps() == self.len {
             let full = std::mem::take(o);
-            self.close(&full, rng);
-            self.open[row] = full.emptied();
+            self.close(full, rng);
         }
     }
 
-    fn close<R: Rng + ?Sized>(&mut self, full: &Open, rng: &mut R) {
+    fn close<R: Rng + ?Sized>(&mut self, full: Window, rng: &mut R) {
         self.seen += 1;
-        if full.weights.iter().all(|&w| w == 0.0) {
+        if full.labelled() == 0 {
             return; // nothing to learn from
         }
-        let (t, d, w, k) = (self.len, self.obs_dim, self.mask_dim, self.cells);
-        if self.len() < self.cap {
-            self.obs.extend_from_slice(&full.obs);
-            self.masks.extend_from_slice(&full.masks);
-            self.prev_actions.extend_from_slice(&full.prev_actions);
-            self.prev_rewards.extend_from_slice(&full.prev_rewards);
-            self.keep.extend_from_slice(&full.keep);
-            self.labels.extend_from_slice(&full.labels);
-            self.weights.extend_from_slice(&full.weights);
-            self.h0.extend_from_slice(&full.h0);
-            self.c0.extend_from_slice(&full.c0);
-            return;
+        if self.held.len() < self.cap {
+            self.held.push(full);
+        } else if let Ok(k) = usize::try_from(rng.random_range(0..self.seen)) {
+            if k < self.cap {
+                self.held[k] = full;
+            }
         }
-        let s = match usize::try_from(rng.random_range(0..self.seen)) {
-            Ok(s) if s < self.cap => s,
-            _ => return,
-        };
-        self.obs[s * t * d..(s + 1) * t * d].copy_from_slice(&full.obs);
-        self.masks[s * t * w..(s + 1) * t * w].copy_from_slice(&full.masks);
-        self.prev_actions[s * t * w..(s + 1) * t * w].copy_from_slice(&full.prev_actions);
-        self.prev_rewards[s * t..(s + 1) * t].copy_from_slice(&full.prev_rewards);
-        self.keep[s * t..(s + 1) * t].copy_from_slice(&full.keep);
-        self.labels[s * t..(s + 1) * t].copy_from_slice(&full.labels);
-        self.weights[s * t..(s + 1) * t].copy_from_slice(&full.weights);
-        self.h0[s * k..(s + 1) * k].copy_from_slice(&full.h0);
-        self.c0[s * k..(s + 1) * k].copy_from_slice(&full.c0);
-    }
-}
-
-impl Open {
-    /// The same buffers, empty (their capacity kept for the next window).
-    fn emptied(mut self) -> Self {
-        self.steps = 0;
-        self.obs.clear();
-        self.masks.clear();
-        self.prev_actions.clear();
-        self.prev_rewards.clear();
-        self.keep.clear();
-        self.labels.clear();
-        self.weights.clear();
-        self
     }
 }
 
@@ -285,7 +224,7 @@ mod tests {
 
     #[test]
     fn full_windows_keep_their_steps_in_order_and_their_start_state() {
-        let mut w = Windows::new(1, 5, 2, 2, 10, 2);
+        let mut w = Windows::new(1, 5, 2, 10, 2);
         let mut rng = rand::rng();
         // Row 1's steps interleave with row 0's and stay apart.
         w.push(
@@ -311,12 +250,13 @@ mod tests {
             &mut rng,
         );
         assert_eq!(w.len(), 1);
-        assert_eq!(w.obs, vec![7.0, 8.0]);
-        assert_eq!(w.labels, vec![1, 2]);
-        assert_eq!(w.keep, vec![1.0, 0.0]);
-        assert_eq!(w.prev_rewards, vec![0.0, 1.0]);
+        let first = &w.held()[0];
+        assert_eq!(first.obs, vec![7.0, 8.0]);
+        assert_eq!(first.labels, vec![1, 2]);
+        assert_eq!(first.keep, vec![1.0, 0.0]);
+        assert_eq!(first.prev_rewards, vec![0.0, 1.0]);
         assert_eq!(
-            (w.h0.clone(), w.c0.clone()),
+            (first.h0.clone(), first.c0.clone()),
             (vec![1.0, 2.0], vec![3.0, 4.0])
         );
         // Row 0's next window starts from the state given with its first step.
@@ -335,8 +275,8 @@ mod tests {
             &mut rng,
         );
         assert_eq!(w.len(), 2);
-        assert_eq!(w.h0[2..], [6.0, 6.0]);
-        assert_eq!(w.weights[2..], [0.0, 1.0]);
+        assert_eq!(w.held()[1].h0, [6.0, 6.0]);
+        assert_eq!(w.held()[1].weights, [0.0, 1.0]);
         // Rows beyond the ones declared are ignored.
         w.push(
             5,
@@ -350,7 +290,7 @@ mod tests {
 
     #[test]
     fn unlabelled_windows_are_dropped_and_the_reservoir_is_capped() {
-        let mut w = Windows::new(1, 5, 1, 1, 3, 1);
+        let mut w = Windows::new(1, 5, 1, 3, 1);
         let mut rng = rand::rng();
         for k in 0..10 {
             let label = (k % 2 == 0).then_some(0);
@@ -364,10 +304,10 @@ mod tests {
         }
         assert_eq!(w.seen(), 10);
         assert_eq!(w.len(), 3);
+        let obs: Vec<f32> = w.held().iter().flat_map(|x| x.obs.clone()).collect();
         assert!(
-            w.obs.iter().all(|&x| (x as usize).is_multiple_of(2)),
-            "{:?}",
-            w.obs
+            obs.iter().all(|&x| (x as usize).is_multiple_of(2)),
+            "{obs:?}"
         );
     }
 }
