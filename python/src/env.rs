@@ -680,11 +680,7 @@ impl PyVecEnv {
     #[getter]
     fn obs<'py>(slf: &Bound<'py, Self>) -> Bound<'py, PyArrayDyn<f32>> {
         let this = slf.borrow();
-        let shape = [
-            this.venv.num_envs(),
-            this.venv.rows_per_env(),
-            this.venv.obs_dim(),
-        ];
+        let shape = this.row_shape(this.venv.obs_dim());
         // SAFETY: VecEnv sizes its buffers once, at construction.
         unsafe { view(slf, this.venv.obs(), &shape) }
     }
@@ -694,11 +690,7 @@ impl PyVecEnv {
     #[getter]
     fn final_obs<'py>(slf: &Bound<'py, Self>) -> Bound<'py, PyArrayDyn<f32>> {
         let this = slf.borrow();
-        let shape = [
-            this.venv.num_envs(),
-            this.venv.rows_per_env(),
-            this.venv.obs_dim(),
-        ];
+        let shape = this.row_shape(this.venv.obs_dim());
         // SAFETY: as in `obs`.
         unsafe { view(slf, this.venv.final_obs(), &shape) }
     }
@@ -707,11 +699,7 @@ impl PyVecEnv {
     #[getter]
     fn masks<'py>(slf: &Bound<'py, Self>) -> Bound<'py, PyArrayDyn<u8>> {
         let this = slf.borrow();
-        let shape = [
-            this.venv.num_envs(),
-            this.venv.rows_per_env(),
-            this.venv.mask_dim(),
-        ];
+        let shape = this.row_shape(this.venv.mask_dim());
         // SAFETY: as in `obs`.
         unsafe { view(slf, this.venv.masks(), &shape) }
     }
@@ -831,6 +819,12 @@ impl PyVecEnv {
 }
 
 impl PyVecEnv {
+    /// The shape of a per-row buffer `width` wide: `(num_envs,
+    /// rows_per_env, width)`.
+    fn row_shape(&self, width: usize) -> [usize; 3] {
+        [self.venv.num_envs(), self.venv.rows_per_env(), width]
+    }
+
     fn cells_of<'py>(
         &self,
         py: Python<'py>,
