@@ -74,16 +74,7 @@ pub enum TrialRunError {
 }
 
 /// The message of `e` and all its causes, `a: b: c`.
-pub fn chain(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    let mut source = e.source();
-    while let Some(s) = source {
-        text.push_str(": ");
-        text.push_str(&s.to_string());
-        source = s.source();
-    }
-    text
-}
+pub use buridan_env::error::error_chain as chain;
 
 /// `base` with `overrides` (dotted keys) applied, as `learner train --set` would.
 ///

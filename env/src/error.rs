@@ -114,3 +114,35 @@ pub enum EnvError {
     #[error("the episode is over: call reset before stepping again")]
     EpisodeOver,
 }
+
+/// The message of `e` and all its causes on one line, `a: b: c` — how the
+/// binaries print a typed error whose causes are its `source` chain, for
+/// places that carry errors as text (trial reports, Python exceptions).
+///
+/// ```
+/// use buridan_env::error::error_chain;
+/// #[derive(Debug)]
+/// struct Loading(std::io::Error);
+/// impl std::fmt::Display for Loading {
+///     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+///         write!(f, "loading rm-9")
+///     }
+/// }
+/// impl std::error::Error for Loading {
+///     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+///         Some(&self.0)
+///     }
+/// }
+/// let e = Loading(std::io::Error::other("no such map"));
+/// assert_eq!(error_chain(&e), "loading rm-9: no such map");
+/// ```
+pub fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        text.push_str(": ");
+        text.push_str(&s.to_string());
+        source = s.source();
+    }
+    text
+}

@@ -4,6 +4,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
+use buridan_env::error::error_chain;
 use buridan_env::{Cell, EnvError, Map, Rules, Starts};
 use buridan_eval::by_name::{self, ControllerFactory, ControllerNameError};
 use buridan_eval::{evaluate as eval_run, EvalSpec};
@@ -289,17 +290,6 @@ fn controller_factory(
     })
 }
 
-/// An error and its `source` chain as one line (`a: b: c`), as the CLI prints it.
-pub fn error_chain(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    let mut source = e.source();
-    while let Some(s) = source {
-        text.push_str(": ");
-        text.push_str(&s.to_string());
-        source = s.source();
-    }
-    text
-}
 
 /// What `evaluate` returns: the per-episode records, the summary (the same
 /// fields as `learner eval --json`) and the visit counts per cell.
