@@ -290,7 +290,6 @@ fn controller_factory(
     })
 }
 
-
 /// What `evaluate` returns: the per-episode records, the summary (the same
 /// fields as `learner eval --json`) and the visit counts per cell.
 #[pyclass(name = "EvalReport", module = "buridan._buridan", frozen)]
