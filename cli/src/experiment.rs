@@ -15,7 +15,7 @@
 //! [experiment]
 //! name = "comparison"
 //! layouts = ["rm-2.1", "rm-2.2"]
-//! seeds = 10                        # seeds 0..10, or a list [0, 1, 5]
+//! seeds = 10                        # seeds 0..10, or a list [0, 1, 5] (none: planners only)
 //! steps = 2_000_000                 # per run (default: each config's steps)
 //! planners = ["cbs", "ma-astar"]    # any name `learner eval --controller` knows
 //! parallel = 1                      # cells at once
@@ -89,6 +89,13 @@ enum SeedsToml {
     List(Vec<u64>),
 }
 
+/// No seeds: enough for a study of planners alone.
+impl Default for SeedsToml {
+    fn default() -> Self {
+        SeedsToml::List(Vec::new())
+    }
+}
+
 #[derive(Deserialize)]
 #[serde(untagged)]
 enum AgentsToml {
@@ -102,6 +109,7 @@ enum AgentsToml {
 struct ExperimentToml {
     name: String,
     layouts: Vec<String>,
+    #[serde(default)]
     seeds: SeedsToml,
     steps: Option<u64>,
     #[serde(default)]
@@ -787,6 +795,7 @@ impl TrainCell {
         TrainArgs {
             map: (!mixture).then(|| self.layout.clone()),
             maps: mixture.then(|| self.layout.clone()),
+            plant: None,
             agents: None,
             algo: None,
             mode: None,
@@ -1147,6 +1156,16 @@ mod tests {
     }
 
     #[test]
+    fn a_study_of_planners_alone_needs_no_seeds() {
+        let text = "[experiment]\nname = \"p\"\nlayouts = [\"rm-1.1\", \"rm-2.1\"]\nplanners = [\"lacam\", \"cbs\"]\n[experiment.eval]\nagents = \"4..6\"";
+        let x = Experiment::from_str(text, Path::new("p.toml")).unwrap();
+        assert!(x.seeds.is_empty() && x.train.is_empty());
+        // 2 layouts × 2 planners × 3 agent counts, one evaluation each.
+        assert_eq!(x.evals.len(), 12);
+        assert!(x.evals.iter().all(|e| e.evaluated == Evaluated::Planner));
+    }
+
+    #[test]
     fn errors_name_the_file_and_the_problem() {
         let dir = tempfile::tempdir().unwrap();
         write_config(dir.path());
@@ -1160,6 +1179,7 @@ mod tests {
             ("[experiment]\nname = \"x\"\nlayouts = [\"rm-1.1\"]\nseeds = 2\n[[method]]\nname = \"m\"\nconfig = \"tiny.toml\"\nset = [\"ppo.nope=1\"]", "'m' on 'rm-1.1'"),
             ("[experiment]\nname = \"x\"\nlayouts = [\"rm-1.1\"]\nseeds = 2\n[experiment.eval]\nagents = \"5..2\"\n[[method]]\nname = \"m\"\nconfig = \"tiny.toml\"", "agents"),
             ("[experiment\nname = \"x\"", "line"),
+            ("[experiment]\nname = \"x\"\nlayouts = [\"rm-1.1\"]\n[[method]]\nname = \"m\"\nconfig = \"tiny.toml\"", "at least one seed"),
         ];
         for (text, needle) in cases {
             let e = Experiment::from_str(text, &file).unwrap_err().to_string();

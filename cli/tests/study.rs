@@ -434,6 +434,15 @@ fn the_shipped_study_and_experiment_files_load() {
         } else if name.ends_with(".toml") {
             let x = buridan_cli::experiment::Experiment::from_file(&path)
                 .unwrap_or_else(|e| panic!("{name}: {e:#}"));
+            assert!(x.eval.episodes >= 100, "{name}: at least 100 episodes");
+            if x.methods.is_empty() {
+                // Planners only: deterministic, one evaluation each.
+                use buridan_cli::experiment::Evaluated;
+                assert!(!x.planners.is_empty(), "{name}");
+                assert!(x.evals.iter().all(|e| e.evaluated == Evaluated::Planner), "{name}");
+                seen += 1;
+                continue;
+            }
             assert!(x.seeds.len() >= 10, "{name}: at least 10 seeds");
             // Sampled and greedy always (the dissertation's and ours),
             // shielded where a study adds it.
