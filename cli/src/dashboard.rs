@@ -153,7 +153,14 @@ impl Progress for DashboardProgress<'_> {
             "seed": cfg.seed,
             "steps": total_steps,
         }));
-        if self.episodes > 0 && self.evaluator.is_none() {
+        if cfg.plant.is_some() && self.episodes > 0 {
+            // The evaluation plays grid episodes and draws grid replays.
+            tracing::info!(
+                plant = %cfg.map_label(),
+                "the dashboard shows training only: its checkpoint evaluation plays grid layouts"
+            );
+        }
+        if self.episodes > 0 && self.evaluator.is_none() && cfg.plant.is_none() {
             let job = EvalJob {
                 map: cfg
                     .maps

@@ -8,6 +8,10 @@ use anyhow::{bail, Context, Result};
 use buridan_env::{Map, Rules, Starts};
 use buridan_eval::instances::load_instance_set;
 use buridan_eval::output::{write_report, write_sweep};
+use buridan_eval::plant::{
+    evaluate_plant, load_plant, summary_line as plant_summary_line, write_plant_report,
+    PlantController, PlantEpisodeRecord, PlantEvalSpec, PlantEvalSummary,
+};
 use buridan_eval::replay::Warmup;
 use buridan_eval::{evaluate, evaluate_instances, EvalReport, EvalSpec, EvalSummary};
 use buridan_policy::ActMode;
@@ -22,8 +26,17 @@ use indicatif::{ProgressBar, ProgressStyle};
 pub struct EvalArgs {
     /// Reference model id (`rm-2.1`) or path to a MovingAI `.map` file;
     /// with --scen, the map the `.scen` files name (beside them) unless given.
-    #[arg(long, required_unless_present = "scen")]
+    #[arg(long, required_unless_present_any = ["scen", "plant"])]
     pub map: Option<String>,
+    /// Evaluate on an AGV plant instead: a bundled plant id
+    /// (`dissertation`, `hall`) or a plant file; --controller is then
+    /// `reservation`, `random` or `checkpoint:DIR` (a `learner train
+    /// --plant` run), --agents one count (default 4), --t-max overrides
+    /// the plant file's T_max; --rules, --starts, --jobs and the planner
+    /// limits do not apply. Writes episodes.csv (KPIs per episode) and
+    /// summary.json.
+    #[arg(long, value_name = "ID|FILE", conflicts_with_all = ["map", "scen", "replays"])]
+    pub plant: Option<String>,
     /// Agents: a number (`4`), an inclusive range (`4..20`, `4..20:2`) or a
     /// list (`4,8,12`); default 4, or with --scen every line of each file
     /// (a number N takes the first N lines).
@@ -204,8 +217,73 @@ pub fn controller_factory_for_rules(
     )?)
 }
 
-/// Runs `learner eval`.
+/// Runs `learner eval --plant`: `--episodes` seeded plant episodes of
+/// `--controller` ([`buridan_eval::plant`]), the files in `--out`.
+pub fn run_plant(args: &EvalArgs, plant: &str) -> Result<PlantEvalSummary> {
+    let agents = match &args.agents {
+        None => 4,
+        Some(text) => match parse_agent_counts(text)?.as_slice() {
+            [n] => *n,
+            _ => bail!("--plant evaluates one agent count at a time, not '{text}'"),
+        },
+    };
+    let plant = Arc::new(load_plant(plant, args.t_max)?);
+    let act_mode = if args.sample {
+        ActMode::Sample
+    } else {
+        ActMode::Greedy
+    };
+    let mut controller =
+        PlantController::by_name(&args.controller, &plant, agents, args.seed, act_mode)
+            .with_context(|| format!("controller '{}'", args.controller))?;
+    let spec = PlantEvalSpec {
+        agents,
+        episodes: args.episodes,
+        seed: args.seed,
+    };
+    let bar = ProgressBar::new(args.episodes as u64);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed}, eta {eta})",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    bar.set_prefix(format!(
+        "{} plant:{} agents={agents}",
+        args.controller, plant.id
+    ));
+    crate::heartbeat::watch(&bar);
+    let on_episode = |r: &PlantEpisodeRecord| {
+        bar.set_message(format!(
+            "deliveries {} collisions {}",
+            r.deliveries, r.collisions
+        ));
+        bar.inc(1);
+    };
+    let report = evaluate_plant(&plant, &spec, &mut controller, &on_episode)
+        .with_context(|| format!("evaluating {agents} AGVs on plant '{}'", plant.id))?;
+    bar.finish();
+    let files = write_plant_report(&args.out, &report)
+        .with_context(|| format!("writing results to {}", args.out.display()))?;
+    let s = report.summary;
+    tracing::info!(controller = %s.controller, plant = %s.plant, agents, deliveries_mean = s.deliveries_mean,
+        collisions_mean = s.collisions_mean, files = ?files, "plant evaluation done");
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&s)?);
+    } else {
+        eprintln!("{} -> {}", plant_summary_line(&s), args.out.display());
+    }
+    Ok(s)
+}
+
+/// Runs `learner eval` (with `--plant`: [`run_plant`], and no grid
+/// summaries are returned).
 pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
+    if let Some(plant) = &args.plant {
+        run_plant(args, plant)?;
+        return Ok(Vec::new());
+    }
     let counts: Vec<Option<usize>> = match &args.agents {
         Some(text) => parse_agent_counts(text)?.into_iter().map(Some).collect(),
         // With --scen: every line of each file.

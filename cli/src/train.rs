@@ -21,9 +21,16 @@ use buridan_learner::train::{
 #[derive(Debug, Clone, clap::Args)]
 pub struct TrainArgs {
     /// Reference model id (`rm-2.1`) or path to a MovingAI `.map` file
-    /// (replaces a config's `maps`).
-    #[arg(long, conflicts_with = "maps")]
+    /// (replaces a config's `maps` or `plant`).
+    #[arg(long, conflicts_with_all = ["maps", "plant"])]
     pub map: Option<String>,
+    /// Train on an AGV plant instead of a grid map: a bundled plant id
+    /// (`dissertation`, `hall`) or a plant file (TOML); replaces a
+    /// config's `map`/`maps`. T_max is the plant file's unless the config
+    /// or `--set t_max=N` gives one. Without --config the recipe's grid
+    /// features and shaping are left out.
+    #[arg(long, value_name = "ID|FILE", conflicts_with = "maps")]
+    pub plant: Option<String>,
     /// Several layouts with weights, `NAME:WEIGHT,…` (weight 1 if left
     /// out), e.g. `rm-2.2:1,rm-3.1:1`: each env draws every episode's layout.
     #[arg(long, value_name = "NAME[:WEIGHT],...")]
@@ -120,12 +127,26 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
         Some(path) => TrainConfig::from_toml_file(path)?,
         None => TrainConfig::recipe(),
     };
+    // Whether T_max was chosen (else a plant run takes its plant file's).
+    let mut t_max_given = match &args.config {
+        Some(path) => std::fs::read_to_string(path)
+            .ok()
+            .and_then(|text| toml::from_str::<toml::Table>(&text).ok())
+            .is_some_and(|t| t.contains_key("t_max")),
+        None => false,
+    };
     if let Some(v) = &args.map {
         cfg.map = v.clone();
         cfg.maps = None;
+        cfg.plant = None;
     }
     if let Some(v) = &args.maps {
         cfg.maps = Some(WeightedMap::parse_list(v)?);
+        cfg.plant = None;
+    }
+    if let Some(v) = &args.plant {
+        cfg.plant = Some(v.clone());
+        cfg.maps = None;
     }
     if let Some(v) = args.agents {
         cfg.agents = v;
@@ -161,17 +182,36 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
             Some(buridan_policy::checkpoint::resolve(v)?)
         };
     }
+    let mut set_keys = Vec::new();
     if !args.overrides.is_empty() {
         let mut table: toml::Table =
             toml::from_str(&cfg.to_toml()).context("configuration round trip")?;
         for o in &args.overrides {
             set_key(&mut table, o)?;
-            // Like the flags: naming one map replaces the list.
-            if o.split_once('=').is_some_and(|(k, _)| k.trim() == "map") {
+            let key = o.split_once('=').map(|(k, _)| k.trim());
+            // Like the flags: naming one map replaces the list or the plant.
+            if key == Some("map") {
                 table.remove("maps");
+                table.remove("plant");
             }
+            t_max_given |= key == Some("t_max");
+            set_keys.extend(key.map(str::to_string));
         }
         cfg = table.try_into().context("invalid --set override")?;
+    }
+    if cfg.plant.is_some() && args.config.is_none() {
+        // The recipe's features and shaping are grid ones (a plant run
+        // refuses them): left out unless set explicitly.
+        if !set_keys.iter().any(|k| k.starts_with("features")) {
+            cfg.features = ObsFeatures::default();
+        }
+        if !set_keys.iter().any(|k| k == "shaping") {
+            cfg.shaping = 0.0;
+        }
+    }
+    if !t_max_given {
+        cfg.use_plant_t_max()
+            .with_context(|| format!("loading plant '{}'", cfg.plant.as_deref().unwrap_or("")))?;
     }
     cfg.validate()?;
     Ok(cfg)
@@ -377,15 +417,21 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
         .context("drawing the learning curves")?;
     // A run shorter than one episode (imitation only, `--steps` below
     // T_max) has no episode statistics: say so rather than print NaN.
-    let episodes = if summary.episode_len_mean.is_finite() {
+    let episodes = if !summary.episode_len_mean.is_finite() {
+        "no episode finished".to_string()
+    } else if cfg.plant.is_some() {
+        // Plant episodes only end at T_max: there is no success to report.
+        format!(
+            "last 100 episodes: return {:.2}, length {:.1}",
+            summary.episode_return_mean, summary.episode_len_mean,
+        )
+    } else {
         format!(
             "last 100 episodes: return {:.2}, success {:.1}%, length {:.1}",
             summary.episode_return_mean,
             100.0 * summary.success_rate,
             summary.episode_len_mean,
         )
-    } else {
-        "no episode finished".to_string()
     };
     eprintln!(
         "{title}: {} env steps in {:.0} s ({:.0} steps/s); {episodes} -> {}",

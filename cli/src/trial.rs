@@ -51,6 +51,13 @@ pub enum TrialRunError {
         /// Why.
         source: Box<PolicyLoadError>,
     },
+    /// An evaluation objective on a plant run (the trial evaluation plays
+    /// grid episodes).
+    #[error("{plant}: the evaluation objectives play grid episodes; a plant trial can only use the training objective (evaluate its policy with `learner eval --plant`)")]
+    PlantEvaluation {
+        /// The run's plant label.
+        plant: String,
+    },
     /// The evaluation's map cannot be loaded.
     #[error(transparent)]
     Map(#[from] MapError),
@@ -348,6 +355,11 @@ pub fn measure(
         Objective::EvalSampled => ActMode::Sample,
         Objective::EvalGreedy => ActMode::Greedy,
     };
+    if cfg.plant.is_some() {
+        return Err(TrialRunError::PlantEvaluation {
+            plant: cfg.map_label(),
+        });
+    }
     let map = Arc::new(Map::load(&cfg.map)?);
     let eval_spec = EvalSpec {
         agents: cfg.agents,

@@ -439,7 +439,10 @@ fn the_shipped_study_and_experiment_files_load() {
                 // Planners only: deterministic, one evaluation each.
                 use buridan_cli::experiment::Evaluated;
                 assert!(!x.planners.is_empty(), "{name}");
-                assert!(x.evals.iter().all(|e| e.evaluated == Evaluated::Planner), "{name}");
+                assert!(
+                    x.evals.iter().all(|e| e.evaluated == Evaluated::Planner),
+                    "{name}"
+                );
                 seen += 1;
                 continue;
             }

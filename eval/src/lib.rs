@@ -5,6 +5,8 @@
 //! - [`controller`]: the [`Controller`] trait and [`RandomController`].
 //! - [`planner`]: planners of `buridan-mapf` as controllers.
 //! - [`policy`]: a trained policy (a checkpoint) as a controller.
+//! - [`plant`]: evaluation on the AGV plant (`buridan-plant`): baselines
+//!   and plant-trained policies over seeded episodes, KPIs per episode.
 //! - [`shield`]: a trained policy executed through the PIBT collision
 //!   shield (deterministic, conflict-free joint moves).
 //! - [`runner`]: [`evaluate`] runs episodes and aggregates them;
@@ -23,6 +25,7 @@ pub mod controller;
 pub mod instances;
 pub mod output;
 pub mod planner;
+pub mod plant;
 pub mod plot;
 pub mod policy;
 pub mod replay;

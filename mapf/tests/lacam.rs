@@ -445,7 +445,11 @@ fn random_restarts_plan_the_dead_end_instance_depth_first_search_misses() {
         Err(SolveError::NodeLimit { .. })
     ));
     let sol = Lacam::default().solve(&map.grid, s, g, &tight).unwrap();
-    assert!(sol.stats.expanded < 20_000, "{} iterations", sol.stats.expanded);
+    assert!(
+        sol.stats.expanded < 20_000,
+        "{} iterations",
+        sol.stats.expanded
+    );
     let rules = Rules::ENV_EXECUTABLE;
     check(&map.grid, s, g, &sol.plan, rules, "rm-2.1b episode 2");
 }

@@ -51,6 +51,7 @@ pub fn train_args(out: PathBuf) -> TrainArgs {
     TrainArgs {
         map: Some("rm-1.1".into()),
         maps: None,
+        plant: None,
         agents: Some(2),
         algo: Some(buridan_learner::train::Algo::Ppo),
         mode: Some(buridan_policy::Mode::Ctde),

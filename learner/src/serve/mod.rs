@@ -113,6 +113,9 @@ pub enum ServeError {
     /// The run trains on several layouts, which remote actors cannot run yet.
     #[error("this run trains on several layouts ({0}); remote actors receive one map, so train it embedded with `learner train`")]
     SeveralLayouts(String),
+    /// The run trains on an AGV plant, which remote actors cannot run yet.
+    #[error("this run trains on an AGV plant ({0}); remote actors receive a grid map, so train it embedded with `learner train --plant`")]
+    Plant(String),
 }
 pub use service::LearnerService;
 
@@ -187,6 +190,9 @@ pub fn serve(
     // The join reply carries one map: refuse before preparing anything.
     if cfg.maps.as_ref().is_some_and(|m| m.len() > 1) {
         return Err(ServeError::SeveralLayouts(cfg.map_label()));
+    }
+    if cfg.plant.is_some() {
+        return Err(ServeError::Plant(cfg.map_label()));
     }
     opts.sessions.check()?;
     let mut run = Run::prepare(cfg, out)?;
@@ -288,7 +294,10 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
     let cfg = run.config();
     let spec = run.spec();
     let map = MapSource::read(&cfg.layouts()[0].name)?;
-    let run_id = format!("{}-{:016x}", run.map().name, rand::rng().random::<u64>());
+    let name = run
+        .map()
+        .map_or_else(|| cfg.map_label(), |m| m.name.clone());
+    let run_id = format!("{name}-{:016x}", rand::rng().random::<u64>());
     Ok(RunInfo {
         run_id,
         config_toml: cfg.to_toml(),

@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use buridan_env::{EnvError, Map, MapError, ObsFeatures, Rules, Starts, WeightedLayout};
 use buridan_imitate::ImitationConfig;
+use buridan_plant::{Plant, PlantConfig, PlantEnv, PlantError};
 use buridan_policy::{ActMode, LstmSpec, Mode, ModelSpec, ValueHead};
 use serde::{Deserialize, Serialize};
 
@@ -95,6 +96,32 @@ pub enum ConfigError {
         /// Why.
         source: MapError,
     },
+    /// A file sets `plant` together with `map` or `maps`.
+    #[error("config {} sets plant together with map or maps: a run trains on a plant or on grid layouts, not both", path.display())]
+    PlantAndMap {
+        /// The file.
+        path: PathBuf,
+    },
+    /// `plant` and `maps` are both set.
+    #[error("invalid configuration: plant and maps are both set: a run trains on one AGV plant or on grid layouts, not both")]
+    PlantAndMaps,
+    /// A plant run with an `[imitation]` section.
+    #[error("invalid configuration: [imitation] cannot be used with a plant: DAgger imitates grid planners, and the AGV plant has none")]
+    PlantWithImitation,
+    /// A plant run with a grid-only option.
+    #[error("invalid configuration: {what} applies to grid layouts only, not to the AGV plant (leave it out with plant)")]
+    GridOnlyOption {
+        /// The option (`features`, `shaping`).
+        what: &'static str,
+    },
+    /// The plant cannot be loaded.
+    #[error("invalid configuration: plant '{plant}' cannot be loaded")]
+    UnknownPlant {
+        /// The plant as named.
+        plant: String,
+        /// Why.
+        source: Box<PlantError>,
+    },
     /// A layout cannot hold the configured agents.
     #[error("invalid configuration: {agents} agents do not fit map '{map}'")]
     AgentsDoNotFit {
@@ -105,6 +132,14 @@ pub enum ConfigError {
         /// What the env says (too few free cells, too small a scenario).
         source: EnvError,
     },
+}
+
+/// The plant `name` (a bundled id or a file) as its file has it.
+fn load_plant_file(name: &str) -> Result<Plant, ConfigError> {
+    Plant::load(name).map_err(|source| ConfigError::UnknownPlant {
+        plant: name.to_string(),
+        source: Box::new(source),
+    })
 }
 
 fn ensure(ok: bool, why: &'static str) -> Result<(), ConfigError> {
@@ -392,6 +427,14 @@ pub struct TrainConfig {
     /// `maps`; when `maps` is set, `map` is not used). CTDE and DTE only.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub maps: Option<Vec<WeightedMap>>,
+    /// Train on an AGV plant instead of a grid map: a bundled plant id
+    /// (`dissertation`, `hall`) or a plant file path ([`Plant::load`]).
+    /// Excludes `maps` (a file sets at most one of `map`, `maps` and
+    /// `plant`), `[imitation]`, `features` and `shaping`; `starts`,
+    /// `rules` and `sensor_range` do not apply. The run's label is
+    /// `plant:ID` ([`TrainConfig::map_label`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plant: Option<String>,
     /// Agents per env.
     pub agents: usize,
     /// Fixed (`.scen`) or random starts and goals.
@@ -401,7 +444,10 @@ pub struct TrainConfig {
     /// POGEMA's repair). Recorded in checkpoints.
     pub rules: Rules,
     /// Episode truncation `T_max` (in a file without it: the rule set's,
-    /// 100 for thesis, 128 for pogema).
+    /// 100 for thesis, 128 for pogema). With `plant`: the plant episode's
+    /// length in steps, replacing the plant file's `episode.t_max`; a file
+    /// (or `learner train --plant`) that leaves `t_max` out takes the plant
+    /// file's ([`TrainConfig::use_plant_t_max`]).
     pub t_max: u32,
     /// Sensor range R of local observations.
     pub sensor_range: usize,
@@ -459,6 +505,7 @@ impl Default for TrainConfig {
             mode: Mode::Ctde,
             map: "rm-2.1".into(),
             maps: None,
+            plant: None,
             agents: 4,
             starts: Starts::Random,
             rules: Rules::Thesis,
@@ -545,19 +592,89 @@ impl TrainConfig {
                 path: path.to_path_buf(),
             });
         }
+        if table.contains_key("plant") && (table.contains_key("map") || table.contains_key("maps"))
+        {
+            return Err(ConfigError::PlantAndMap {
+                path: path.to_path_buf(),
+            });
+        }
         let t_max_given = table.contains_key("t_max");
         let mut cfg: Self = table.try_into().map_err(parse_error)?;
         if !t_max_given {
             cfg.t_max = cfg.rules.default_t_max();
+            cfg.use_plant_t_max()?;
         }
         cfg.validate()?;
         Ok(cfg)
     }
 
-    /// The config as TOML (without the unused `map` when `maps` is set, so
-    /// that the text reads back with [`Self::from_toml_file`]).
+    /// Sets `t_max` to the plant file's `episode.t_max` (1,000 steps for
+    /// the bundled plants) if this is a plant run; a grid run is left as it
+    /// is. [`Self::from_toml_file`] and `learner train` call it when no
+    /// `t_max` is given.
+    ///
+    /// ```
+    /// use buridan_learner::train::TrainConfig;
+    /// let mut cfg = TrainConfig { plant: Some("dissertation".into()), ..TrainConfig::default() };
+    /// assert_eq!(cfg.t_max, 100); // the grid default, until...
+    /// cfg.use_plant_t_max().unwrap();
+    /// assert_eq!(cfg.t_max, 1000);
+    /// ```
+    pub fn use_plant_t_max(&mut self) -> Result<(), ConfigError> {
+        if let Some(name) = &self.plant {
+            self.t_max = load_plant_file(name)?.episode.t_max;
+            self.load_plant()?;
+        }
+        Ok(())
+    }
+
+    /// Loads the plant of a plant run as the run uses it: its
+    /// `episode.t_max` replaced by `t_max`, checked to have starts for
+    /// `agents` AGVs. `None` for a grid run.
+    ///
+    /// ```
+    /// use buridan_learner::train::{ConfigError, TrainConfig};
+    /// let mut cfg = TrainConfig { plant: Some("dissertation".into()), t_max: 50, agents: 2, ..TrainConfig::default() };
+    /// assert_eq!(cfg.load_plant().unwrap().unwrap().episode.t_max, 50);
+    /// cfg.plant = Some("no-such-plant".into());
+    /// assert!(matches!(cfg.load_plant(), Err(ConfigError::UnknownPlant { .. })));
+    /// ```
+    pub fn load_plant(&self) -> Result<Option<Plant>, ConfigError> {
+        let Some(name) = &self.plant else {
+            return Ok(None);
+        };
+        let mut plant = load_plant_file(name)?;
+        plant.episode.t_max = self.t_max;
+        PlantEnv::new(
+            std::sync::Arc::new(plant.clone()),
+            self.plant_config(self.seed),
+        )
+        .map_err(|source| ConfigError::AgentsDoNotFit {
+            map: self.map_label(),
+            agents: self.agents,
+            source,
+        })?;
+        Ok(Some(plant))
+    }
+
+    /// The plant env configuration of a plant run with env seed `seed`:
+    /// `agents` AGVs, normalised observations, and
+    /// [`buridan_env::NUM_ACTIONS`] (5) mask slots per AGV, the width of
+    /// the policy's heads (the plant masks the two slots beyond its hold,
+    /// forward and backward).
+    pub fn plant_config(&self, seed: u64) -> PlantConfig {
+        PlantConfig {
+            agents: self.agents,
+            seed,
+            normalize: true,
+            action_slots: buridan_env::NUM_ACTIONS,
+        }
+    }
+
+    /// The config as TOML (without the unused `map` when `maps` or `plant`
+    /// is set, so that the text reads back with [`Self::from_toml_file`]).
     pub fn to_toml(&self) -> String {
-        if self.maps.is_none() {
+        if self.maps.is_none() && self.plant.is_none() {
             return toml::to_string_pretty(self).expect("config serialises");
         }
         let mut table = toml::Table::try_from(self).expect("config serialises");
@@ -576,14 +693,27 @@ impl TrainConfig {
         }
     }
 
-    /// The training layouts' names, in order.
+    /// The training layouts' names, in order (a plant run: its
+    /// [`Self::map_label`], `plant:ID`).
     pub fn layout_names(&self) -> Vec<String> {
+        if self.plant.is_some() {
+            return vec![self.map_label()];
+        }
         self.layouts().into_iter().map(|m| m.name).collect()
     }
 
-    /// What the run trains on, in one word: `map`, or the
-    /// [`WeightedMap::label`] of `maps`.
+    /// What the run trains on, in one word: `map`, the
+    /// [`WeightedMap::label`] of `maps`, or `plant:ID` for a plant.
+    ///
+    /// ```
+    /// use buridan_learner::train::TrainConfig;
+    /// let cfg = TrainConfig { plant: Some("dissertation".into()), ..TrainConfig::default() };
+    /// assert_eq!(cfg.map_label(), "plant:dissertation");
+    /// ```
     pub fn map_label(&self) -> String {
+        if let Some(plant) = &self.plant {
+            return format!("plant:{plant}");
+        }
         match &self.maps {
             Some(maps) => WeightedMap::label(maps),
             None => self.map.clone(),
@@ -744,7 +874,28 @@ impl TrainConfig {
                 "[imitation] trains a policy shared by all agents: mode = \"ctde\"",
             )?;
         }
+        self.validate_plant()?;
         self.validate_maps()
+    }
+
+    /// Checks that a plant run sets nothing that only a grid run has.
+    fn validate_plant(&self) -> Result<(), ConfigError> {
+        if self.plant.is_none() {
+            return Ok(());
+        }
+        if self.maps.is_some() {
+            return Err(ConfigError::PlantAndMaps);
+        }
+        if self.imitation.is_some() {
+            return Err(ConfigError::PlantWithImitation);
+        }
+        if !self.features.is_none() {
+            return Err(ConfigError::GridOnlyOption { what: "features" });
+        }
+        if self.shaping != 0.0 {
+            return Err(ConfigError::GridOnlyOption { what: "shaping" });
+        }
+        ensure(self.t_max >= 1, "t_max must be at least 1")
     }
 
     /// How rollouts choose actions: samples, mixed with greedy steps when
@@ -891,6 +1042,82 @@ mod tests {
         let mut cfg = TrainConfig::default();
         change(&mut cfg);
         cfg.validate()
+    }
+
+    fn plant_run(change: impl Fn(&mut TrainConfig)) -> Result<(), ConfigError> {
+        with(|c| {
+            c.plant = Some("dissertation".into());
+            change(c)
+        })
+    }
+
+    #[test]
+    fn a_plant_run_refuses_maps_imitation_and_grid_options() {
+        plant_run(|_| {}).unwrap();
+        plant_run(|c| c.mode = Mode::Cte).unwrap();
+        let err = plant_run(|c| c.maps = Some(WeightedMap::parse_list("rm-2.2").unwrap()));
+        assert!(matches!(err, Err(ConfigError::PlantAndMaps)), "{err:?}");
+        let msg = err.unwrap_err().to_string();
+        assert!(msg.contains("plant and maps are both set"), "{msg}");
+        let err = plant_run(|c| c.imitation = Some(ImitationConfig::default()));
+        assert!(
+            matches!(err, Err(ConfigError::PlantWithImitation)),
+            "{err:?}"
+        );
+        assert!(err
+            .unwrap_err()
+            .to_string()
+            .contains("DAgger imitates grid planners"));
+        let err = plant_run(|c| c.shaping = 0.05);
+        assert!(
+            matches!(err, Err(ConfigError::GridOnlyOption { what: "shaping" })),
+            "{err:?}"
+        );
+        let err = plant_run(|c| c.features = TrainConfig::recipe().features);
+        assert!(
+            matches!(err, Err(ConfigError::GridOnlyOption { what: "features" })),
+            "{err:?}"
+        );
+        let err = plant_run(|c| c.t_max = 0);
+        assert!(matches!(err, Err(ConfigError::Invalid(_))), "{err:?}");
+    }
+
+    #[test]
+    fn a_plant_file_takes_the_plant_t_max_unless_it_sets_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let read = |text: &str| {
+            let path = dir.path().join("run.toml");
+            std::fs::write(&path, text).unwrap();
+            TrainConfig::from_toml_file(&path)
+        };
+        let cfg = read("plant = \"dissertation\"\nagents = 2\n").unwrap();
+        assert_eq!(
+            (cfg.t_max, cfg.map_label()),
+            (1000, "plant:dissertation".into())
+        );
+        assert_eq!(cfg.layout_names(), ["plant:dissertation"]);
+        assert_eq!(cfg.model_spec(11).maps, ["plant:dissertation"]);
+        let cfg = read("plant = \"dissertation\"\nt_max = 64\n").unwrap();
+        assert_eq!(cfg.t_max, 64);
+        assert_eq!(cfg.load_plant().unwrap().unwrap().episode.t_max, 64);
+        // The config a run writes reads back as the same config.
+        let again = read(&cfg.to_toml()).unwrap();
+        assert_eq!(again, cfg);
+        let err = read("plant = \"dissertation\"\nmap = \"rm-2.1\"\n").unwrap_err();
+        assert!(matches!(err, ConfigError::PlantAndMap { .. }), "{err:?}");
+        let err = read("plant = \"atlantis\"\n").unwrap_err();
+        assert!(
+            matches!(&err, ConfigError::UnknownPlant { plant, .. } if plant == "atlantis"),
+            "{err:?}"
+        );
+        let chain = format!("{err}: {}", std::error::Error::source(&err).unwrap());
+        assert!(chain.contains("unknown plant 'atlantis'"), "{chain}");
+        // The dissertation's plant has starts for 4 AGVs.
+        let err = read("plant = \"dissertation\"\nagents = 5\n").unwrap_err();
+        assert!(
+            matches!(err, ConfigError::AgentsDoNotFit { agents: 5, .. }),
+            "{err:?}"
+        );
     }
 
     #[test]

@@ -40,6 +40,7 @@ use std::time::{Duration, Instant};
 use buridan_actor::Collector;
 use buridan_env::{seed, BatchedEnv, EnvConfig, Map, Shaping, VecEnv, WeightedLayout};
 use buridan_imitate::ImitationConfig;
+use buridan_plant::{Plant, PlantEnv, PlantVecEnv};
 use buridan_policy::checkpoint::{self, CONFIG_FILE, OPTIMIZER_FILE, TRAINER_FILE};
 use buridan_policy::{Fragment, Inference, ModelSpec, Policy, Weights};
 use rand::SeedableRng;
@@ -333,8 +334,11 @@ pub fn train(
 pub struct Run {
     cfg: TrainConfig,
     out: PathBuf,
-    /// The training layouts with their weights (one for a single map).
+    /// The training layouts with their weights (one for a single map; none
+    /// for a plant run).
     layouts: Vec<WeightedLayout>,
+    /// The AGV plant of a plant run (`cfg.plant`), its T_max the run's.
+    plant: Option<Arc<Plant>>,
     spec: ModelSpec,
     policy: Policy,
     learner: Learner,
@@ -351,20 +355,35 @@ impl Run {
     /// the optimiser.
     pub fn prepare(cfg: &TrainConfig, out: &Path) -> Result<Run, TrainError> {
         cfg.validate()?;
+        // Before anything is written: a plant that does not load stops here.
+        let plant = cfg.load_plant()?.map(Arc::new);
         buridan_policy::threads::tune_allocator();
         let t_start = Instant::now();
         std::fs::create_dir_all(out).map_err(|e| TrainError::io("cannot create", out, e))?;
         write_file(&out.join(CONFIG_FILE), &cfg.to_toml())?;
-        let layouts = match cfg.load_maps()? {
-            Some(layouts) => layouts,
-            None => vec![(Arc::new(Map::load(&cfg.map)?), 1.0)],
+        let (layouts, obs_dim) = match &plant {
+            Some(plant) => {
+                let env = PlantEnv::new(plant.clone(), cfg.plant_config(cfg.seed))?;
+                let obs_dim = match cfg.mode.obs_kind() {
+                    buridan_env::ObsKind::Local => env.local_obs_dim(),
+                    buridan_env::ObsKind::Central => env.central_obs_dim(),
+                };
+                (Vec::new(), obs_dim)
+            }
+            None => {
+                let layouts = match cfg.load_maps()? {
+                    Some(layouts) => layouts,
+                    None => vec![(Arc::new(Map::load(&cfg.map)?), 1.0)],
+                };
+                // One size on every layout: `load_maps` refuses central
+                // observations over several layouts.
+                let obs_dim = cfg
+                    .mode
+                    .obs_kind()
+                    .obs_dim(&layouts[0].0, &env_config(cfg, cfg.seed));
+                (layouts, obs_dim)
+            }
         };
-        // One size on every layout: `load_maps` refuses central
-        // observations over several layouts.
-        let obs_dim = cfg
-            .mode
-            .obs_kind()
-            .obs_dim(&layouts[0].0, &env_config(cfg, cfg.seed));
         let spec = cfg.model_spec(obs_dim);
         let (policy, mut state) = match &cfg.resume {
             None => {
@@ -383,7 +402,10 @@ impl Run {
                 (policy, read_trainer_state(dir)?)
             }
         };
-        if state.time_to_target.is_empty() {
+        // Plant episodes only truncate: no success, so no time to target.
+        if plant.is_some() {
+            state.time_to_target.clear();
+        } else if state.time_to_target.is_empty() {
             state.time_to_target = target::targets();
         }
         let mut learner = Learner::new(cfg, &policy);
@@ -405,6 +427,7 @@ impl Run {
             out: out.to_path_buf(),
             layout_windows: restore_layout_windows(&cfg.layout_names(), &state.layouts),
             layouts,
+            plant,
             spec,
             policy,
             learner,
@@ -421,12 +444,30 @@ impl Run {
     pub fn collector(&self, id: u32) -> Result<Collector<ActorEnv>, TrainError> {
         let cfg = &self.cfg;
         let actor = u64::from(id);
-        let env = env_config(cfg, self.actor_seed(actor));
+        let seed = self.actor_seed(actor);
         let (envs, kind) = (cfg.envs_per_actor, cfg.mode.obs_kind());
         // One map keeps the plain batch; a mixture only when there is a choice.
-        let venv: ActorEnv = match self.layouts.as_slice() {
-            [(map, _)] => Box::new(VecEnv::new(map.clone(), env, envs, kind, 1)?),
-            layouts => Box::new(VecEnv::with_layouts(layouts, env, envs, kind, 1)?),
+        let venv: ActorEnv = match (&self.plant, self.layouts.as_slice()) {
+            (Some(plant), _) => Box::new(PlantVecEnv::new(
+                plant.clone(),
+                cfg.plant_config(seed),
+                envs,
+                kind,
+            )?),
+            (None, [(map, _)]) => Box::new(VecEnv::new(
+                map.clone(),
+                env_config(cfg, seed),
+                envs,
+                kind,
+                1,
+            )?),
+            (None, layouts) => Box::new(VecEnv::with_layouts(
+                layouts,
+                env_config(cfg, seed),
+                envs,
+                kind,
+                1,
+            )?),
         };
         let policy = Policy::new(self.spec.clone(), cfg.seed)?;
         policy.copy_from(&self.policy)?;
@@ -490,14 +531,21 @@ impl Run {
         &self.cfg
     }
 
-    /// The map the run trains on (the first of several layouts).
-    pub fn map(&self) -> &Arc<Map> {
-        &self.layouts[0].0
+    /// The map the run trains on (the first of several layouts); `None`
+    /// for a plant run.
+    pub fn map(&self) -> Option<&Arc<Map>> {
+        self.layouts.first().map(|(map, _)| map)
     }
 
-    /// The layouts the run trains on, with their weights.
+    /// The layouts the run trains on, with their weights (empty for a
+    /// plant run).
     pub fn layouts(&self) -> &[WeightedLayout] {
         &self.layouts
+    }
+
+    /// The AGV plant of a plant run (with the run's T_max), else `None`.
+    pub fn plant(&self) -> Option<&Arc<Plant>> {
+        self.plant.as_ref()
     }
 
     /// The model's shape.
@@ -755,6 +803,8 @@ impl Run {
             episodes_by_map,
             agents: cfg.agents,
             starts: match cfg.starts {
+                // Plant AGVs start at random offsets on their start tracks.
+                _ if cfg.plant.is_some() => "random".into(),
                 buridan_env::Starts::Fixed => "fixed".into(),
                 buridan_env::Starts::Random => "random".into(),
             },

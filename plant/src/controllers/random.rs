@@ -32,6 +32,28 @@ impl RandomController {
         }
     }
 
+    /// A controller for episode `episode` of evaluation seed `seed`: its
+    /// draws depend only on `(seed, episode)`, as the grid evaluation's
+    /// random controller's do, whatever episodes ran before.
+    ///
+    /// ```
+    /// use std::sync::Arc;
+    /// use buridan_plant::{controllers::RandomController, Plant, PlantConfig, PlantEnv};
+    /// let plant = Arc::new(Plant::load("dissertation").unwrap());
+    /// let env = PlantEnv::new(plant, PlantConfig { agents: 4, ..Default::default() }).unwrap();
+    /// let draw = |episode| {
+    ///     let mut c = RandomController::for_episode(42, episode);
+    ///     let mut actions = [0u8; 4];
+    ///     (0..8).map(|_| { c.actions(&env, &mut actions).unwrap(); actions }).collect::<Vec<_>>()
+    /// };
+    /// assert_eq!(draw(3), draw(3));
+    /// ```
+    pub fn for_episode(seed: u64, episode: u64) -> Self {
+        Self {
+            rng: buridan_env::episode_rng(buridan_env::seed::random_controller(seed), episode),
+        }
+    }
+
     /// Writes one legal action per AGV of `env` into `out`.
     pub fn actions(&mut self, env: &PlantEnv, out: &mut [u8]) -> Result<(), EnvError> {
         if out.len() != env.agents() {
