@@ -30,11 +30,11 @@ use std::time::Instant;
 use buridan_env::{EnvError, ObsKind, NUM_ACTIONS};
 use buridan_plant::controllers::{RandomController, ReservationController};
 use buridan_plant::{Kpis, Plant, PlantConfig, PlantEnv, PlantError};
-use buridan_policy::{checkpoint, ActMode, Inference, Mode, Policy, PolicyError};
+use buridan_policy::{checkpoint, ActMode, Inference, Mode, PolicyError};
 use serde::Serialize;
 
 use crate::output::OutputError;
-use crate::policy::PolicyLoadError;
+use crate::policy::{load_for_agents, PolicyLoadError};
 
 /// Why a plant evaluation cannot run.
 #[derive(Debug, thiserror::Error)]
@@ -166,29 +166,13 @@ impl PlantPolicy {
         act_mode: ActMode,
         seed: u64,
     ) -> Result<Self, PlantEvalError> {
-        let failed = |source| PolicyLoadError::Checkpoint {
+        let dir = checkpoint::resolve(path).map_err(|source| PolicyLoadError::Checkpoint {
             dir: path.to_path_buf(),
             source,
-        };
-        let dir = checkpoint::resolve(path).map_err(failed)?;
+        })?;
         let trained_on = trained_plant(&dir)?;
-        let policy = Policy::load(&dir).map_err(failed)?;
+        let (dir, policy, rows) = load_for_agents(&dir, agents)?;
         let spec = policy.spec().clone();
-        let rows = match spec.mode {
-            // A CTDE policy trained with n AGVs runs with any number.
-            Mode::Ctde => agents,
-            Mode::Cte | Mode::Dte if spec.agents != agents => {
-                return Err(PolicyLoadError::AgentCount {
-                    dir,
-                    mode: spec.mode,
-                    trained: spec.agents,
-                    asked: agents,
-                }
-                .into())
-            }
-            Mode::Cte => 1,
-            Mode::Dte => agents,
-        };
         let env = PlantEnv::new(
             plant.clone(),
             eval_config(&PlantEvalSpec {
@@ -737,6 +721,7 @@ pub fn summary_line(s: &PlantEvalSummary) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use buridan_policy::Policy;
 
     fn plant(t_max: u32) -> Arc<Plant> {
         Arc::new(load_plant("dissertation", Some(t_max)).unwrap())

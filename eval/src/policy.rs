@@ -55,27 +55,8 @@ impl PolicyController {
         act_mode: ActMode,
         seed: u64,
     ) -> Result<Self, PolicyLoadError> {
-        let failed = |source| PolicyLoadError::Checkpoint {
-            dir: path.to_path_buf(),
-            source,
-        };
-        let dir = checkpoint::resolve(path).map_err(failed)?;
-        let policy = Policy::load(&dir).map_err(failed)?;
+        let (_, policy, rows) = load_for_agents(path, agents)?;
         let spec = policy.spec().clone();
-        let rows = match spec.mode {
-            // A CTDE policy trained with n agents runs with any number (scalability).
-            Mode::Ctde => agents,
-            Mode::Cte | Mode::Dte if spec.agents != agents => {
-                return Err(PolicyLoadError::AgentCount {
-                    dir,
-                    mode: spec.mode,
-                    trained: spec.agents,
-                    asked: agents,
-                })
-            }
-            Mode::Cte => 1,
-            Mode::Dte => agents,
-        };
         let inference = Inference::new(policy, rows, seed);
         let heads = spec.heads;
         Ok(Self {
@@ -91,6 +72,38 @@ impl PolicyController {
             inference,
         })
     }
+}
+
+/// Loads the policy at `path` (a checkpoint or a run directory) for
+/// episodes with `agents` agents: its checkpoint directory, the policy and
+/// the inference rows it needs (CTDE: one per agent, with any agent count;
+/// CTE: one; DTE: one per agent, with the count it was trained with).
+pub(crate) fn load_for_agents(
+    path: &Path,
+    agents: usize,
+) -> Result<(PathBuf, Policy, usize), PolicyLoadError> {
+    let failed = |source| PolicyLoadError::Checkpoint {
+        dir: path.to_path_buf(),
+        source,
+    };
+    let dir = checkpoint::resolve(path).map_err(failed)?;
+    let policy = Policy::load(&dir).map_err(failed)?;
+    let spec = policy.spec();
+    let rows = match spec.mode {
+        // A CTDE policy trained with n agents runs with any number (scalability).
+        Mode::Ctde => agents,
+        Mode::Cte | Mode::Dte if spec.agents != agents => {
+            return Err(PolicyLoadError::AgentCount {
+                dir,
+                mode: spec.mode,
+                trained: spec.agents,
+                asked: agents,
+            })
+        }
+        Mode::Cte => 1,
+        Mode::Dte => agents,
+    };
+    Ok((dir, policy, rows))
 }
 
 /// Which action mask the policy's distribution is taken under.
