@@ -34,7 +34,7 @@ use buridan_policy::{checkpoint, ActMode, Inference, Mode, PolicyError};
 use serde::Serialize;
 
 use crate::output::OutputError;
-use crate::policy::{load_for_agents, PolicyLoadError};
+use crate::policy::{load_for_agents, observe_step, reset_recurrent_state, PolicyLoadError};
 
 /// Why a plant evaluation cannot run.
 #[derive(Debug, thiserror::Error)]
@@ -213,11 +213,7 @@ impl PlantPolicy {
     }
 
     fn begin_episode(&mut self) {
-        if let Some(state) = self.inference.state_mut() {
-            for r in 0..state.rows {
-                state.reset_row(r);
-            }
-        }
+        reset_recurrent_state(&mut self.inference);
     }
 
     fn act(&mut self, env: &PlantEnv, out: &mut [u8]) -> Result<(), PlantEvalError> {
@@ -245,16 +241,7 @@ impl PlantPolicy {
     }
 
     fn after_step(&mut self, rewards: &[f32]) {
-        let rows = self.inference.rows();
-        let row_rewards: Vec<f32> = if self.mode == Mode::Cte {
-            vec![rewards.iter().sum()]
-        } else {
-            rewards.to_vec()
-        };
-        let actions = self.actions.clone();
-        if let Some(state) = self.inference.state_mut() {
-            state.observe(&actions, &row_rewards, &vec![0; rows]);
-        }
+        observe_step(&mut self.inference, self.mode, &self.actions, rewards);
     }
 }
 

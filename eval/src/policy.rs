@@ -106,6 +106,33 @@ pub(crate) fn load_for_agents(
     Ok((dir, policy, rows))
 }
 
+/// Starts a new episode for a recurrent policy: every row's LSTM state
+/// and previous action and reward go back to their start values (nothing
+/// for a feed-forward policy).
+pub(crate) fn reset_recurrent_state(inference: &mut Inference) {
+    if let Some(state) = inference.state_mut() {
+        for r in 0..state.rows {
+            state.reset_row(r);
+        }
+    }
+}
+
+/// Feeds a recurrent policy the step it just took: the chosen actions and
+/// each row's reward (CTE's one row gets the sum over agents). Episodes of
+/// an evaluation end only between calls to [`reset_recurrent_state`], so
+/// no row is done here.
+pub(crate) fn observe_step(inference: &mut Inference, mode: Mode, actions: &[u8], rewards: &[f32]) {
+    let rows = inference.rows();
+    let row_rewards: Vec<f32> = if mode == Mode::Cte {
+        vec![rewards.iter().sum()]
+    } else {
+        rewards.to_vec()
+    };
+    if let Some(state) = inference.state_mut() {
+        state.observe(actions, &row_rewards, &vec![0; rows]);
+    }
+}
+
 /// Which action mask the policy's distribution is taken under.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum MaskKind {
@@ -207,11 +234,7 @@ impl Controller for PolicyController {
                 "the policy expects {expected} observation floats, this env gives {dim}"
             )));
         }
-        if let Some(state) = self.inference.state_mut() {
-            for r in 0..state.rows {
-                state.reset_row(r);
-            }
-        }
+        reset_recurrent_state(&mut self.inference);
         Ok(())
     }
 
@@ -224,15 +247,6 @@ impl Controller for PolicyController {
     }
 
     fn after_step(&mut self, rewards: &[f32]) {
-        let rows = self.inference.rows();
-        let row_rewards: Vec<f32> = if self.mode == Mode::Cte {
-            vec![rewards.iter().sum()]
-        } else {
-            rewards.to_vec()
-        };
-        let actions = self.actions.clone();
-        if let Some(state) = self.inference.state_mut() {
-            state.observe(&actions, &row_rewards, &vec![0; rows]);
-        }
+        observe_step(&mut self.inference, self.mode, &self.actions, rewards);
     }
 }
