@@ -33,8 +33,8 @@ pub struct EvalArgs {
     /// `reservation`, `random` or `checkpoint:DIR` (a `learner train
     /// --plant` run), --agents one count (default 4), --t-max overrides
     /// the plant file's T_max; --rules, --starts, --jobs and the planner
-    /// limits do not apply. Writes episodes.csv (KPIs per episode) and
-    /// summary.json.
+    /// limits do not apply and are refused. Writes episodes.csv (KPIs per
+    /// episode) and summary.json.
     #[arg(long, value_name = "ID|FILE", conflicts_with_all = ["map", "scen", "replays"])]
     pub plant: Option<String>,
     /// Agents: a number (`4`), an inclusive range (`4..20`, `4..20:2`) or a
@@ -51,7 +51,7 @@ pub struct EvalArgs {
     /// The rule set the env moves agents by: `thesis` (sequential moves in
     /// index order) or `pogema` (POGEMA's simultaneous moves); planners plan
     /// for it.
-    #[arg(long, default_value = "thesis")]
+    #[arg(long, default_value = "thesis", conflicts_with = "plant")]
     pub rules: Rules,
     /// Episodes per agent count: indices 0..N of the seeded generator.
     #[arg(long, default_value_t = 100)]
@@ -76,20 +76,20 @@ pub struct EvalArgs {
     #[arg(long)]
     pub controller: String,
     /// `random` starts and goals, or `fixed` (the map's `.scen`).
-    #[arg(long, default_value = "random")]
+    #[arg(long, default_value = "random", conflicts_with = "plant")]
     pub starts: Starts,
     /// Truncation step count T_max (default: the rule set's, 100 for
     /// thesis, 128 for pogema).
     #[arg(long, alias = "max-steps")]
     pub t_max: Option<u32>,
     /// Per-instance planning time limit in seconds (planners).
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, default_value_t = 60.0, conflicts_with = "plant")]
     pub time_limit: f64,
     /// Per-instance memory cap of a planner's search, in MiB.
-    #[arg(long, default_value_t = 2048)]
+    #[arg(long, default_value_t = 2048, conflicts_with = "plant")]
     pub memory_limit: usize,
     /// Episodes run in parallel (1 keeps compute times comparable).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, conflicts_with = "plant")]
     pub jobs: usize,
     /// Output directory (CSV, JSON, PNG).
     #[arg(long)]

@@ -247,4 +247,26 @@ fn bad_plant_input_is_an_error_that_names_the_problem() {
     assert_eq!(output.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("unknown plant 'atlantis'"), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
+
+    // Grid-only flags are refused with --plant instead of being ignored;
+    // their defaults are not (the plant runs above parse).
+    for flag in [
+        ["--rules", "pogema"],
+        ["--starts", "fixed"],
+        ["--jobs", "2"],
+        ["--time-limit", "5"],
+        ["--memory-limit", "64"],
+    ] {
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_learner"))
+            .args(["eval", "--plant", "dissertation", "--controller", "random"])
+            .args(flag)
+            .arg("--out")
+            .arg(dir.path())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{flag:?}: {stderr}");
+        assert!(stderr.contains("cannot be used with"), "{flag:?}: {stderr}");
+        assert!(stderr.contains(flag[0]), "{flag:?}: {stderr}");
+    }
 }

@@ -26,6 +26,7 @@ pub mod instances;
 pub mod output;
 pub mod planner;
 pub mod plant;
+pub mod plant_figures;
 pub mod plot;
 pub mod policy;
 pub mod replay;

@@ -34,6 +34,7 @@ use buridan_policy::{checkpoint, ActMode, Inference, Mode, PolicyError};
 use serde::Serialize;
 
 use crate::output::OutputError;
+use crate::plant_figures::{write_timeline, write_track_usage, Timeline, TrackUsage};
 use crate::policy::{load_for_agents, observe_step, reset_recurrent_state, PolicyLoadError};
 
 /// Why a plant evaluation cannot run.
@@ -515,10 +516,16 @@ pub struct PlantEvalSummary {
 /// Everything a plant evaluation produced.
 #[derive(Debug, Clone)]
 pub struct PlantEvalReport {
+    /// The plant evaluated on.
+    pub plant: Arc<Plant>,
     /// One record per episode, in episode order.
     pub records: Vec<PlantEpisodeRecord>,
     /// The aggregate.
     pub summary: PlantEvalSummary,
+    /// What each AGV did in the first episode.
+    pub timeline: Timeline,
+    /// Segment use over all episodes.
+    pub track: TrackUsage,
 }
 
 /// Mean and sample standard deviation (0 for fewer than two values; NaN
@@ -558,6 +565,8 @@ pub fn evaluate_plant(
     let n = spec.agents;
     let (mut actions, mut rewards) = (vec![0u8; n], vec![0f32; n]);
     let mut records = Vec::with_capacity(spec.episodes);
+    env.reset_to(0);
+    let (mut timeline, mut track) = (Timeline::new(&env), TrackUsage::new(plant));
     for e in 0..spec.episodes as u64 {
         env.reset_to(e);
         controller.begin_episode(e);
@@ -568,6 +577,10 @@ pub fn evaluate_plant(
             compute += t.elapsed().as_secs_f64();
             env.step(&actions, &mut rewards)?;
             controller.after_step(&rewards);
+            track.record(&env);
+            if e == 0 {
+                timeline.record(&env);
+            }
         }
         let record = PlantEpisodeRecord::new(&env.kpis(), n, 1e3 * compute);
         on_episode(&record);
@@ -585,7 +598,13 @@ pub fn evaluate_plant(
         &records,
         started.elapsed().as_secs_f64(),
     );
-    Ok(PlantEvalReport { records, summary })
+    Ok(PlantEvalReport {
+        plant: plant.clone(),
+        records,
+        summary,
+        timeline,
+        track,
+    })
 }
 
 /// The summary of `records`.
@@ -651,8 +670,10 @@ fn summarize(
     }
 }
 
-/// Writes `episodes.csv` (one row per episode) and `summary.json` of a
-/// plant evaluation into `dir` (created if missing) and returns their paths.
+/// Writes `episodes.csv` (one row per episode), `summary.json`, the first
+/// episode's timeline and the track's use ([`crate::plant_figures`]: CSV
+/// and PNG) of a plant evaluation into `dir` (created if missing) and
+/// returns their paths.
 pub fn write_plant_report(
     dir: &Path,
     report: &PlantEvalReport,
@@ -675,7 +696,21 @@ pub fn write_plant_report(
     let json_path = dir.join("summary.json");
     let json = serde_json::to_string_pretty(&report.summary).expect("summary serialises");
     std::fs::write(&json_path, json + "\n").map_err(io(&json_path))?;
-    Ok(vec![csv_path, json_path])
+    let s = &report.summary;
+    let title = format!("{} on {}, {} AGVs", s.controller, s.plant, s.agents);
+    let mut files = vec![csv_path, json_path];
+    files.extend(write_timeline(
+        dir,
+        &format!("{title}, episode {}", report.timeline.episode),
+        &report.timeline,
+    )?);
+    files.extend(write_track_usage(
+        dir,
+        &format!("{title}, {} episodes", s.episodes),
+        &report.plant,
+        &report.track,
+    )?);
+    Ok(files)
 }
 
 /// The line `learner eval --plant` prints: the KPIs with their standard
@@ -790,7 +825,7 @@ mod tests {
         let report = run("reservation", 2, 2, 100);
         let dir = tempfile::tempdir().unwrap();
         let files = write_plant_report(dir.path(), &report).unwrap();
-        assert_eq!(files.len(), 2);
+        assert_eq!(files.len(), 7);
         let csv = std::fs::read_to_string(dir.path().join("episodes.csv")).unwrap();
         assert_eq!(csv.lines().count(), 3, "{csv}");
         assert!(csv.starts_with("episode,steps,deliveries,"), "{csv}");

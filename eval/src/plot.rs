@@ -53,9 +53,21 @@ pub fn heatmap(path: &Path, title: &str, grid: &Grid, visits: &[u64]) -> Result<
                 }),
         )
         .map_err(|e| err(path, e))?;
-    // Colour bar.
+    colour_bar(&legend, path, size.1, &format!("{max:.0}"), "visits")?;
+    root.present().map_err(|e| err(path, e))
+}
+
+/// A vertical viridis colour bar in `legend` (a strip of a figure
+/// `height` pixels high): `max` at the top, 0 at the bottom, `unit` above.
+pub(crate) fn colour_bar<DB: DrawingBackend>(
+    legend: &DrawingArea<DB, plotters::coord::Shift>,
+    path: &Path,
+    height: u32,
+    max: &str,
+    unit: &str,
+) -> Result<(), PlotError> {
     let steps = 50;
-    let bar_h = (size.1 - 100) as i32;
+    let bar_h = (height - 100) as i32;
     for k in 0..steps {
         let y0 = 50 + bar_h * k / steps;
         let y1 = 50 + bar_h * (k + 1) / steps;
@@ -69,15 +81,15 @@ pub fn heatmap(path: &Path, title: &str, grid: &Grid, visits: &[u64]) -> Result<
     }
     let style = ("sans-serif", 13).into_font();
     legend
-        .draw(&Text::new(format!("{max:.0}"), (34, 45), style.clone()))
+        .draw(&Text::new(max.to_string(), (34, 45), style.clone()))
         .map_err(|e| err(path, e))?;
     legend
         .draw(&Text::new("0", (34, 45 + bar_h), style.clone()))
         .map_err(|e| err(path, e))?;
     legend
-        .draw(&Text::new("visits", (5, 25), style))
+        .draw(&Text::new(unit.to_string(), (5, 25), style))
         .map_err(|e| err(path, e))?;
-    root.present().map_err(|e| err(path, e))
+    Ok(())
 }
 
 /// One named line of a [`line_chart`].
