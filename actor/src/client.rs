@@ -10,6 +10,14 @@
 //!
 //! A fragment whose submission fails is dropped, never resent: the learner
 //! uses each fragment at most once and never in part.
+//!
+//! With [`ActorOptions::env`] (`actor --env URL`) the envs are a
+//! [`RemoteEnv`] on an external env server instead of the join reply's
+//! grid map: the actor reads the server's spec before joining (it joins
+//! with the server's env count), checks it against the run's model
+//! ([`check_env_spec`]), and when the server goes away mid-fragment it
+//! drops the fragment, warns, and reopens a session on the server with
+//! backoff while its learner session stays open.
 
 use std::future::Future;
 use std::path::PathBuf;
@@ -17,7 +25,7 @@ use std::pin::Pin;
 use std::sync::Arc;
 use std::time::Duration;
 
-use buridan_env::{EnvError, MapError, VecEnv};
+use buridan_env::{BatchedEnv, EnvError, MapError, VecEnv};
 use buridan_policy::{ActMode, Inference, ModelSpec, Policy, PolicyError, Weights};
 use buridan_proto::convert::{
     env_from_message, fragment_to_message, map_from_message, weights_from_message, ConvertError,
@@ -32,7 +40,9 @@ use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
 use tonic::{Code, Request, Status};
 
-use crate::collector::{CollectError, Collector};
+use crate::collector::{ActorEnv, CollectError, Collector};
+use crate::remote_env::{RemoteEnv, RemoteEnvError, RemoteEnvOptions};
+use buridan_proto::env_convert::EnvSpec;
 
 /// Why an actor stopped (or could not start).
 #[derive(Debug, thiserror::Error)]
@@ -138,6 +148,44 @@ pub enum SetupError {
         /// The model's.
         model: usize,
     },
+    /// The run trains on a plant whose envs are external, and this actor
+    /// has no env server.
+    #[error("the run trains on {plant}, whose envs this actor cannot build: start it with --env URL of an env server for that plant (e.g. `plant-server --plant ID --agents {agents}`)")]
+    NeedsEnv {
+        /// The run's label, `plant:ID`.
+        plant: String,
+        /// AGVs per env.
+        agents: u32,
+    },
+    /// The external env server cannot be used (boxed: the error is large).
+    #[error(transparent)]
+    Remote(Box<RemoteEnvError>),
+    /// The external env server's spec does not fit the run.
+    #[error("the env server '{name}' has {what} {env}, the run {run}")]
+    EnvSpec {
+        /// The server's spec name.
+        name: String,
+        /// What differs ("obs_dim", "agents", ...).
+        what: &'static str,
+        /// The server's value.
+        env: String,
+        /// The run's value.
+        run: String,
+    },
+}
+
+impl From<RemoteEnvError> for SetupError {
+    fn from(e: RemoteEnvError) -> Self {
+        SetupError::Remote(Box::new(e))
+    }
+}
+
+impl SetupError {
+    /// Whether joining (or reconnecting to the env server) again may help:
+    /// only an env server that cannot be reached right now.
+    pub fn retryable(&self) -> bool {
+        matches!(self, SetupError::Remote(e) if e.retryable())
+    }
 }
 
 /// Makes a fresh channel to the learner (TCP, TLS or in-memory).
@@ -209,6 +257,11 @@ pub struct ActorOptions {
     pub backoff_max: Duration,
     /// Give up after this long without a session (`None`: never).
     pub give_up_after: Option<Duration>,
+    /// URL of an external env server (`env.proto`, e.g. `plant-server`) to
+    /// step instead of building envs from the join reply (`actor --env`).
+    pub env: Option<String>,
+    /// How to talk to the env server.
+    pub env_options: RemoteEnvOptions,
 }
 
 impl Default for ActorOptions {
@@ -221,6 +274,8 @@ impl Default for ActorOptions {
             backoff_initial: Duration::from_millis(200),
             backoff_max: Duration::from_secs(5),
             give_up_after: None,
+            env: None,
+            env_options: RemoteEnvOptions::default(),
         }
     }
 }
@@ -238,6 +293,9 @@ pub struct ActorReport {
     pub lost: u64,
     /// Env steps collected.
     pub env_steps: u64,
+    /// Times the external env server failed mid-fragment and a new env
+    /// session was opened (`--env` only).
+    pub env_reconnects: u64,
 }
 
 /// Why a session ended.
@@ -346,8 +404,8 @@ fn retryable(status: &Status) -> bool {
 
 /// What a join led to.
 enum Joined {
-    /// A session of a running run.
-    Run(v1::JoinReply),
+    /// A session of a running run (boxed: a join reply is large).
+    Run(Box<v1::JoinReply>),
     /// No session: see why.
     Ended(SessionEnd),
 }
@@ -361,25 +419,45 @@ async fn session(
     since_session: &mut tokio::time::Instant,
     delay: &mut Duration,
 ) -> Result<SessionEnd, ActorError> {
-    let join = match join(&mut client, opts).await? {
-        Joined::Run(reply) => reply,
+    // An env server decides the batch: join with its env count.
+    let env_spec = match &opts.env {
+        None => None,
+        Some(url) => match fetch_env_spec(url, opts).await {
+            Ok(spec) => Some(spec),
+            Err(e) if e.retryable() => return Ok(SessionEnd::Lost(ActorError::Setup(e.into()))),
+            Err(e) => return Err(ActorError::Setup(e.into())),
+        },
+    };
+    let envs = env_spec.as_ref().map(|s| s.num_envs as u32).or(opts.envs);
+    let join = match join(&mut client, opts, envs).await? {
+        Joined::Run(reply) => *reply,
         Joined::Ended(end) => return Ok(end),
     };
     report.sessions += 1;
     *since_session = tokio::time::Instant::now();
     *delay = opts.backoff_initial;
-    let mut collector = build_collector(&join)?;
+    let mut collector = match &opts.env {
+        None => build_collector(&join)?,
+        Some(url) => match open_remote(&join, url, opts, 0).await {
+            Ok(c) => c,
+            Err(e) if e.retryable() => return Ok(SessionEnd::Lost(ActorError::Setup(e))),
+            Err(e) => return Err(ActorError::Setup(e)),
+        },
+    };
     tracing::info!(
         run = %join.run_id,
         session = join.session,
         actor = join.actor_id,
         envs = join.envs,
+        env = opts.env.as_deref().unwrap_or("built in"),
         "joined"
     );
     let (mut latest, _watcher) = match watch_weights(&mut client, &join).await {
         Ok(watch) => watch,
         Err(end) => return Ok(end),
     };
+    // Env sessions opened on the env server in this learner session.
+    let mut env_attempt = 0u64;
     let mut submitter = Submitter::new(client, &join);
     // On-policy: after a full batch, wait for a version newer than this.
     let mut wait_after: Option<u64> = None;
@@ -397,7 +475,28 @@ async fn session(
         .await
         .map_err(|_| ActorError::Panicked("collector"))?;
         collector = back;
-        let fragment = fragment?;
+        let fragment = match fragment {
+            Ok(f) => f,
+            Err(CollectError::Env(EnvError::Remote {
+                retryable: true,
+                target,
+                message,
+            })) => {
+                // The simulator went away mid-fragment: drop the fragment
+                // (never sent in part), keep the learner session, and open
+                // a new env session once the server is back.
+                report.env_reconnects += 1;
+                tracing::warn!(env = %target, "the env server failed: {message}; reconnecting");
+                let url = opts.env.as_deref().unwrap_or(&target);
+                collector =
+                    match reconnect_env(&join, url, opts, &mut env_attempt, &mut latest).await? {
+                        Ok(c) => c,
+                        Err(end) => return Ok(end),
+                    };
+                continue;
+            }
+            Err(e) => return Err(e.into()),
+        };
         report.env_steps += fragment.env_steps;
         if let Some(end) = submitter.submit(fragment, report, &mut wait_after).await? {
             return Ok(end);
@@ -405,18 +504,23 @@ async fn session(
     }
 }
 
-/// Joins the run; a finished run is an answer, not an error.
-async fn join(client: &mut Client, opts: &ActorOptions) -> Result<Joined, ActorError> {
+/// Joins the run asking for `envs` envs (`None`: the run's default); a
+/// finished run is an answer, not an error.
+async fn join(
+    client: &mut Client,
+    opts: &ActorOptions,
+    envs: Option<u32>,
+) -> Result<Joined, ActorError> {
     let reply = client
         .join(v1::JoinRequest {
             api_version: v1::ApiVersion::V1 as u32,
             actor_name: opts.name.clone(),
-            envs: opts.envs.unwrap_or(0),
+            envs: envs.unwrap_or(0),
         })
         .await;
     match reply {
         Ok(r) if r.get_ref().run_finished => Ok(Joined::Ended(SessionEnd::Finished)),
-        Ok(r) => Ok(Joined::Run(r.into_inner())),
+        Ok(r) => Ok(Joined::Run(Box::new(r.into_inner()))),
         Err(source) if retryable(&source) => Ok(Joined::Ended(SessionEnd::Lost(ActorError::Rpc {
             call: "join",
             source,
@@ -592,27 +696,189 @@ impl Drop for AbortOnDrop {
     }
 }
 
-/// Envs and policy as the learner described them in a join reply.
-pub fn build_collector(join: &v1::JoinReply) -> Result<Collector, SetupError> {
+/// The spec of the env server at `url` (a short connection of its own).
+async fn fetch_env_spec(url: &str, opts: &ActorOptions) -> Result<EnvSpec, RemoteEnvError> {
+    let (url, options) = (url.to_string(), opts.env_options.clone());
+    tokio::task::spawn_blocking(move || RemoteEnv::fetch_spec(&url, &options))
+        .await
+        .unwrap_or_else(|_| {
+            Err(RemoteEnvError::Runtime(std::io::Error::other(
+                "the env client task panicked",
+            )))
+        })
+}
+
+/// A collector over a new session on the env server at `url`, the
+/// `attempt`-th of this learner session (the blocking connect runs off the
+/// async threads).
+async fn open_remote(
+    join: &v1::JoinReply,
+    url: &str,
+    opts: &ActorOptions,
+    attempt: u64,
+) -> Result<Collector<ActorEnv>, SetupError> {
+    let (join, url, options) = (join.clone(), url.to_string(), opts.env_options.clone());
+    tokio::task::spawn_blocking(move || build_remote_collector(&join, &url, &options, attempt))
+        .await
+        .unwrap_or_else(|_| {
+            Err(SetupError::from(RemoteEnvError::Runtime(
+                std::io::Error::other("the env client task panicked"),
+            )))
+        })
+}
+
+/// Opens env sessions on the env server at `url` with backoff until one
+/// opens (`Ok(Ok(collector))`), the learner ends the session meanwhile
+/// (`Ok(Err(end))`), or the server refuses for good (`Err`).
+async fn reconnect_env(
+    join: &v1::JoinReply,
+    url: &str,
+    opts: &ActorOptions,
+    attempt: &mut u64,
+    latest: &mut watch::Receiver<Option<Update>>,
+) -> Result<Result<Collector<ActorEnv>, SessionEnd>, ActorError> {
+    let mut delay = opts.backoff_initial;
+    loop {
+        let wait = delay.mul_f64(rand::rng().random_range(0.8..1.2));
+        tokio::time::sleep(wait).await;
+        match latest.borrow().clone() {
+            Some(Update::Finished) => return Ok(Err(SessionEnd::Finished)),
+            Some(Update::Lost(why)) => return Ok(Err(SessionEnd::Lost(ActorError::Stream(why)))),
+            _ => {}
+        }
+        *attempt += 1;
+        match open_remote(join, url, opts, *attempt).await {
+            Ok(c) => {
+                tracing::info!(env = url, attempt = *attempt, "env session reopened");
+                return Ok(Ok(c));
+            }
+            Err(e) if e.retryable() => {
+                tracing::warn!("{}; retrying", error_chain(&e));
+                delay = (delay * 2).min(opts.backoff_max);
+            }
+            Err(e) => return Err(ActorError::Setup(e)),
+        }
+    }
+}
+
+/// Checks an env server's spec against the run the learner described:
+/// observation kind and size, agents, actions (at most the policy heads'
+/// width; fewer are masked out), envs (the count joined with) and T_max.
+///
+/// ```
+/// use buridan_actor::client::check_env_spec;
+/// use buridan_env::ObsKind;
+/// use buridan_policy::{ModelSpec, Mode};
+/// use buridan_proto::env_convert::EnvSpec;
+/// use buridan_proto::v1;
+/// let model = ModelSpec::new(Mode::Ctde, 2, 11);
+/// let join = v1::JoinReply {
+///     envs: 8,
+///     plant: Some(v1::PlantSettings { name: "plant:dissertation".into(), agents: 2, t_max: 1000 }),
+///     ..Default::default()
+/// };
+/// let mut env = EnvSpec { num_envs: 8, agents: 2, kind: ObsKind::Local, obs_dim: 11, num_actions: 3, t_max: 1000, name: "plant:dissertation".into() };
+/// check_env_spec(&env, &model, &join).unwrap();
+/// env.obs_dim = 16;
+/// let err = check_env_spec(&env, &model, &join).unwrap_err();
+/// assert_eq!(err.to_string(), "the env server 'plant:dissertation' has obs_dim 16, the run 11");
+/// ```
+pub fn check_env_spec(
+    env: &EnvSpec,
+    model: &ModelSpec,
+    join: &v1::JoinReply,
+) -> Result<(), SetupError> {
+    let mismatch = |what, env_value: String, run: String| SetupError::EnvSpec {
+        name: env.name.clone(),
+        what,
+        env: env_value,
+        run,
+    };
+    let run_kind = model.mode.obs_kind();
+    if env.kind != run_kind {
+        return Err(mismatch(
+            "observation rows",
+            format!("{:?}", env.kind).to_lowercase(),
+            format!("{:?} ({} policy)", run_kind, model.mode).to_lowercase(),
+        ));
+    }
+    let run_t_max = match (&join.plant, &join.env) {
+        (Some(p), _) => Some(p.t_max),
+        (None, Some(e)) => Some(e.t_max),
+        (None, None) => None,
+    };
+    for (what, got, want) in [
+        ("obs_dim", env.obs_dim, Some(model.obs_dim)),
+        ("agents", env.agents, Some(model.agents)),
+        ("num_envs", env.num_envs, Some(join.envs as usize)),
+        ("t_max", env.t_max as usize, run_t_max.map(|t| t as usize)),
+    ] {
+        if let Some(want) = want {
+            if got != want {
+                return Err(mismatch(what, got.to_string(), want.to_string()));
+            }
+        }
+    }
+    if env.num_actions > model.actions {
+        return Err(mismatch(
+            "num_actions",
+            env.num_actions.to_string(),
+            format!("at most {} (the policy heads' width)", model.actions),
+        ));
+    }
+    if let Some(plant) = &join.plant {
+        if env.name != plant.name {
+            tracing::warn!(
+                env = %env.name,
+                run = %plant.name,
+                "the env server's name differs from the run's plant (shapes match, so training goes on)"
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Envs and policy as the learner described them in a join reply, with
+/// the envs stepped on the env server at `url` (a new session seeded from
+/// the join's seed and `attempt`, checked by [`check_env_spec`]). Blocks:
+/// call it off async contexts.
+pub fn build_remote_collector(
+    join: &v1::JoinReply,
+    url: &str,
+    options: &RemoteEnvOptions,
+    attempt: u64,
+) -> Result<Collector<ActorEnv>, SetupError> {
+    let spec = model_spec(join)?;
+    let options = RemoteEnvOptions {
+        mask_slots: Some(spec.actions),
+        ..options.clone()
+    };
+    let seed = buridan_env::seed::remote_env_session(join.seed, attempt);
+    let venv = RemoteEnv::connect(url, seed, &options)?;
+    check_env_spec(venv.spec(), &spec, join)?;
+    collector_over(join, spec, Box::new(venv))
+}
+
+fn model_spec(join: &v1::JoinReply) -> Result<ModelSpec, SetupError> {
     let spec: ModelSpec =
         serde_json::from_str(&join.model_spec_json).map_err(SetupError::SpecJson)?;
     spec.validate()?;
-    let map = map_from_message(join.map.clone().ok_or(SetupError::Missing("map"))?).parse()?;
-    let env = env_from_message(
-        join.env
-            .as_ref()
-            .ok_or(SetupError::Missing("env settings"))?,
-        join.seed,
-    )?;
-    let kind = spec.mode.obs_kind();
-    let venv = VecEnv::new(Arc::new(map), env, join.envs as usize, kind, 1)?;
+    Ok(spec)
+}
+
+/// The collector of a join reply over `venv`.
+fn collector_over(
+    join: &v1::JoinReply,
+    spec: ModelSpec,
+    venv: ActorEnv,
+) -> Result<Collector<ActorEnv>, SetupError> {
     if venv.obs_dim() != spec.obs_dim {
         return Err(SetupError::ObsDim {
             env: venv.obs_dim(),
             model: spec.obs_dim,
         });
     }
-    let rows = buridan_env::BatchedEnv::rows(&venv);
+    let rows = venv.rows();
     let policy = Policy::new(spec, join.seed)?;
     Ok(Collector {
         id: join.actor_id,
@@ -623,4 +889,27 @@ pub fn build_collector(join: &v1::JoinReply) -> Result<Collector, SetupError> {
         // Nothing loaded yet: the first weights always load.
         version: u64::MAX,
     })
+}
+
+/// Envs and policy as the learner described them in a join reply: the
+/// grid envs of its map (a plant run's envs are external: see
+/// [`build_remote_collector`]).
+pub fn build_collector(join: &v1::JoinReply) -> Result<Collector<ActorEnv>, SetupError> {
+    if let Some(plant) = &join.plant {
+        return Err(SetupError::NeedsEnv {
+            plant: plant.name.clone(),
+            agents: plant.agents,
+        });
+    }
+    let spec = model_spec(join)?;
+    let map = map_from_message(join.map.clone().ok_or(SetupError::Missing("map"))?).parse()?;
+    let env = env_from_message(
+        join.env
+            .as_ref()
+            .ok_or(SetupError::Missing("env settings"))?,
+        join.seed,
+    )?;
+    let kind = spec.mode.obs_kind();
+    let venv = VecEnv::new(Arc::new(map), env, join.envs as usize, kind, 1)?;
+    collector_over(join, spec, Box::new(venv))
 }

@@ -7,6 +7,12 @@
 use buridan_env::{BatchedEnv, EnvError, VecEnv};
 use buridan_policy::{ActMode, Fragment, Inference, PolicyError, Weights};
 
+/// The envs of a collector whose kind is chosen at run time: the grid
+/// [`VecEnv`], a plant batch, or a [`crate::remote_env::RemoteEnv`] on an
+/// external simulator. One virtual call per step; the buffers are the
+/// env's own, read in place.
+pub type ActorEnv = Box<dyn BatchedEnv + Send>;
+
 /// Why a collector could not produce a fragment.
 #[derive(Debug, thiserror::Error)]
 pub enum CollectError {

@@ -5,11 +5,15 @@
 //!   in-process by `learner train` and here.
 //! - [`client`]: the stateless gRPC actor behind the `actor` binary — join,
 //!   receive weights, submit fragments, reconnect with backoff.
+//! - [`remote_env`]: [`remote_env::RemoteEnv`], envs stepped on an external
+//!   simulator over the env API (`env.proto`), behind the same
+//!   [`buridan_env::BatchedEnv`] as the built-in envs (`actor --env URL`).
 //! - [`misbehave`]: a client that sends what a learner must refuse and
 //!   checks the answers (`learner bench soak`).
 
 pub mod client;
 pub mod collector;
 pub mod misbehave;
+pub mod remote_env;
 
-pub use collector::{CollectError, Collector};
+pub use collector::{ActorEnv, CollectError, Collector};

@@ -1,4 +1,4 @@
-//! `actor --connect URL [--envs N]`: a stateless actor process.
+//! `actor --connect URL [--envs N] [--env URL]`: a stateless actor process.
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -17,9 +17,15 @@ struct Args {
     /// The learner's URL, e.g. http://127.0.0.1:50051 (https://… for TLS).
     #[arg(long, env = "BURIDAN_LEARNER")]
     connect: String,
-    /// Envs to run (default: the run's `envs_per_actor`).
-    #[arg(long)]
+    /// Envs to run (default: the run's `envs_per_actor`; with --env, the
+    /// env server's).
+    #[arg(long, conflicts_with = "env")]
     envs: Option<u32>,
+    /// Step the envs of an external env server (env.proto, e.g.
+    /// `plant-server`) at this URL, e.g. http://127.0.0.1:50061, instead of
+    /// building them from the learner's run; required for plant runs.
+    #[arg(long, env = "BURIDAN_ENV")]
+    env: Option<String>,
     /// Shared token, if the learner was started with one.
     #[arg(long, env = "BURIDAN_TOKEN", hide_env_values = true)]
     token: Option<String>,
@@ -64,6 +70,7 @@ fn main() -> Result<()> {
         name,
         envs: args.envs,
         token: args.token.clone(),
+        env: args.env.clone(),
         give_up_after: args.give_up_after.map(Duration::from_secs_f64),
         backoff_max: Duration::from_secs_f64(args.backoff_max.max(0.1)),
         ..ActorOptions::default()
@@ -76,8 +83,13 @@ fn main() -> Result<()> {
         .build()?;
     let report = runtime.block_on(run(connector, opts))?;
     eprintln!(
-        "run finished: {} fragments accepted, {} refused, {} lost, {} env steps, {} session(s)",
-        report.accepted, report.refused, report.lost, report.env_steps, report.sessions
+        "run finished: {} fragments accepted, {} refused, {} lost, {} env steps, {} session(s), {} env server reconnect(s)",
+        report.accepted,
+        report.refused,
+        report.lost,
+        report.env_steps,
+        report.sessions,
+        report.env_reconnects
     );
     Ok(())
 }

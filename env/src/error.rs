@@ -113,6 +113,20 @@ pub enum EnvError {
     /// `step` was called on a finished episode without `reset`.
     #[error("the episode is over: call reset before stepping again")]
     EpisodeOver,
+    /// An env served by another process (a simulator behind the env API,
+    /// `env.proto`) failed: it could not be reached, it refused the call,
+    /// or its reply did not fit its spec.
+    #[error("remote env at {target}: {message}")]
+    Remote {
+        /// Where the env is served (its URL).
+        target: String,
+        /// Whether trying again on a new connection and session may help
+        /// (the simulator went away or restarted, the session was
+        /// dropped), as opposed to a refusal retrying cannot fix.
+        retryable: bool,
+        /// What happened, with the simulator's own words.
+        message: String,
+    },
 }
 
 /// The message of `e` and all its causes on one line, `a: b: c` — how the

@@ -47,6 +47,20 @@ pub fn session_env(base: u64, session: u64) -> u64 {
         .wrapping_add(session.wrapping_mul(STRIDE))
 }
 
+/// Seed of the `attempt`-th session (0 first) an actor with env seed
+/// `env_seed` opens on an external env server (`env.proto`'s Reset): the
+/// first is the env seed itself, and a session reopened after a simulator
+/// restart draws new episodes rather than replaying the lost ones.
+///
+/// ```
+/// use buridan_env::seed::remote_env_session;
+/// assert_eq!(remote_env_session(42, 0), 42);
+/// assert_ne!(remote_env_session(42, 1), remote_env_session(42, 2));
+/// ```
+pub fn remote_env_session(env_seed: u64, attempt: u64) -> u64 {
+    env_seed ^ attempt.wrapping_mul(GOLDEN).wrapping_mul(STRIDE)
+}
+
 /// Action-sampling seed of a remote actor whose env seed is `env_seed`.
 pub fn session_sampling(env_seed: u64) -> u64 {
     env_seed ^ 0xAC70

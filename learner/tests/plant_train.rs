@@ -89,26 +89,3 @@ fn too_many_agvs_for_the_plant_are_refused_before_training() {
     );
     assert!(text.contains("starts for 1 to 4 AGVs"), "{text}");
 }
-
-#[test]
-fn serving_a_plant_run_to_remote_actors_is_refused_before_anything_is_written() {
-    use buridan_learner::serve::{serve, Listener, ServeError, ServeOptions};
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("served");
-    let (_tx, rx) = tokio::sync::mpsc::channel::<tokio::io::DuplexStream>(1);
-    let err = serve(
-        &tiny(Mode::Ctde),
-        &out,
-        &ServeOptions::default(),
-        Listener::InMemory(rx),
-        None,
-        &mut NoProgress,
-    )
-    .unwrap_err();
-    assert!(
-        matches!(&err, ServeError::Plant(label) if label == "plant:dissertation"),
-        "{err:?}"
-    );
-    assert!(err.to_string().contains("learner train --plant"), "{err}");
-    assert!(!out.exists());
-}

@@ -82,6 +82,23 @@ pub const REWARD_IDLE_UNIT: f32 = -0.01;
 /// Reward for a collision, to the oncoming AGV.
 pub const REWARD_COLLISION: f32 = -1.0;
 
+/// What one AGV can be rewarded in one step: at worst a collision while
+/// both units stand idle (−1.02), at best a delivery (+1; an AGV hands over
+/// at most one product per step). The learner checks rewards that actors
+/// send from plant envs against it.
+///
+/// ```
+/// let r = buridan_plant::env::step_reward_range();
+/// assert!(r.contains(-1.02) && r.contains(1.0) && !r.contains(1.1));
+/// ```
+pub fn step_reward_range() -> buridan_env::RewardRange {
+    // A plant has exactly two units (products A and B).
+    buridan_env::RewardRange {
+        min: REWARD_COLLISION + 2.0 * REWARD_IDLE_UNIT,
+        max: REWARD_DELIVERY.max(REWARD_PICKUP).max(REWARD_PLACE),
+    }
+}
+
 /// Positions within this many metres count as equal.
 const EPS: f64 = 1e-9;
 

@@ -48,6 +48,45 @@ pub struct Kpis {
 }
 
 impl Kpis {
+    /// The KPIs as (name, value) pairs, as the env API (`env.proto`) sends
+    /// them with each finished episode: `seconds`, `deliveries`,
+    /// `throughput_per_hour`, `collisions`, `blocked_moves`,
+    /// `deadlock_events`, `deadlock_steps`, `utilisation_A`,
+    /// `utilisation_B` (one per unit, by product), `pickups`, `placements`,
+    /// `products_created`, and `mean_lead_time` if anything was delivered.
+    ///
+    /// ```
+    /// let k = buridan_plant::Kpis { deliveries: 3, unit_utilisation: vec![0.5, 0.25], ..Default::default() };
+    /// let named = k.named();
+    /// assert!(named.contains(&("deliveries".to_string(), 3.0)));
+    /// assert!(named.contains(&("utilisation_B".to_string(), 0.25)));
+    /// assert!(!named.iter().any(|(name, _)| name == "mean_lead_time"));
+    /// ```
+    pub fn named(&self) -> Vec<(String, f64)> {
+        let mut out: Vec<(String, f64)> = [
+            ("seconds", self.seconds),
+            ("deliveries", f64::from(self.deliveries)),
+            ("throughput_per_hour", self.throughput_per_hour),
+            ("collisions", f64::from(self.collisions)),
+            ("blocked_moves", f64::from(self.blocked_moves)),
+            ("deadlock_events", f64::from(self.deadlock_events)),
+            ("deadlock_steps", f64::from(self.deadlock_steps)),
+            ("pickups", f64::from(self.pickups)),
+            ("placements", f64::from(self.placements)),
+            ("products_created", f64::from(self.products_created)),
+        ]
+        .into_iter()
+        .map(|(name, value)| (name.to_string(), value))
+        .collect();
+        for (unit, &u) in ["A", "B"].iter().zip(&self.unit_utilisation) {
+            out.push((format!("utilisation_{unit}"), u));
+        }
+        if let Some(lead) = self.mean_lead_time {
+            out.push(("mean_lead_time".into(), lead));
+        }
+        out
+    }
+
     /// The env-wide [`EpisodeStats`] these KPIs map to: deliveries are the
     /// goals reached, blocked moves and deadlocks carry over; there is no
     /// success (episodes only end at `t_max`) and no livelock detector.

@@ -30,7 +30,7 @@ pub const UNDECODABLE_METADATA: &str = "buridan-undecodable";
 
 /// A message type of the API: its protobuf name and who sends it.
 pub trait WireMessage {
-    /// The message's name in `learner.proto`.
+    /// The message's name in `learner.proto` or `env.proto`.
     const NAME: &'static str;
     /// Whether clients send it (a request) rather than the server.
     const FROM_CLIENT: bool;
@@ -52,6 +52,12 @@ wire_messages! {
     Parameters: false,
     Fragment: true,
     SubmitReply: false,
+    SpecRequest: true,
+    EnvSpec: false,
+    ResetRequest: true,
+    ResetReply: false,
+    StepRequest: true,
+    StepReply: false,
 }
 
 /// The status of a request that does not decode: `INVALID_ARGUMENT`, its

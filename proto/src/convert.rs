@@ -58,6 +58,16 @@ pub enum ConvertError {
         /// Exclusive upper bound.
         limit: u64,
     },
+    /// A buffer holds a wrong number of values.
+    #[error("{field} holds {got} values, expected {expected}")]
+    Length {
+        /// The message field.
+        field: &'static str,
+        /// The number the shape asks for.
+        expected: usize,
+        /// The number found.
+        got: usize,
+    },
     /// Something else that makes the message unusable.
     #[error("{0}")]
     Invalid(String),
@@ -234,7 +244,7 @@ pub fn le_bytes_to_f32(field: &'static str, bytes: &[u8]) -> Result<Vec<f32>, Co
         .collect())
 }
 
-fn check_finite(field: &'static str, buf: &[f32]) -> Result<(), ConvertError> {
+pub(crate) fn check_finite(field: &'static str, buf: &[f32]) -> Result<(), ConvertError> {
     match buf.iter().position(|x| !x.is_finite()) {
         None => Ok(()),
         Some(index) => Err(ConvertError::NonFinite {
@@ -245,7 +255,7 @@ fn check_finite(field: &'static str, buf: &[f32]) -> Result<(), ConvertError> {
     }
 }
 
-fn check_below(field: &'static str, buf: &[u8], limit: u64) -> Result<(), ConvertError> {
+pub(crate) fn check_below(field: &'static str, buf: &[u8], limit: u64) -> Result<(), ConvertError> {
     match buf.iter().position(|&x| u64::from(x) >= limit) {
         None => Ok(()),
         Some(index) => Err(ConvertError::OutOfRange {

@@ -1,5 +1,7 @@
-//! The actor–learner gRPC API (`proto/buridan/v1/learner.proto`), generated
-//! at build time, and conversions between its messages and the crate types.
+//! The actor–learner gRPC API (`proto/buridan/v1/learner.proto`) and the
+//! environment API external simulators serve (`proto/buridan/v1/env.proto`),
+//! generated at build time, and conversions between their messages and the
+//! crate types ([`convert`], [`env_convert`]).
 //!
 //! ```
 //! use buridan_proto::v1;
@@ -9,8 +11,10 @@
 
 pub mod codec;
 pub mod convert;
+pub mod env_convert;
 
-/// Generated messages and the `Learner` client and server.
+/// Generated messages, the `Learner` client and server, and the
+/// `Environment` client and server.
 pub mod v1 {
     tonic::include_proto!("buridan.v1");
 }

@@ -26,10 +26,12 @@ pub struct RunInfo {
     pub config_toml: String,
     /// The model spec as JSON.
     pub model_spec_json: String,
-    /// The map's texts.
-    pub map: v1::MapSource,
-    /// The env rules.
-    pub env: v1::EnvSettings,
+    /// The map's texts (`None` for a plant run).
+    pub map: Option<v1::MapSource>,
+    /// The env rules (`None` for a plant run).
+    pub env: Option<v1::EnvSettings>,
+    /// A plant run's label, agents and T_max (actors step an external env).
+    pub plant: Option<v1::PlantSettings>,
     /// Default envs per actor.
     pub envs_per_actor: u32,
     /// Largest envs an actor may ask for.
@@ -382,8 +384,9 @@ mod tests {
             run_id: "test".into(),
             config_toml: String::new(),
             model_spec_json: String::new(),
-            map: v1::MapSource::default(),
-            env: v1::EnvSettings::default(),
+            map: Some(v1::MapSource::default()),
+            env: Some(v1::EnvSettings::default()),
+            plant: None,
             envs_per_actor: 1,
             max_envs: 1,
             fragment_len: 1,

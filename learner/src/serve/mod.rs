@@ -50,6 +50,7 @@ use std::time::Duration;
 use buridan_env::MapSource;
 use buridan_proto::codec::UNDECODABLE_METADATA;
 use buridan_proto::convert::{env_to_message, map_to_message};
+use buridan_proto::v1;
 use buridan_proto::v1::learner_server::LearnerServer;
 use rand::Rng;
 use tokio::io::DuplexStream;
@@ -113,9 +114,6 @@ pub enum ServeError {
     /// The run trains on several layouts, which remote actors cannot run yet.
     #[error("this run trains on several layouts ({0}); remote actors receive one map, so train it embedded with `learner train`")]
     SeveralLayouts(String),
-    /// The run trains on an AGV plant, which remote actors cannot run yet.
-    #[error("this run trains on an AGV plant ({0}); remote actors receive a grid map, so train it embedded with `learner train --plant`")]
-    Plant(String),
 }
 pub use service::LearnerService;
 
@@ -187,12 +185,11 @@ pub fn serve(
     ready: Option<std::sync::mpsc::Sender<Option<SocketAddr>>>,
     progress: &mut dyn Progress,
 ) -> Result<Summary, ServeError> {
-    // The join reply carries one map: refuse before preparing anything.
+    // The join reply carries one map: refuse before preparing anything. A
+    // plant run's join reply carries no map: its actors step an external
+    // env (`actor --env URL`, e.g. `plant-server`).
     if cfg.maps.as_ref().is_some_and(|m| m.len() > 1) {
         return Err(ServeError::SeveralLayouts(cfg.map_label()));
-    }
-    if cfg.plant.is_some() {
-        return Err(ServeError::Plant(cfg.map_label()));
     }
     opts.sessions.check()?;
     let mut run = Run::prepare(cfg, out)?;
@@ -273,9 +270,17 @@ pub fn serve(
 
 /// What the run's env can produce, for the fragment checks: its rules on
 /// its maps (any reachable goal distance is below a map's free cells; a
-/// mixture's largest map bounds them all).
+/// mixture's largest map bounds them all), or the plant's reward model.
 fn plausibility(run: &Run, info: &RunInfo) -> Plausibility {
     let cfg = run.config();
+    if run.plant().is_some() {
+        return Plausibility::plant(
+            buridan_plant::env::step_reward_range(),
+            cfg.agents as u32,
+            cfg.t_max,
+            info.rows_per_env,
+        );
+    }
     let max_goal_distance = run
         .layouts()
         .iter()
@@ -293,7 +298,21 @@ fn plausibility(run: &Run, info: &RunInfo) -> Plausibility {
 fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
     let cfg = run.config();
     let spec = run.spec();
-    let map = MapSource::read(&cfg.layouts()[0].name)?;
+    let (map, env, plant) = if run.plant().is_some() {
+        let plant = v1::PlantSettings {
+            name: cfg.map_label(),
+            agents: cfg.agents as u32,
+            t_max: cfg.t_max,
+        };
+        (None, None, Some(plant))
+    } else {
+        let map = MapSource::read(&cfg.layouts()[0].name)?;
+        (
+            Some(map_to_message(&map)),
+            Some(env_to_message(&env_config(cfg, 0))),
+            None,
+        )
+    };
     let name = run
         .map()
         .map_or_else(|| cfg.map_label(), |m| m.name.clone());
@@ -302,8 +321,9 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
         run_id,
         config_toml: cfg.to_toml(),
         model_spec_json: serde_json::to_string(spec).expect("a model spec serialises"),
-        map: map_to_message(&map),
-        env: env_to_message(&env_config(cfg, 0)),
+        map,
+        env,
+        plant,
         envs_per_actor: cfg.envs_per_actor as u32,
         max_envs: opts.max_envs.max(cfg.envs_per_actor as u32),
         fragment_len: cfg.fragment_len as u32,

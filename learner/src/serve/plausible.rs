@@ -190,6 +190,30 @@ impl Plausibility {
         }
     }
 
+    /// The bounds of an AGV plant run: `step` is one AGV's reward range
+    /// per step (`buridan_plant::env::step_reward_range`), episodes last at
+    /// most `t_max` steps and never succeed, and deliveries count as goals
+    /// reached, any number per episode (the lifelong rules' bounds).
+    ///
+    /// ```
+    /// use buridan_env::RewardRange;
+    /// use buridan_learner::serve::plausible::Plausibility;
+    /// let p = Plausibility::plant(RewardRange { min: -1.02, max: 1.0 }, 2, 1000, 1);
+    /// assert_eq!(p.row_reward, RewardRange { min: -2.04, max: 2.0 });
+    /// assert!(p.lifelong);
+    /// ```
+    pub fn plant(step: RewardRange, agents: u32, t_max: u32, rows_per_env: u32) -> Self {
+        let agents_per_row = if rows_per_env == 1 { agents } else { 1 };
+        Self {
+            row_reward: step.times(agents_per_row),
+            agent_reward: step,
+            agents,
+            t_max,
+            lifelong: true,
+            layouts: 1,
+        }
+    }
+
     /// Checks `f` (already through the wire and shape checks): the first
     /// implausible value, if any.
     pub fn check(&self, f: &Fragment) -> Result<(), Implausible> {
