@@ -148,7 +148,6 @@ impl ServeConfig {
 /// The sessions: id → (last use, batch).
 #[derive(Default)]
 struct Sessions {
-    next_id: u64,
     clock: u64,
     live: HashMap<u64, (u64, Arc<Mutex<PlantVecEnv>>)>,
 }
@@ -215,9 +214,16 @@ impl PlantEnvService {
                 );
             }
         }
-        s.next_id += 1;
+        // Random ids, not a counter: after a restart a stale client's id
+        // must get NOT_FOUND, not step a session another client just opened.
+        let id = loop {
+            let id = rand::random::<u64>();
+            if id != 0 && !s.live.contains_key(&id) {
+                break id;
+            }
+        };
         s.clock += 1;
-        let (id, now) = (s.next_id, s.clock);
+        let now = s.clock;
         s.live.insert(id, (now, venv.clone()));
         Ok((id, venv))
     }

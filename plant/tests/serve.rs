@@ -186,3 +186,38 @@ fn the_same_seed_gives_the_same_session_and_another_seed_another() {
         assert_ne!(first[0], first[2]);
     });
 }
+
+#[test]
+fn a_session_of_a_server_before_its_restart_is_not_found_after_it() {
+    let rt = runtime();
+    let server = start(2, 2, 50, ObsKind::Local, 4);
+    let old = rt.block_on(async {
+        let mut c = client(&server).await;
+        c.reset(v1::ResetRequest { seed: 1 })
+            .await
+            .unwrap()
+            .into_inner()
+            .session
+    });
+    drop(server);
+    // The restarted server's first sessions must not answer to the old id
+    // (a counter would hand out the same id again).
+    let server = start(2, 2, 50, ObsKind::Local, 4);
+    rt.block_on(async {
+        let mut c = client(&server).await;
+        let mut fresh = Vec::new();
+        for seed in 1..=3 {
+            let r = c.reset(v1::ResetRequest { seed }).await.unwrap();
+            fresh.push(r.into_inner().session);
+        }
+        assert!(!fresh.contains(&old), "{old} reissued: {fresh:?}");
+        let err = c
+            .step(v1::StepRequest {
+                session: old,
+                actions: vec![0; 4],
+            })
+            .await
+            .unwrap_err();
+        assert_eq!(err.code(), Code::NotFound, "{err:?}");
+    });
+}
