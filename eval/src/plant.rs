@@ -565,7 +565,7 @@ pub fn evaluate_plant(
     let n = spec.agents;
     let (mut actions, mut rewards) = (vec![0u8; n], vec![0f32; n]);
     let mut records = Vec::with_capacity(spec.episodes);
-    env.reset_to(0);
+    // A new env is at episode 0, the one the timeline records.
     let (mut timeline, mut track) = (Timeline::new(&env), TrackUsage::new(plant));
     for e in 0..spec.episodes as u64 {
         env.reset_to(e);
