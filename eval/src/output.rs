@@ -34,7 +34,8 @@ pub enum OutputError {
     Plot(#[from] plot::PlotError),
 }
 
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
+/// Maps an I/O error on `path` to [`OutputError::Io`].
+pub(crate) fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
     move |source| OutputError::Io {
         path: path.to_path_buf(),
         source,

@@ -33,7 +33,7 @@ use buridan_plant::{Kpis, Plant, PlantConfig, PlantEnv, PlantError};
 use buridan_policy::{checkpoint, ActMode, Inference, Mode, PolicyError};
 use serde::Serialize;
 
-use crate::output::OutputError;
+use crate::output::{io, OutputError};
 use crate::plant_figures::{write_timeline, write_track_usage, Timeline, TrackUsage};
 use crate::policy::{load_for_agents, observe_step, reset_recurrent_state, PolicyLoadError};
 
@@ -678,10 +678,6 @@ pub fn write_plant_report(
     dir: &Path,
     report: &PlantEvalReport,
 ) -> Result<Vec<PathBuf>, OutputError> {
-    let io = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| OutputError::Io { path, source }
-    };
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let csv_path = dir.join("episodes.csv");
     let csv_error = |source| OutputError::Csv {

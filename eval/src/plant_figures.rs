@@ -29,6 +29,7 @@ use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
 use serde::Serialize;
 
+use crate::output::{io, OutputError};
 use crate::plot::{colour_bar, register_fonts, PlotError};
 
 /// What an AGV did in one step, judged from its state after the step.
@@ -133,7 +134,7 @@ impl Timeline {
 
     /// Appends the step `env` just took.
     pub fn record(&mut self, env: &PlantEnv) {
-        let delivered = env.kpis().deliveries as usize;
+        let delivered = env.deliveries() as usize;
         if delivered > self.deliveries.len() {
             self.deliveries
                 .resize(delivered, env.time().saturating_sub(1));
@@ -226,14 +227,14 @@ impl TrackUsage {
 
 /// Writes `timeline.csv` (step, agent, activity) and `timeline.png` (one
 /// bar per AGV, coloured by activity, deliveries marked).
-pub fn write_timeline(dir: &Path, title: &str, t: &Timeline) -> Result<Vec<PathBuf>, PlotError> {
+pub fn write_timeline(dir: &Path, title: &str, t: &Timeline) -> Result<Vec<PathBuf>, OutputError> {
     let csv_path = dir.join("timeline.csv");
     let mut text = String::from("step,agent,activity\n");
     for (i, a) in t.activity.iter().enumerate() {
         let (step, agent) = (i / t.agents.max(1), i % t.agents.max(1));
         text += &format!("{},{agent},{}\n", step + 1, a.label());
     }
-    std::fs::write(&csv_path, text).map_err(|e| err(&csv_path, e))?;
+    std::fs::write(&csv_path, text).map_err(io(&csv_path))?;
     let png_path = dir.join("timeline.png");
     draw_timeline(&png_path, title, t)?;
     Ok(vec![csv_path, png_path])
@@ -310,7 +311,7 @@ pub fn write_track_usage(
     title: &str,
     plant: &Plant,
     usage: &TrackUsage,
-) -> Result<Vec<PathBuf>, PlotError> {
+) -> Result<Vec<PathBuf>, OutputError> {
     let (occupancy, blocking) = (usage.occupancy(), usage.blocking());
     let csv_path = dir.join("track_usage.csv");
     let mut text = String::from("segment,from,to,length_m,mean_agvs,mean_agvs_blocked\n");
@@ -325,7 +326,7 @@ pub fn write_track_usage(
             blocking[s]
         );
     }
-    std::fs::write(&csv_path, text).map_err(|e| err(&csv_path, e))?;
+    std::fs::write(&csv_path, text).map_err(io(&csv_path))?;
     let heat = dir.join("track_heatmap.png");
     draw_track(
         &heat,
@@ -498,5 +499,18 @@ mod tests {
         assert_eq!(timeline.lines().count(), 1 + 150 * 3);
         let usage = std::fs::read_to_string(dir.path().join("track_usage.csv")).unwrap();
         assert_eq!(usage.lines().count(), 1 + plant.segments.len());
+
+        // A CSV that cannot be written is an I/O error naming the file.
+        let missing = dir.path().join("no-such-dir");
+        match write_timeline(&missing, "t", t) {
+            Err(OutputError::Io { path, .. }) => assert_eq!(path, missing.join("timeline.csv")),
+            other => panic!("{other:?}"),
+        }
+        match write_track_usage(&missing, "t", &plant, track) {
+            Err(OutputError::Io { path, .. }) => {
+                assert_eq!(path, missing.join("track_usage.csv"))
+            }
+            other => panic!("{other:?}"),
+        }
     }
 }

@@ -468,6 +468,21 @@ impl PlantEnv {
         self.t >= self.plant.episode.t_max
     }
 
+    /// Products delivered so far this episode: [`Self::kpis`]`().deliveries`
+    /// without building the whole KPI record (per-step recorders call it).
+    ///
+    /// ```
+    /// use std::sync::Arc;
+    /// use buridan_plant::{Plant, PlantConfig, PlantEnv};
+    /// let plant = Arc::new(Plant::load("dissertation").unwrap());
+    /// let mut env = PlantEnv::new(plant, PlantConfig { agents: 1, ..Default::default() }).unwrap();
+    /// env.step(&[0], &mut [0.0]).unwrap();
+    /// assert_eq!(env.deliveries(), env.kpis().deliveries);
+    /// ```
+    pub fn deliveries(&self) -> u32 {
+        self.kpis.deliveries
+    }
+
     /// KPIs of the episode so far.
     ///
     /// ```
