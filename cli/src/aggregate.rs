@@ -21,7 +21,7 @@ use buridan_study::report::{Cell, Table};
 use buridan_study::stats::{Aggregate, Bootstrap, BoxStats};
 use serde::Serialize;
 
-use crate::experiment::{Evaluated, Experiment, PLAN_FILE};
+use crate::experiment::{Actions, Evaluated, Experiment, PLAN_FILE};
 
 /// One cell's record in `cells.json`.
 #[derive(Debug, Clone, Serialize)]
@@ -228,11 +228,9 @@ pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Ve
             .chain(&x.planners)
             .position(|m| *m == k.2)
             .unwrap_or(usize::MAX);
-        let actions = k.3.as_ref().map(|a| {
-            ["sampled", "greedy", "shielded", "rescued", "lookahead"]
-                .iter()
-                .position(|name| name == a)
-        });
+        let actions =
+            k.3.as_ref()
+                .map(|a| Actions::ALL.iter().position(|kind| kind.name() == *a));
         (l, k.4, t, m, actions)
     };
     keys.sort_by_key(order);

@@ -138,12 +138,12 @@ pub struct ControllerSpec {
 }
 
 impl ControllerSpec {
-    /// Parses `[LABEL=][sampled:]CONTROLLER`; `rescue=` and `lookahead=`
-    /// belong to the controller, not to a label.
+    /// Parses `[LABEL=][sampled:]CONTROLLER`; `rescue=`, `lookahead=` and
+    /// `backstop=` belong to the controller, not to a label.
     pub fn parse(text: &str) -> Result<Self> {
         let labelled = text
             .split_once('=')
-            .filter(|(label, _)| !matches!(*label, "rescue" | "lookahead"));
+            .filter(|(label, _)| !matches!(*label, "rescue" | "lookahead" | "backstop"));
         let (label, rest) = match labelled {
             Some((label, rest)) => {
                 // '#' only in a label given: `NAME#K` pools seeds.

@@ -72,7 +72,10 @@ pub struct EvalArgs {
     /// `lookahead:CONTROLLER` (and `lookahead=PLANNER:CONTROLLER`) adds
     /// foresight: a twin of the (deterministic) controller plays each
     /// episode ahead in a copy of the env, and if it would get stuck the
-    /// planner plans from the start.
+    /// planner plans from the start; `backstop:CONTROLLER` (and
+    /// `backstop=PLANNER:CONTROLLER`) uses the same twin as a backstop: the
+    /// planner plans from the start only if the twin would fail, and
+    /// otherwise the controller drives untouched.
     #[arg(long)]
     pub controller: String,
     /// `random` starts and goals, or `fixed` (the map's `.scen`).

@@ -27,6 +27,8 @@
 //!                                   # "rescued": shielded, a planner plans whenever an agent is stuck
 //!                                   # "lookahead": rescued, with foresight (a twin plays the episode ahead;
 //!                                   #   if it would get stuck, the planner plans from the start)
+//!                                   # "backstop": the same twin; the planner plans from the start only
+//!                                   #   if the twin would fail, else the policy drives untouched
 //! rescue_time = 1.0                 # seconds per rescue plan
 //! rescue_planner = "od-astar+lacam" # default: as `--controller rescue:…` (LaCAM, then OD-A*;
 //!                                   #   beyond 8 agents prioritized planning, then LaCAM)
@@ -193,10 +195,31 @@ pub enum Actions {
     /// a twin of the shielded policy plays each episode ahead in a copy of
     /// the env, and if it would get stuck the planner plans from the start.
     Lookahead,
+    /// The shielded policy with a planner as its backstop (`--controller
+    /// backstop:shield:checkpoint:DIR`): a twin plays each episode ahead,
+    /// and only if it would fail does the planner plan from the start;
+    /// otherwise the policy drives the whole episode.
+    Backstop,
 }
 
 impl Actions {
-    /// `sampled`, `greedy`, `shielded`, `rescued` or `lookahead`.
+    /// Every kind, in the order reports list them.
+    ///
+    /// ```
+    /// use buridan_cli::experiment::Actions;
+    /// let names: Vec<_> = Actions::ALL.iter().map(|a| a.name()).collect();
+    /// assert_eq!(names, ["sampled", "greedy", "shielded", "rescued", "lookahead", "backstop"]);
+    /// ```
+    pub const ALL: [Actions; 6] = [
+        Actions::Sampled,
+        Actions::Greedy,
+        Actions::Shielded,
+        Actions::Rescued,
+        Actions::Lookahead,
+        Actions::Backstop,
+    ];
+
+    /// `sampled`, `greedy`, `shielded`, `rescued`, `lookahead` or `backstop`.
     pub fn name(&self) -> &'static str {
         match self {
             Actions::Sampled => "sampled",
@@ -204,6 +227,7 @@ impl Actions {
             Actions::Shielded => "shielded",
             Actions::Rescued => "rescued",
             Actions::Lookahead => "lookahead",
+            Actions::Backstop => "backstop",
         }
     }
 }
@@ -470,10 +494,11 @@ impl Experiment {
             return Err(bad("[experiment.eval] episodes must be at least 1".into()));
         }
         if e.actions.is_empty() && !parsed.method.is_empty() {
-            return Err(bad(
-                "[experiment.eval] actions: name one or more of sampled, greedy, shielded, rescued, lookahead"
-                    .into(),
-            ));
+            let names: Vec<_> = Actions::ALL.iter().map(Actions::name).collect();
+            return Err(bad(format!(
+                "[experiment.eval] actions: name one or more of {}",
+                names.join(", ")
+            )));
         }
         if !(e.rescue_time > 0.0 && e.rescue_time.is_finite()) {
             return Err(bad(
@@ -720,6 +745,8 @@ impl Experiment {
                     (Actions::Rescued, Some(planner)) => format!("rescue={planner}:shield:"),
                     (Actions::Lookahead, None) => "lookahead:shield:".to_string(),
                     (Actions::Lookahead, Some(planner)) => format!("lookahead={planner}:shield:"),
+                    (Actions::Backstop, None) => "backstop:shield:".to_string(),
+                    (Actions::Backstop, Some(planner)) => format!("backstop={planner}:shield:"),
                     (Actions::Sampled | Actions::Greedy, _) => String::new(),
                 };
                 format!(
@@ -736,7 +763,7 @@ impl Experiment {
     pub fn time_limit(&self, cell: &EvalCell) -> f64 {
         match cell.evaluated {
             Evaluated::Policy {
-                actions: Actions::Rescued | Actions::Lookahead,
+                actions: Actions::Rescued | Actions::Lookahead | Actions::Backstop,
                 ..
             } => self.eval.rescue_time,
             _ => self.eval.time_limit,
@@ -770,7 +797,7 @@ impl Experiment {
         match &cell.evaluated {
             Evaluated::Policy { actions, .. } => match actions {
                 Actions::Sampled => args.push("--sample".into()),
-                Actions::Rescued | Actions::Lookahead => {
+                Actions::Rescued | Actions::Lookahead | Actions::Backstop => {
                     args.extend(["--time-limit".into(), self.time_limit(cell).to_string()])
                 }
                 Actions::Greedy | Actions::Shielded => {}
@@ -1019,14 +1046,14 @@ mod tests {
     }
 
     #[test]
-    fn rescued_and_lookahead_cells_use_the_named_rescue_planner() {
+    fn rescued_lookahead_and_backstop_cells_use_the_named_rescue_planner() {
         let dir = tempfile::tempdir().unwrap();
         write_config(dir.path());
         let study = |planner: &str| {
             Experiment::from_str(
                 &format!(
                     "[experiment]\nname = \"s\"\nlayouts = [\"rm-1.1\"]\nseeds = 1\n\
-                     [experiment.eval]\nactions = [\"rescued\", \"lookahead\"]\nrescue_planner = \"{planner}\"\n\
+                     [experiment.eval]\nactions = [\"rescued\", \"lookahead\", \"backstop\"]\nrescue_planner = \"{planner}\"\n\
                      [[method]]\nname = \"ppo\"\nconfig = \"tiny.toml\"\n"
                 ),
                 &dir.path().join("s.toml"),
@@ -1045,6 +1072,13 @@ mod tests {
             ahead.contains("--controller lookahead=od-astar+lacam:shield:checkpoint:out/runs/rm-1.1/ppo/seed-0")
                 && ahead.contains("--time-limit 1"),
             "{ahead}"
+        );
+        let backstop = x.eval_command(&x.evals[2], Path::new("out"));
+        assert!(
+            backstop.contains(
+                "--controller backstop=od-astar+lacam:shield:checkpoint:out/runs/rm-1.1/ppo/seed-0"
+            ) && backstop.contains("--time-limit 1"),
+            "{backstop}"
         );
         let err = study("od-astar+dijkstra").err().unwrap().to_string();
         assert!(

@@ -7,7 +7,8 @@
 //! shield, ranked by walls or by the env's order), or a rescue around any of
 //! these: `rescue:INNER`, `rescue=PLANNER:INNER`, `lookahead:INNER`,
 //! `lookahead=PLANNER:INNER` (a planner takes over when an agent is stuck,
-//! or before it jams).
+//! or before it jams), `backstop:INNER`, `backstop=PLANNER:INNER` (a
+//! planner drives only the episodes the controller would fail).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -100,24 +101,26 @@ pub enum ControllerNameError {
     Checkpoint(#[from] PolicyLoadError),
 }
 
-/// Splits `rescue:INNER`, `rescue=PLANNER:INNER`, `lookahead:INNER` and
-/// `lookahead=PLANNER:INNER` into (kind, planner, inner); the default
+/// Splits `rescue:INNER`, `lookahead:INNER`, `backstop:INNER` and their
+/// `KIND=PLANNER:INNER` forms into (kind, planner, inner); the default
 /// planner depends on the fleet size and the rules.
 fn rescue_parts(name: &str, agents: usize, rules: Rules) -> Option<(&'static str, &str, &str)> {
-    ["rescue", "lookahead"].into_iter().find_map(|kind| {
-        let rest = name.strip_prefix(kind)?;
-        if let Some(inner) = rest.strip_prefix(':') {
-            let planner = if rules == Rules::Pogema || agents > RESCUE_OD_ASTAR_MAX_AGENTS {
-                CROWD_RESCUE_PLANNER
-            } else {
-                DEFAULT_RESCUE_PLANNER
-            };
-            return Some((kind, planner, inner));
-        }
-        let named = rest.strip_prefix('=')?;
-        let (planner, inner) = named.split_once(':').unwrap_or((named, ""));
-        Some((kind, planner, inner))
-    })
+    ["rescue", "lookahead", "backstop"]
+        .into_iter()
+        .find_map(|kind| {
+            let rest = name.strip_prefix(kind)?;
+            if let Some(inner) = rest.strip_prefix(':') {
+                let planner = if rules == Rules::Pogema || agents > RESCUE_OD_ASTAR_MAX_AGENTS {
+                    CROWD_RESCUE_PLANNER
+                } else {
+                    DEFAULT_RESCUE_PLANNER
+                };
+                return Some((kind, planner, inner));
+            }
+            let named = rest.strip_prefix('=')?;
+            let (planner, inner) = named.split_once(':').unwrap_or((named, ""));
+            Some((kind, planner, inner))
+        })
 }
 
 /// Resolves a controller name to a factory for episodes with `agents`
@@ -145,6 +148,8 @@ fn rescue_parts(name: &str, agents: usize, rules: Rules) -> Option<(&'static str
 /// assert_eq!(by_lacam().name(), "random+rescue-lacam");
 /// let ahead = controller_factory("lookahead=od-astar:random", 4, 42, Default::default(), g, t).unwrap();
 /// assert_eq!(ahead().name(), "random+lookahead-od-astar");
+/// let backstop = controller_factory("backstop:random", 4, 42, Default::default(), g, t).unwrap();
+/// assert_eq!(backstop().name(), "random+backstop-lacam+od-astar");
 /// let err = controller_factory("rescue=dijkstra:random", 4, 42, Default::default(), g, t).err().unwrap();
 /// assert!(err.to_string().contains("unknown rescue planner 'dijkstra'"), "{err}");
 /// // Under pogema rules:
@@ -181,13 +186,12 @@ pub fn controller_factory(
             }
         };
         let inner = controller_factory(inner, agents, seed, limits, act_mode, rules)?;
-        let foresight = kind == "lookahead";
         return Ok(Box::new(move || {
             let rescue = RescueController::new(inner(), planner.clone(), limits);
-            Box::new(if foresight {
-                rescue.with_foresight(inner())
-            } else {
-                rescue
+            Box::new(match kind {
+                "lookahead" => rescue.with_foresight(inner()),
+                "backstop" => rescue.with_backstop(inner()),
+                _ => rescue,
             })
         }));
     }

@@ -25,6 +25,17 @@
 //! planner's); if the twin would finish, the inner controller drives. A
 //! failed start-plan leaves the ordinary rescue in place.
 //!
+//! **Backstop** ([`RescueController::with_backstop`], `--controller
+//! backstop:INNER`): the same twin, asked a weaker question — does the
+//! episode *fail* (time runs out), not does an agent stall on the way. If
+//! the twin finishes, however slowly, the inner controller drives the whole
+//! episode untouched (no stall rescue either: it would change an episode
+//! known to succeed); if it fails, the planner plans from the start, and
+//! the ordinary rescue stays behind a failed start-plan. The planner then
+//! drives only the episodes the learned controller cannot finish, so the
+//! `rescues` column counts exactly those: the net's share, not the stall
+//! detector's.
+//!
 //! The count of plans followed per episode is reported as `rescues` in the
 //! evaluation's CSV: how often the learned controller needed the net.
 //! While a plan is followed the inner controller does not act (a recurrent
@@ -59,8 +70,12 @@ use crate::controller::{Controller, GiveUp, PlanNotes};
 pub struct RescueController {
     inner: Box<dyn Controller>,
     /// A second instance of the inner controller that plays each episode
-    /// ahead in a copy of the env (foresight).
-    twin: Option<Box<dyn Controller>>,
+    /// ahead in a copy of the env, and what its run must show for the
+    /// planner to plan from the start.
+    twin: Option<(Box<dyn Controller>, Foresight)>,
+    /// This episode is the inner controller's alone (a backstop's twin
+    /// finished it).
+    hands_off: bool,
     planner: Arc<dyn Planner>,
     limits: Limits,
     /// The plan followed and its joint actions, step by step.
@@ -80,6 +95,7 @@ impl RescueController {
         Self {
             inner,
             twin: None,
+            hands_off: false,
             planner,
             limits,
             plan: None,
@@ -96,30 +112,66 @@ impl RescueController {
     /// Only a deterministic inner controller's twin foresees what will
     /// happen.
     pub fn with_foresight(mut self, twin: Box<dyn Controller>) -> Self {
-        self.twin = Some(twin);
+        self.twin = Some((twin, Foresight::Stall));
         self
     }
 
-    /// Whether the twin, playing the episode ahead from `env`'s state, gets
-    /// stuck (or cannot play it).
-    fn foresees_a_stall(twin: &mut dyn Controller, env: &GridEnv) -> bool {
+    /// As a backstop: `twin`, a second instance of the inner controller,
+    /// plays each episode ahead; the planner plans from the start only if
+    /// the twin fails to finish, and otherwise stays out of the episode
+    /// (see the [module docs](self)). Needs a deterministic inner
+    /// controller, as [`Self::with_foresight`].
+    ///
+    /// ```
+    /// use std::sync::Arc;
+    /// use buridan_eval::{evaluate, rescue::RescueController, EvalSpec, RandomController};
+    /// use buridan_mapf::{planner_by_name, Limits};
+    /// let map = Arc::new(buridan_env::Map::load("rm-2.1").unwrap());
+    /// let spec = EvalSpec { agents: 4, episodes: 5, ..EvalSpec::default() };
+    /// let make = || -> Box<dyn buridan_eval::Controller> {
+    ///     let od: Arc<dyn buridan_mapf::Planner> = planner_by_name("od-astar").unwrap().into();
+    ///     let random = |seed| Box::new(RandomController::new(seed));
+    ///     Box::new(RescueController::new(random(7), od, Limits::default()).with_backstop(random(7)))
+    /// };
+    /// let report = evaluate(&map, &spec, &make, &|_| {}).unwrap();
+    /// // The random twin never finishes: OD-A* plans every episode from its start.
+    /// assert_eq!(report.summary.success_rate, 1.0);
+    /// assert!(report.records.iter().all(|r| r.rescues == Some(1)));
+    /// ```
+    pub fn with_backstop(mut self, twin: Box<dyn Controller>) -> Self {
+        self.twin = Some((twin, Foresight::Failure));
+        self
+    }
+
+    /// Plays the episode ahead from `env`'s state with the twin, until it
+    /// ends or (`until_stall`) an agent gets stuck.
+    fn play_ahead(twin: &mut dyn Controller, env: &GridEnv, until_stall: bool) -> Preview {
         let mut ahead = env.clone();
+        let failed = Preview {
+            stalled: false,
+            finished: false,
+        };
         if twin.begin_episode(&ahead).is_err() {
-            return true;
+            return failed;
         }
         let n = ahead.agents();
         let (mut actions, mut rewards) = (vec![0u8; n], vec![0.0f32; n]);
+        let mut stalled = false;
         loop {
             twin.act(&ahead, &mut actions);
             let Ok(out) = ahead.step(&actions, &mut rewards) else {
-                return true;
+                return Preview { stalled, ..failed };
             };
             twin.after_step(&rewards);
-            if ahead.monitor().stuck() > 0 || out.truncated {
-                return true;
+            stalled |= ahead.monitor().stuck() > 0;
+            if (stalled && until_stall) || out.truncated {
+                return Preview { stalled, ..failed };
             }
             if out.terminated {
-                return false;
+                return Preview {
+                    stalled,
+                    finished: true,
+                };
             }
         }
     }
@@ -170,12 +222,31 @@ impl RescueController {
     }
 }
 
+/// What a twin's run ahead must show for the planner to plan from the
+/// episode's start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Foresight {
+    /// An agent gets stuck on the way (`lookahead:`).
+    Stall,
+    /// The episode fails (`backstop:`).
+    Failure,
+}
+
+/// What the twin's run ahead showed.
+#[derive(Debug, Clone, Copy)]
+struct Preview {
+    /// An agent got stuck (the run may stop there).
+    stalled: bool,
+    /// Every agent reached its goal in time.
+    finished: bool,
+}
+
 impl Controller for RescueController {
     fn name(&self) -> String {
-        let kind = if self.twin.is_some() {
-            "lookahead"
-        } else {
-            "rescue"
+        let kind = match self.twin {
+            Some((_, Foresight::Stall)) => "lookahead",
+            Some((_, Foresight::Failure)) => "backstop",
+            None => "rescue",
         };
         format!("{}+{kind}-{}", self.inner.name(), self.planner.name())
     }
@@ -186,16 +257,28 @@ impl Controller for RescueController {
         self.retry_at = 0;
         self.failures = 0;
         self.rescues = 0;
+        self.hands_off = false;
         self.inner.begin_episode(env)?;
-        if let Some(twin) = self.twin.as_mut() {
-            if Self::foresees_a_stall(twin.as_mut(), env) {
+        if let Some((twin, foresight)) = self.twin.as_mut() {
+            let foresight = *foresight;
+            let preview = Self::play_ahead(twin.as_mut(), env, foresight == Foresight::Stall);
+            let plan = match foresight {
+                Foresight::Stall => preview.stalled || !preview.finished,
+                Foresight::Failure => !preview.finished,
+            };
+            if plan {
                 self.plan_from(env);
+            } else {
+                self.hands_off = foresight == Foresight::Failure;
             }
         }
         Ok(())
     }
 
     fn act(&mut self, env: &GridEnv, actions: &mut [u8]) {
+        if self.hands_off {
+            return self.inner.act(env, actions);
+        }
         if self.follow(env, actions) {
             return;
         }

@@ -92,3 +92,55 @@ fn foresight_plans_jammed_episodes_from_the_start_and_leaves_solved_ones_alone()
     }
     assert!(untouched >= 5, "{untouched}");
 }
+
+#[test]
+fn backstop_plans_only_the_episodes_the_policy_would_fail() {
+    // The same committed greedy PPO policy. As a backstop, the twin's run
+    // ahead decides only whether the episode fails: the jammed episodes are
+    // planned from the start (optimal makespan); every episode the policy
+    // finishes alone, stalls on the way or not, is played exactly as
+    // without the net, and the planner is never called.
+    let dir = common::committed_ppo_checkpoint();
+    let mut env = common::committed_ppo_env();
+    let policy = || Box::new(PolicyController::load(&dir, 4, ActMode::Greedy, 42).unwrap());
+    let od: Arc<dyn buridan_mapf::Planner> = planner_by_name("od-astar").unwrap().into();
+    let mut backstop =
+        RescueController::new(policy(), od.clone(), Limits::default()).with_backstop(policy());
+    assert_eq!(backstop.name(), "ctde-policy+backstop-od-astar");
+    let mut lookahead =
+        RescueController::new(policy(), od.clone(), Limits::default()).with_foresight(policy());
+    let mut raw = policy();
+    for episode in common::JAMMED_EPISODES {
+        let plain = run_episode(&mut env, raw.as_mut(), episode).unwrap();
+        let r = run_episode(&mut env, &mut backstop, episode).unwrap();
+        assert!(!plain.success, "episode {episode}: {plain:?}");
+        assert!(
+            r.success && r.rescues == Some(1),
+            "episode {episode}: {r:?}"
+        );
+    }
+    let (mut solved_alone, mut stalled_but_solved) = (0, 0);
+    for episode in 0..30 {
+        let plain = run_episode(&mut env, raw.as_mut(), episode).unwrap();
+        let r = run_episode(&mut env, &mut backstop, episode).unwrap();
+        let ahead = run_episode(&mut env, &mut lookahead, episode).unwrap();
+        assert!(r.success, "episode {episode}: {r:?}");
+        if plain.success {
+            assert_eq!(
+                (r.timesteps, r.rescues),
+                (plain.timesteps, Some(0)),
+                "episode {episode}: {r:?}"
+            );
+            solved_alone += 1;
+            // Where the lookahead plans because an agent stalls on the way,
+            // the backstop leaves the finished episode to the policy.
+            if ahead.rescues == Some(1) {
+                stalled_but_solved += 1;
+            }
+        } else {
+            assert_eq!(r.rescues, Some(1), "episode {episode}: {r:?}");
+        }
+    }
+    assert!(solved_alone >= 10, "{solved_alone}");
+    assert!(stalled_but_solved >= 1, "{stalled_but_solved}");
+}

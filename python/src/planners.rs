@@ -346,7 +346,8 @@ fn json_loads(py: Python<'_>, text: &str) -> PyResult<Py<PyAny>> {
 /// …), `"random"`, `"checkpoint:DIR"` (a trained policy),
 /// `"shield:checkpoint:DIR"` / `"shield-env:checkpoint:DIR"` (through the
 /// PIBT collision shield) or `"rescue:CONTROLLER"` /
-/// `"rescue=PLANNER:CONTROLLER"` / `"lookahead:CONTROLLER"`. The GIL is
+/// `"rescue=PLANNER:CONTROLLER"` / `"lookahead:CONTROLLER"` /
+/// `"backstop:CONTROLLER"`. The GIL is
 /// released while episodes run.
 #[pyfunction]
 #[pyo3(signature = (map, controller, *, agents=4, episodes=100, seed=42, starts="random", t_max=None, rules="thesis", time_limit=60.0, memory_limit_mib=2048, jobs=1, sample=false))]
