@@ -2,10 +2,16 @@
 //! (training runs, then their evaluations; planners on the same episodes),
 //! `parallel` at a time, skipping what is finished; then writes the report
 //! ([`crate::aggregate`]). `learner study report DIR` re-aggregates.
+//!
+//! Ctrl-C or SIGTERM stops a study gracefully: the training cells under way
+//! checkpoint their current update (as `learner train` does), no new job
+//! starts, evaluations under way finish, the report covers what is done,
+//! and the same command later resumes the interrupted cells from their
+//! checkpoints. A second signal exits at once.
 
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -13,11 +19,13 @@ use anyhow::{bail, Context, Result};
 use buridan_env::Map;
 use buridan_eval::output::write_report;
 use buridan_eval::{evaluate, EvalSpec};
-use buridan_learner::train::{train, MetricsRow, Progress, TrainConfig, SUMMARY_FILE};
+use buridan_learner::train::{MetricsRow, Progress, TrainConfig, TrainError, SUMMARY_FILE};
 use buridan_policy::ActMode;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::experiment::{Actions, Evaluated, Experiment, PLAN_FILE};
+use crate::signals::watch_signals;
+use crate::train::train_interruptible;
 
 /// Arguments of `learner study`.
 #[derive(Debug, clap::Args)]
@@ -134,17 +142,27 @@ fn needs_training(run_dir: &Path, evals_pending: bool) -> bool {
         || (evals_pending && buridan_policy::checkpoint::resolve(run_dir).is_err())
 }
 
+/// How a training cell ended in this invocation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Trained {
+    /// Trained to its budget (now or before).
+    Done,
+    /// Stopped by a signal, with a checkpoint to resume from.
+    Interrupted,
+}
+
 fn run_train(
     x: &Experiment,
     out: &Path,
     index: usize,
     evals_pending: bool,
     bars: &Bars,
-) -> Result<()> {
+    stop: &Arc<AtomicBool>,
+) -> Result<Trained> {
     let cell = &x.train[index];
     let run_dir = out.join(&cell.run_dir);
     if !needs_training(&run_dir, evals_pending) {
-        return Ok(());
+        return Ok(Trained::Done);
     }
     let args = cell.train_args(out);
     let cfg = crate::train::resolve_config(&args)?;
@@ -159,9 +177,19 @@ fn run_train(
         cell.command(out)
     ));
     let bar = bars.bar(cfg.steps, what.clone());
-    let result = train(&cfg, &run_dir, &mut BarProgress(&bar));
+    let result = train_interruptible(&cfg, &run_dir, &mut BarProgress(&bar), stop.clone());
     bars.done(&bar);
-    let summary = result.with_context(|| format!("training {what} in {}", run_dir.display()))?;
+    let summary = match result {
+        Ok(summary) => summary,
+        Err(e) if matches!(*e, TrainError::Interrupted(_)) => {
+            bars.say(format!("stopped {what}: {e}"));
+            return Ok(Trained::Interrupted);
+        }
+        Err(e) => {
+            return Err(anyhow::Error::new(*e))
+                .with_context(|| format!("training {what} in {}", run_dir.display()))
+        }
+    };
     let title = format!("{} on {}, seed {}", cell.method, cell.layout, cell.seed);
     crate::train::write_curves(&run_dir, &title)?;
     bars.say(format!(
@@ -170,7 +198,7 @@ fn run_train(
         summary.wall_seconds,
         100.0 * summary.success_rate
     ));
-    Ok(())
+    Ok(Trained::Done)
 }
 
 fn run_eval(x: &Experiment, out: &Path, index: usize, bars: &Bars) -> Result<()> {
@@ -231,10 +259,18 @@ fn run_eval(x: &Experiment, out: &Path, index: usize, bars: &Bars) -> Result<()>
     Ok(())
 }
 
-fn run_job(x: &Experiment, out: &Path, job: &Job, bars: &Bars) -> Result<()> {
+fn run_job(
+    x: &Experiment,
+    out: &Path,
+    job: &Job,
+    bars: &Bars,
+    stop: &Arc<AtomicBool>,
+) -> Result<()> {
     match job {
         Job::Train { train, evals } => {
-            run_train(x, out, *train, !evals.is_empty(), bars)?;
+            if run_train(x, out, *train, !evals.is_empty(), bars, stop)? == Trained::Interrupted {
+                return Ok(());
+            }
             for &e in evals {
                 run_eval(x, out, e, bars)?;
             }
@@ -325,15 +361,20 @@ pub fn run(args: &StudyArgs) -> Result<StudyOutcome> {
     );
     total.set_prefix(x.name.clone());
     crate::heartbeat::watch(&total);
+    let stop = Arc::new(AtomicBool::new(false));
+    watch_signals(stop.clone());
     let queue = Mutex::new(todo.iter().collect::<VecDeque<_>>());
     let failures = Mutex::new(Vec::new());
     std::thread::scope(|s| {
         for _ in 0..x.parallel.min(todo.len()).max(1) {
             s.spawn(|| loop {
+                if stop.load(Ordering::SeqCst) {
+                    return;
+                }
                 let Some(job) = queue.lock().expect("queue lock").pop_front() else {
                     return;
                 };
-                if let Err(e) = run_job(&x, out, job, &bars) {
+                if let Err(e) = run_job(&x, out, job, &bars, &stop) {
                     let line = format!("{e:#}");
                     bars.say(format!("FAILED: {line}"));
                     failures.lock().expect("failure lock").push(line);
@@ -353,6 +394,19 @@ pub fn run(args: &StudyArgs) -> Result<StudyOutcome> {
         failures.len(),
         out.display()
     ));
+    if stop.load(Ordering::SeqCst) {
+        let left = jobs(&x, out).len();
+        bail!(
+            "stopped by a signal with {left} of {} jobs left{}; rerun the same command to \
+             continue (interrupted training runs resume from their checkpoints)",
+            todo.len(),
+            if failures.is_empty() {
+                String::new()
+            } else {
+                format!(" and {} failed ({})", failures.len(), failures.join("; "))
+            }
+        );
+    }
     if !failures.is_empty() {
         bail!(
             "{} of {} jobs failed (the others are saved; rerun to retry): {}",
