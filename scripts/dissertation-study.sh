@@ -6,7 +6,8 @@
 #      and IMPALA again with 10M env steps per run (comparison-impala-10m);
 #      the cells the shipped configs now reach with the LSTM warm-started by
 #      imitation (comparison-lstm-imitation: PPO on rm-3.1 and rm-2.1b;
-#      comparison-impala-lstm-imitation-gentle: IMPALA on rm-2.1b, 2.2, 3.1);
+#      comparison-impala-lstm-imitation-gentle: IMPALA on rm-2.1b, 2.2, 3.1;
+#      comparison-ppo-lstm-imitation-gentle: PPO on rm-2.1b);
 #   3. scalability on rm-2.1 and rm-3.1 (the comparison's policies with 4..20
 #      agents: their run directories are copied, so only evaluations run);
 #   4. generalization (trained on rm-3.1 + rm-2.2, evaluated on all four).
@@ -79,6 +80,7 @@ study $S/comparison.toml comparison
 study $S/comparison-impala-10m.toml comparison-impala-10m
 study $S/comparison-lstm-imitation.toml comparison-lstm-imitation
 study $S/comparison-impala-lstm-imitation-gentle.toml comparison-impala-lstm-imitation-gentle
+study $S/comparison-ppo-lstm-imitation-gentle.toml comparison-ppo-lstm-imitation-gentle
 reuse rm-2.1 scalability-rm-2.1
 study $S/scalability-rm-2.1.toml scalability-rm-2.1
 reuse rm-3.1 scalability-rm-3.1
