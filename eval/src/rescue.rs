@@ -143,35 +143,28 @@ impl RescueController {
         self
     }
 
-    /// Plays the episode ahead from `env`'s state with the twin, until it
-    /// ends or (`until_stall`) an agent gets stuck.
-    fn play_ahead(twin: &mut dyn Controller, env: &GridEnv, until_stall: bool) -> Preview {
+    /// Whether the twin, playing the episode ahead from `env`'s state,
+    /// brings every agent to its goal in time — without a stall on the way
+    /// if `foresight` asks for one (a twin that cannot play does not).
+    fn twin_finishes(twin: &mut dyn Controller, env: &GridEnv, foresight: Foresight) -> bool {
         let mut ahead = env.clone();
-        let failed = Preview {
-            stalled: false,
-            finished: false,
-        };
         if twin.begin_episode(&ahead).is_err() {
-            return failed;
+            return false;
         }
         let n = ahead.agents();
         let (mut actions, mut rewards) = (vec![0u8; n], vec![0.0f32; n]);
-        let mut stalled = false;
         loop {
             twin.act(&ahead, &mut actions);
             let Ok(out) = ahead.step(&actions, &mut rewards) else {
-                return Preview { stalled, ..failed };
+                return false;
             };
             twin.after_step(&rewards);
-            stalled |= ahead.monitor().stuck() > 0;
-            if (stalled && until_stall) || out.truncated {
-                return Preview { stalled, ..failed };
+            let stalled = foresight == Foresight::Stall && ahead.monitor().stuck() > 0;
+            if stalled || out.truncated {
+                return false;
             }
             if out.terminated {
-                return Preview {
-                    stalled,
-                    finished: true,
-                };
+                return true;
             }
         }
     }
@@ -232,15 +225,6 @@ enum Foresight {
     Failure,
 }
 
-/// What the twin's run ahead showed.
-#[derive(Debug, Clone, Copy)]
-struct Preview {
-    /// An agent got stuck (the run may stop there).
-    stalled: bool,
-    /// Every agent reached its goal in time.
-    finished: bool,
-}
-
 impl Controller for RescueController {
     fn name(&self) -> String {
         let kind = match self.twin {
@@ -261,15 +245,10 @@ impl Controller for RescueController {
         self.inner.begin_episode(env)?;
         if let Some((twin, foresight)) = self.twin.as_mut() {
             let foresight = *foresight;
-            let preview = Self::play_ahead(twin.as_mut(), env, foresight == Foresight::Stall);
-            let plan = match foresight {
-                Foresight::Stall => preview.stalled || !preview.finished,
-                Foresight::Failure => !preview.finished,
-            };
-            if plan {
-                self.plan_from(env);
-            } else {
+            if Self::twin_finishes(twin.as_mut(), env, foresight) {
                 self.hands_off = foresight == Foresight::Failure;
+            } else {
+                self.plan_from(env);
             }
         }
         Ok(())

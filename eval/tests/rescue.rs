@@ -5,19 +5,16 @@ mod common;
 
 use std::sync::Arc;
 
-use buridan_eval::policy::PolicyController;
 use buridan_eval::rescue::RescueController;
 use buridan_eval::{run_episode, Controller};
 use buridan_mapf::{planner_by_name, Limits};
-use buridan_policy::ActMode;
 
 #[test]
 fn lacam_frees_the_jammed_greedy_ppo_policy_and_stays_out_of_solved_episodes() {
     // The committed PPO checkpoint (rm-2.1, 4 agents): its greedy actions
     // end these seed-42 episodes in a jam (tests/shield.rs) ...
-    let dir = common::committed_ppo_checkpoint();
     let mut env = common::committed_ppo_env();
-    let policy = || Box::new(PolicyController::load(&dir, 4, ActMode::Greedy, 42).unwrap());
+    let policy = common::committed_greedy_policy;
     let lacam: Arc<dyn buridan_mapf::Planner> = planner_by_name("lacam").unwrap().into();
     let mut rescued = RescueController::new(policy(), lacam, Limits::default());
     let mut raw = policy();
@@ -48,9 +45,8 @@ fn foresight_plans_jammed_episodes_from_the_start_and_leaves_solved_ones_alone()
     // gets stuck, OD-A* plans from the start: the episode takes the optimal
     // makespan (no steps lost walking into the jam and waiting for the
     // stall detector), and never more steps than the late rescue needs.
-    let dir = common::committed_ppo_checkpoint();
     let mut env = common::committed_ppo_env();
-    let policy = || Box::new(PolicyController::load(&dir, 4, ActMode::Greedy, 42).unwrap());
+    let policy = common::committed_greedy_policy;
     let od: Arc<dyn buridan_mapf::Planner> = planner_by_name("od-astar").unwrap().into();
     let mut late = RescueController::new(policy(), od.clone(), Limits::default());
     let mut ahead =
@@ -100,9 +96,8 @@ fn backstop_plans_only_the_episodes_the_policy_would_fail() {
     // planned from the start (optimal makespan); every episode the policy
     // finishes alone, stalls on the way or not, is played exactly as
     // without the net, and the planner is never called.
-    let dir = common::committed_ppo_checkpoint();
     let mut env = common::committed_ppo_env();
-    let policy = || Box::new(PolicyController::load(&dir, 4, ActMode::Greedy, 42).unwrap());
+    let policy = common::committed_greedy_policy;
     let od: Arc<dyn buridan_mapf::Planner> = planner_by_name("od-astar").unwrap().into();
     let mut backstop =
         RescueController::new(policy(), od.clone(), Limits::default()).with_backstop(policy());

@@ -9,7 +9,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use buridan_env::{central_obs_dim, local_obs_dim, EnvConfig, Map};
-use buridan_eval::policy::PolicyController;
 use buridan_eval::shield::{Ranking, ShieldController};
 use buridan_eval::{evaluate, run_episode, Controller, EpisodeRecord, EvalSpec};
 use buridan_policy::{ActMode, Mode, ModelSpec, Policy};
@@ -118,11 +117,11 @@ fn the_shield_unjams_the_trained_ppo_policy() {
     // waiting on each other until T_max); shielded greedy solves them.
     let dir = common::committed_ppo_checkpoint();
     let mut env = common::committed_ppo_env();
-    let mut raw = PolicyController::load(&dir, 4, ActMode::Greedy, 42).unwrap();
+    let mut raw = common::committed_greedy_policy();
     let mut shielded =
         ShieldController::load(&dir, 4, ActMode::Greedy, 42, Ranking::Walls).unwrap();
     for episode in common::JAMMED_EPISODES {
-        let r = run_episode(&mut env, &mut raw, episode).unwrap();
+        let r = run_episode(&mut env, raw.as_mut(), episode).unwrap();
         assert!(
             !r.success && r.jammed_at_end > 0,
             "raw, episode {episode}: {r:?}"

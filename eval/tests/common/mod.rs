@@ -5,10 +5,17 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use buridan_env::{EnvConfig, GridEnv, Map};
+use buridan_eval::policy::PolicyController;
+use buridan_policy::ActMode;
 
 /// The committed PPO-CTDE checkpoint (rm-2.1, 4 agents; README "Learning").
 pub fn committed_ppo_checkpoint() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../docs/results/ppo-ctde-rm-2.1/checkpoint")
+}
+
+/// The committed policy with greedy actions, for 4 agents, seed 42.
+pub fn committed_greedy_policy() -> Box<PolicyController> {
+    Box::new(PolicyController::load(&committed_ppo_checkpoint(), 4, ActMode::Greedy, 42).unwrap())
 }
 
 /// Seed-42 episodes in which the committed policy's greedy actions end in
