@@ -11,6 +11,7 @@ use buridan_eval::benchmark::{
     check_published_methods, markdown, pool_seeds, published_rows, read_measured, read_published,
     write_table, LowerBounds, Row, DEFAULT_PUBLISHED,
 };
+use buridan_eval::by_name::RESCUE_KINDS;
 use buridan_eval::instances::load_instance_set;
 use buridan_eval::output::write_report;
 use buridan_eval::runner::soc_lower_bound;
@@ -138,12 +139,12 @@ pub struct ControllerSpec {
 }
 
 impl ControllerSpec {
-    /// Parses `[LABEL=][sampled:]CONTROLLER`; `rescue=`, `lookahead=` and
-    /// `backstop=` belong to the controller, not to a label.
+    /// Parses `[LABEL=][sampled:]CONTROLLER`; `rescue=`, `lookahead=`,
+    /// `backstop=` and `pace=` belong to the controller, not to a label.
     pub fn parse(text: &str) -> Result<Self> {
         let labelled = text
             .split_once('=')
-            .filter(|(label, _)| !matches!(*label, "rescue" | "lookahead" | "backstop"));
+            .filter(|(label, _)| !RESCUE_KINDS.contains(label));
         let (label, rest) = match labelled {
             Some((label, rest)) => {
                 // '#' only in a label given: `NAME#K` pools seeds.

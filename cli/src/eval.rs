@@ -75,7 +75,10 @@ pub struct EvalArgs {
     /// planner plans from the start; `backstop:CONTROLLER` (and
     /// `backstop=PLANNER:CONTROLLER`) uses the same twin as a backstop: the
     /// planner plans from the start only if the twin would fail, and
-    /// otherwise the controller drives untouched.
+    /// otherwise the controller drives untouched; `pace:CONTROLLER` (and
+    /// `pace=PLANNER:CONTROLLER`): the backstop, and the planner's plan
+    /// from the start also drives the episodes the twin would finish more
+    /// than 10 % after it.
     #[arg(long)]
     pub controller: String,
     /// `random` starts and goals, or `fixed` (the map's `.scen`).

@@ -8,7 +8,9 @@
 //! these: `rescue:INNER`, `rescue=PLANNER:INNER`, `lookahead:INNER`,
 //! `lookahead=PLANNER:INNER` (a planner takes over when an agent is stuck,
 //! or before it jams), `backstop:INNER`, `backstop=PLANNER:INNER` (a
-//! planner drives only the episodes the controller would fail).
+//! planner drives only the episodes the controller would fail), `pace:INNER`,
+//! `pace=PLANNER:INNER` (and those it would finish more than 10 % after the
+//! planner's plan).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -101,26 +103,28 @@ pub enum ControllerNameError {
     Checkpoint(#[from] PolicyLoadError),
 }
 
-/// Splits `rescue:INNER`, `lookahead:INNER`, `backstop:INNER` and their
-/// `KIND=PLANNER:INNER` forms into (kind, planner, inner); the default
-/// planner depends on the fleet size and the rules.
+/// The kinds of planner nets around a controller, as names begin:
+/// `KIND:INNER` or `KIND=PLANNER:INNER` ([`crate::rescue`]).
+pub const RESCUE_KINDS: [&str; 4] = ["rescue", "lookahead", "backstop", "pace"];
+
+/// Splits `KIND:INNER` and `KIND=PLANNER:INNER` ([`RESCUE_KINDS`]) into
+/// (kind, planner, inner); the default planner depends on the fleet size
+/// and the rules.
 fn rescue_parts(name: &str, agents: usize, rules: Rules) -> Option<(&'static str, &str, &str)> {
-    ["rescue", "lookahead", "backstop"]
-        .into_iter()
-        .find_map(|kind| {
-            let rest = name.strip_prefix(kind)?;
-            if let Some(inner) = rest.strip_prefix(':') {
-                let planner = if rules == Rules::Pogema || agents > RESCUE_OD_ASTAR_MAX_AGENTS {
-                    CROWD_RESCUE_PLANNER
-                } else {
-                    DEFAULT_RESCUE_PLANNER
-                };
-                return Some((kind, planner, inner));
-            }
-            let named = rest.strip_prefix('=')?;
-            let (planner, inner) = named.split_once(':').unwrap_or((named, ""));
-            Some((kind, planner, inner))
-        })
+    RESCUE_KINDS.into_iter().find_map(|kind| {
+        let rest = name.strip_prefix(kind)?;
+        if let Some(inner) = rest.strip_prefix(':') {
+            let planner = if rules == Rules::Pogema || agents > RESCUE_OD_ASTAR_MAX_AGENTS {
+                CROWD_RESCUE_PLANNER
+            } else {
+                DEFAULT_RESCUE_PLANNER
+            };
+            return Some((kind, planner, inner));
+        }
+        let named = rest.strip_prefix('=')?;
+        let (planner, inner) = named.split_once(':').unwrap_or((named, ""));
+        Some((kind, planner, inner))
+    })
 }
 
 /// Resolves a controller name to a factory for episodes with `agents`
@@ -150,6 +154,8 @@ fn rescue_parts(name: &str, agents: usize, rules: Rules) -> Option<(&'static str
 /// assert_eq!(ahead().name(), "random+lookahead-od-astar");
 /// let backstop = controller_factory("backstop:random", 4, 42, Default::default(), g, t).unwrap();
 /// assert_eq!(backstop().name(), "random+backstop-lacam+od-astar");
+/// let pace = controller_factory("pace=od-astar+lacam:random", 4, 42, Default::default(), g, t).unwrap();
+/// assert_eq!(pace().name(), "random+pace-od-astar+lacam");
 /// let err = controller_factory("rescue=dijkstra:random", 4, 42, Default::default(), g, t).err().unwrap();
 /// assert!(err.to_string().contains("unknown rescue planner 'dijkstra'"), "{err}");
 /// // Under pogema rules:
@@ -191,6 +197,7 @@ pub fn controller_factory(
             Box::new(match kind {
                 "lookahead" => rescue.with_foresight(inner()),
                 "backstop" => rescue.with_backstop(inner()),
+                "pace" => rescue.with_pace(inner()),
                 _ => rescue,
             })
         }));

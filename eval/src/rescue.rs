@@ -36,6 +36,16 @@
 //! `rescues` column counts exactly those: the net's share, not the stall
 //! detector's.
 //!
+//! **Pace** ([`RescueController::with_pace`], `--controller pace:INNER`):
+//! the backstop, and a bound on slowness. The planner also plans every
+//! episode from its start; if the twin fails, or finishes more than
+//! [`PACE_SLACK`] later than the plan's makespan, the plan drives the
+//! episode; otherwise the inner controller drives it untouched and the plan
+//! is dropped. A deterministic learned controller then never takes more
+//! than 10 % longer than the planner on an episode the planner solves (with
+//! the makespan-optimal OD-A* first in the portfolio, than any planner),
+//! and `rescues` counts the episodes it handed over.
+//!
 //! The count of plans followed per episode is reported as `rescues` in the
 //! evaluation's CSV: how often the learned controller needed the net.
 //! While a plan is followed the inner controller does not act (a recurrent
@@ -48,6 +58,11 @@ use buridan_mapf::replay::plan_actions;
 use buridan_mapf::{Limits, Plan, Planner};
 
 use crate::controller::{Controller, GiveUp, PlanNotes};
+
+/// How much longer than the planner's plan from the start a `pace:` twin's
+/// run may take and still drive the episode: 10 % (the recipe's target
+/// against CBS's timesteps, issue 10).
+pub const PACE_SLACK: f64 = 0.10;
 
 /// An inner controller rescued from stalls by a planner (see the
 /// [module docs](self)).
@@ -143,28 +158,55 @@ impl RescueController {
         self
     }
 
-    /// Whether the twin, playing the episode ahead from `env`'s state,
-    /// brings every agent to its goal in time — without a stall on the way
-    /// if `foresight` asks for one (a twin that cannot play does not).
-    fn twin_finishes(twin: &mut dyn Controller, env: &GridEnv, foresight: Foresight) -> bool {
+    /// With a pace: the backstop, and the planner also drives the episodes
+    /// the twin would finish more than [`PACE_SLACK`] later than the
+    /// planner's plan from the start (see the [module docs](self)). Every
+    /// episode costs one planner call.
+    ///
+    /// ```
+    /// use std::sync::Arc;
+    /// use buridan_eval::{evaluate, rescue::RescueController, EvalSpec, RandomController};
+    /// use buridan_mapf::{planner_by_name, Limits};
+    /// let map = Arc::new(buridan_env::Map::load("rm-2.1").unwrap());
+    /// let spec = EvalSpec { agents: 4, episodes: 5, ..EvalSpec::default() };
+    /// let make = || -> Box<dyn buridan_eval::Controller> {
+    ///     let od: Arc<dyn buridan_mapf::Planner> = planner_by_name("od-astar").unwrap().into();
+    ///     let random = |seed| Box::new(RandomController::new(seed));
+    ///     Box::new(RescueController::new(random(7), od, Limits::default()).with_pace(random(7)))
+    /// };
+    /// let report = evaluate(&map, &spec, &make, &|_| {}).unwrap();
+    /// // The random twin never finishes: OD-A*'s plan drives every episode.
+    /// assert_eq!(report.summary.success_rate, 1.0);
+    /// assert!(report.records.iter().all(|r| r.rescues == Some(1)));
+    /// ```
+    pub fn with_pace(mut self, twin: Box<dyn Controller>) -> Self {
+        self.twin = Some((twin, Foresight::Pace));
+        self
+    }
+
+    /// The steps the twin, playing the episode ahead from `env`'s state,
+    /// takes to bring every agent to its goal in time — `None` if it does
+    /// not, or stalls on the way where `foresight` asks for no stall (a twin
+    /// that cannot play does not finish).
+    fn twin_finish_time(
+        twin: &mut dyn Controller,
+        env: &GridEnv,
+        foresight: Foresight,
+    ) -> Option<u32> {
         let mut ahead = env.clone();
-        if twin.begin_episode(&ahead).is_err() {
-            return false;
-        }
+        twin.begin_episode(&ahead).ok()?;
         let n = ahead.agents();
         let (mut actions, mut rewards) = (vec![0u8; n], vec![0.0f32; n]);
         loop {
             twin.act(&ahead, &mut actions);
-            let Ok(out) = ahead.step(&actions, &mut rewards) else {
-                return false;
-            };
+            let out = ahead.step(&actions, &mut rewards).ok()?;
             twin.after_step(&rewards);
             let stalled = foresight == Foresight::Stall && ahead.monitor().stuck() > 0;
             if stalled || out.truncated {
-                return false;
+                return None;
             }
             if out.terminated {
-                return true;
+                return Some(ahead.t() - env.t());
             }
         }
     }
@@ -223,6 +265,9 @@ enum Foresight {
     Stall,
     /// The episode fails (`backstop:`).
     Failure,
+    /// The episode fails, or takes more than [`PACE_SLACK`] longer than
+    /// the planner's plan (`pace:`).
+    Pace,
 }
 
 impl Controller for RescueController {
@@ -230,6 +275,7 @@ impl Controller for RescueController {
         let kind = match self.twin {
             Some((_, Foresight::Stall)) => "lookahead",
             Some((_, Foresight::Failure)) => "backstop",
+            Some((_, Foresight::Pace)) => "pace",
             None => "rescue",
         };
         format!("{}+{kind}-{}", self.inner.name(), self.planner.name())
@@ -243,12 +289,27 @@ impl Controller for RescueController {
         self.rescues = 0;
         self.hands_off = false;
         self.inner.begin_episode(env)?;
-        if let Some((twin, foresight)) = self.twin.as_mut() {
-            let foresight = *foresight;
-            if Self::twin_finishes(twin.as_mut(), env, foresight) {
-                self.hands_off = foresight == Foresight::Failure;
-            } else {
+        let Some((twin, foresight)) = self.twin.as_mut() else {
+            return Ok(());
+        };
+        let foresight = *foresight;
+        let finish = Self::twin_finish_time(twin.as_mut(), env, foresight);
+        match (foresight, finish) {
+            (_, None) => {
                 self.plan_from(env);
+            }
+            (Foresight::Stall, Some(_)) => {}
+            (Foresight::Failure, Some(_)) => self.hands_off = true,
+            (Foresight::Pace, Some(steps)) => {
+                let planned = self.plan_from(env);
+                let plan_steps = self.plan.as_ref().map_or(0, |(plan, _)| plan.makespan());
+                if !planned || f64::from(steps) <= (1.0 + PACE_SLACK) * plan_steps as f64 {
+                    // The twin keeps pace with the plan (or nothing plans
+                    // faster): the episode is the inner controller's.
+                    self.plan = None;
+                    self.rescues = 0;
+                    self.hands_off = true;
+                }
             }
         }
         Ok(())

@@ -139,3 +139,49 @@ fn backstop_plans_only_the_episodes_the_policy_would_fail() {
     assert!(solved_alone >= 10, "{solved_alone}");
     assert!(stalled_but_solved >= 1, "{stalled_but_solved}");
 }
+
+#[test]
+fn pace_hands_over_the_episodes_the_policy_would_fail_or_finish_slowly() {
+    // The same committed greedy PPO policy with a pace: OD-A* (makespan-
+    // optimal) plans every episode from the start. Episodes the policy
+    // fails, or finishes more than 10 % after the plan, are driven by the
+    // plan (its optimal makespan); the others are played exactly as without
+    // the net, and the plan is dropped.
+    let mut env = common::committed_ppo_env();
+    let policy = common::committed_greedy_policy;
+    let od: Arc<dyn buridan_mapf::Planner> = planner_by_name("od-astar").unwrap().into();
+    let mut pace =
+        RescueController::new(policy(), od.clone(), Limits::default()).with_pace(policy());
+    assert_eq!(pace.name(), "ctde-policy+pace-od-astar");
+    let mut optimal = buridan_eval::planner::PlannerController::new(od, Limits::default());
+    let mut raw = policy();
+    let (mut kept, mut handed_over_slow) = (0, 0);
+    for episode in 0..30 {
+        let plain = run_episode(&mut env, raw.as_mut(), episode).unwrap();
+        let best = run_episode(&mut env, &mut optimal, episode).unwrap();
+        let r = run_episode(&mut env, &mut pace, episode).unwrap();
+        assert!(best.success, "episode {episode}: {best:?}");
+        assert!(r.success, "episode {episode}: {r:?}");
+        let keeps_pace =
+            plain.success && f64::from(plain.timesteps) <= 1.1 * f64::from(best.timesteps);
+        if keeps_pace {
+            assert_eq!(
+                (r.timesteps, r.rescues),
+                (plain.timesteps, Some(0)),
+                "episode {episode}: {r:?}"
+            );
+            kept += 1;
+        } else {
+            assert_eq!(
+                (r.timesteps, r.rescues),
+                (best.timesteps, Some(1)),
+                "episode {episode}: {r:?}"
+            );
+            if plain.success {
+                handed_over_slow += 1;
+            }
+        }
+    }
+    assert!(kept >= 10, "{kept}");
+    assert!(handed_over_slow >= 1, "{handed_over_slow}");
+}

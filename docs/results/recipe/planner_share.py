@@ -18,7 +18,7 @@ import statistics
 import sys
 from pathlib import Path
 
-HYBRIDS = ("rescued", "lookahead", "backstop")
+HYBRIDS = ("rescued", "lookahead", "backstop", "pace")
 
 
 def planner_makespans(path):
