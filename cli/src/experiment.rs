@@ -29,6 +29,8 @@
 //!                                   #   if it would get stuck, the planner plans from the start)
 //!                                   # "backstop": the same twin; the planner plans from the start only
 //!                                   #   if the twin would fail, else the policy drives untouched
+//!                                   # "pace": the backstop; the plan also drives the episodes the twin
+//!                                   #   would finish more than 10 % after the plan
 //! rescue_time = 1.0                 # seconds per rescue plan
 //! rescue_planner = "od-astar+lacam" # default: as `--controller rescue:…` (LaCAM, then OD-A*;
 //!                                   #   beyond 8 agents prioritized planning, then LaCAM)
@@ -200,6 +202,10 @@ pub enum Actions {
     /// and only if it would fail does the planner plan from the start;
     /// otherwise the policy drives the whole episode.
     Backstop,
+    /// The backstop with a pace (`--controller pace:shield:checkpoint:DIR`):
+    /// the planner plans every episode from the start, and its plan drives
+    /// the episodes the twin would fail or finish more than 10 % later.
+    Pace,
 }
 
 impl Actions {
@@ -208,18 +214,19 @@ impl Actions {
     /// ```
     /// use buridan_cli::experiment::Actions;
     /// let names: Vec<_> = Actions::ALL.iter().map(|a| a.name()).collect();
-    /// assert_eq!(names, ["sampled", "greedy", "shielded", "rescued", "lookahead", "backstop"]);
+    /// assert_eq!(names, ["sampled", "greedy", "shielded", "rescued", "lookahead", "backstop", "pace"]);
     /// ```
-    pub const ALL: [Actions; 6] = [
+    pub const ALL: [Actions; 7] = [
         Actions::Sampled,
         Actions::Greedy,
         Actions::Shielded,
         Actions::Rescued,
         Actions::Lookahead,
         Actions::Backstop,
+        Actions::Pace,
     ];
 
-    /// `sampled`, `greedy`, `shielded`, `rescued`, `lookahead` or `backstop`.
+    /// `sampled`, `greedy`, `shielded`, `rescued`, `lookahead`, `backstop` or `pace`.
     pub fn name(&self) -> &'static str {
         match self {
             Actions::Sampled => "sampled",
@@ -228,6 +235,7 @@ impl Actions {
             Actions::Rescued => "rescued",
             Actions::Lookahead => "lookahead",
             Actions::Backstop => "backstop",
+            Actions::Pace => "pace",
         }
     }
 }
@@ -747,6 +755,8 @@ impl Experiment {
                     (Actions::Lookahead, Some(planner)) => format!("lookahead={planner}:shield:"),
                     (Actions::Backstop, None) => "backstop:shield:".to_string(),
                     (Actions::Backstop, Some(planner)) => format!("backstop={planner}:shield:"),
+                    (Actions::Pace, None) => "pace:shield:".to_string(),
+                    (Actions::Pace, Some(planner)) => format!("pace={planner}:shield:"),
                     (Actions::Sampled | Actions::Greedy, _) => String::new(),
                 };
                 format!(
@@ -763,7 +773,7 @@ impl Experiment {
     pub fn time_limit(&self, cell: &EvalCell) -> f64 {
         match cell.evaluated {
             Evaluated::Policy {
-                actions: Actions::Rescued | Actions::Lookahead | Actions::Backstop,
+                actions: Actions::Rescued | Actions::Lookahead | Actions::Backstop | Actions::Pace,
                 ..
             } => self.eval.rescue_time,
             _ => self.eval.time_limit,
@@ -797,7 +807,7 @@ impl Experiment {
         match &cell.evaluated {
             Evaluated::Policy { actions, .. } => match actions {
                 Actions::Sampled => args.push("--sample".into()),
-                Actions::Rescued | Actions::Lookahead | Actions::Backstop => {
+                Actions::Rescued | Actions::Lookahead | Actions::Backstop | Actions::Pace => {
                     args.extend(["--time-limit".into(), self.time_limit(cell).to_string()])
                 }
                 Actions::Greedy | Actions::Shielded => {}
@@ -834,6 +844,7 @@ impl TrainCell {
             resume: Some(PathBuf::from("auto")),
             metrics: None,
             overrides: self.set.clone(),
+            no_imitation: false,
             out: out.join(&self.run_dir),
             quiet: true,
             stop_when_stdin_closes: false,
@@ -992,7 +1003,20 @@ mod tests {
         let cfg = x.train[0].config_in(Path::new("out")).unwrap();
         let recipe = TrainConfig::recipe();
         assert_eq!((cfg.algo, cfg.features), (recipe.algo, recipe.features));
-        assert_eq!(cfg.shaping, recipe.shaping);
+        assert_eq!((cfg.shaping, cfg.lstm), (recipe.shaping, true));
+        assert_eq!(cfg.imitation, recipe.imitation);
+        // The shipped study that measured the recipe trains exactly it (its
+        // method names a config and settings, so its kept runs stay valid).
+        let shipped = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../learner/studies/recipe-lstm-imitation.toml");
+        let shipped = Experiment::from_file(&shipped).unwrap();
+        let cell = shipped
+            .train
+            .iter()
+            .find(|c| c.layout == "rm-2.1" && c.seed == 0)
+            .unwrap();
+        assert!(cell.config.is_some());
+        assert_eq!(cell.config_in(Path::new("out")).unwrap(), cfg);
     }
 
     #[test]

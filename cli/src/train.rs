@@ -28,7 +28,7 @@ pub struct TrainArgs {
     /// (`dissertation`, `hall`) or a plant file (TOML); replaces a
     /// config's `map`/`maps`. T_max is the plant file's unless the config
     /// or `--set t_max=N` gives one. Without --config the recipe's grid
-    /// features and shaping are left out.
+    /// features, shaping and imitation are left out.
     #[arg(long, value_name = "ID|FILE", conflicts_with = "maps")]
     pub plant: Option<String>,
     /// Several layouts with weights, `NAME:WEIGHT,…` (weight 1 if left
@@ -52,7 +52,7 @@ pub struct TrainArgs {
     /// `--set t_max=N` overrides).
     #[arg(long)]
     pub rules: Option<Rules>,
-    /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it. Without one: the default recipe (IMPALA with the path and pressure features and shaping, 1M steps; README, "The recipe's ablation")
+    /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it. Without one: the default recipe (PPO-CTDE with the 64-cell LSTM, warm-started by imitating LaCAM and OD-A*, the path feature and shaping, 1M steps; README, "The recipe on the four layouts")
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Env-step budget.
@@ -72,6 +72,10 @@ pub struct TrainArgs {
     /// Override any configuration key, e.g. `--set ppo.lr=5e-4 --set hidden=[256,256]`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub overrides: Vec<String>,
+    /// Skip the imitation phase the recipe or the config asks for: learn
+    /// from rewards alone from the first step.
+    #[arg(long)]
+    pub no_imitation: bool,
     /// Output directory: metrics.csv, checkpoints/, summary.json, curves.
     #[arg(long)]
     pub out: PathBuf,
@@ -199,6 +203,9 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
         }
         cfg = table.try_into().context("invalid --set override")?;
     }
+    if args.no_imitation {
+        cfg.imitation = None;
+    }
     if cfg.plant.is_some() && args.config.is_none() {
         // The recipe's features and shaping are grid ones (a plant run
         // refuses them): left out unless set explicitly.
@@ -207,6 +214,10 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
         }
         if !set_keys.iter().any(|k| k == "shaping") {
             cfg.shaping = 0.0;
+        }
+        // Its imitation asks grid planners for labels.
+        if !set_keys.iter().any(|k| k.starts_with("imitation")) {
+            cfg.imitation = None;
         }
     }
     if !t_max_given {

@@ -2,7 +2,7 @@
 
 mod common;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use buridan_cli::eval::{self, EvalArgs};
 use buridan_cli::train;
@@ -180,6 +180,34 @@ fn config_layers_defaults_file_flags_and_overrides() {
     args.overrides.clear();
     assert!(format!("{:#}", train::resolve_config(&args).unwrap_err()).contains("run.toml"));
     std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn without_a_config_the_recipe_imitates_first_unless_told_not_to() {
+    let mut args = common::train_args(temp_dir("recipe"));
+    args.overrides.clear();
+    args.no_imitation = false;
+    let cfg = train::resolve_config(&args).unwrap();
+    let recipe = buridan_learner::train::TrainConfig::recipe();
+    assert!(cfg.lstm && cfg.imitation.is_some());
+    assert_eq!(cfg.imitation, recipe.imitation);
+    args.no_imitation = true;
+    let cfg = train::resolve_config(&args).unwrap();
+    assert!(cfg.lstm && cfg.imitation.is_none());
+    // It also skips a config's imitation.
+    let config =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../learner/configs/impala-ctde-rm-2.2.toml");
+    args.config = Some(config);
+    assert!(train::resolve_config(&args).unwrap().imitation.is_none());
+    args.no_imitation = false;
+    assert_eq!(
+        train::resolve_config(&args)
+            .unwrap()
+            .imitation
+            .unwrap()
+            .rounds,
+        4
+    );
 }
 
 #[test]

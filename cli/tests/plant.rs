@@ -56,6 +56,7 @@ fn plant_train_args(out: PathBuf) -> TrainArgs {
             "envs_per_actor=2".into(),
             "t_max=200".into(),
             "checkpoint_every=1".into(),
+            "lstm=false".into(),
         ],
         steps: Some(1200),
         starts: None,
@@ -74,6 +75,12 @@ fn train_on_the_plant_then_evaluate_its_checkpoint() {
     assert!(
         cfg.features.is_none(),
         "the recipe's grid features are left out"
+    );
+    let mut recipe = args.clone();
+    recipe.no_imitation = false;
+    assert!(
+        train::resolve_config(&recipe).unwrap().imitation.is_none(),
+        "the recipe's imitation (of grid planners) is left out"
     );
     // Without `t_max`: the plant file's T_max, whatever --rules says.
     let mut plain = args.clone();
@@ -217,6 +224,7 @@ fn bad_plant_input_is_an_error_that_names_the_problem() {
     assert!(text.contains("loading plant 'atlantis'"), "{text}");
     assert!(text.contains("unknown plant 'atlantis'"), "{text}");
     let mut train_args = plant_train_args(dir.path().join("t"));
+    train_args.no_imitation = false;
     train_args.overrides.push("imitation.rounds=1".into());
     let text = format!("{:#}", train::resolve_config(&train_args).unwrap_err());
     assert!(

@@ -46,7 +46,8 @@ epochs = 2
 }
 
 /// `learner train` arguments of a PPO run on rm-1.1 with 2 agents, 3000
-/// steps: small enough for a test.
+/// steps: small enough for a test (the recipe's feed-forward sibling: no
+/// LSTM, no imitation).
 pub fn train_args(out: PathBuf) -> TrainArgs {
     TrainArgs {
         map: Some("rm-1.1".into()),
@@ -67,7 +68,9 @@ pub fn train_args(out: PathBuf) -> TrainArgs {
             "ppo.minibatch=500".into(),
             "ppo.epochs=2".into(),
             "envs_per_actor=4".into(),
+            "lstm=false".into(),
         ],
+        no_imitation: true,
         out,
         quiet: true,
         stop_when_stdin_closes: false,
