@@ -36,10 +36,15 @@ def main(argv):
         sys.exit(__doc__)
     study, planner_csv = Path(args[0]), args[1]
     ref = planner_makespans(planner_csv)
-    # evals/LAYOUT/METHOD/seed-S/ACTIONS/agents-N/episodes.csv
+    # evals/LAYOUT/METHOD/seed-S/ACTIONS/agents-N/episodes.csv, or with an
+    # evaluation layout of its own (a study with `[experiment.eval] layouts`):
+    # evals/TRAINED_ON/METHOD/seed-S/LAYOUT/ACTIONS/agents-N/episodes.csv
     cells = {}
-    for path in sorted(study.glob("evals/*/*/seed-*/*/agents-*/episodes.csv")):
-        layout, method, _seed, actions, agents = path.parts[-6:-1]
+    paths = [(p, p.parts[-6:-1]) for p in study.glob("evals/*/*/seed-*/*/agents-*/episodes.csv")]
+    for p in study.glob("evals/*/*/seed-*/*/*/agents-*/episodes.csv"):
+        method, seed, layout, actions, agents = p.parts[-6:-1]
+        paths.append((p, (layout, method, seed, actions, agents)))
+    for path, (layout, method, _seed, actions, agents) in sorted(paths):
         if actions not in HYBRIDS:
             continue
         with open(path, newline="") as f:
