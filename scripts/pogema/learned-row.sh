@@ -12,7 +12,10 @@
 #   TRAIN_SEEDS     training seeds, default "0 1 2 3 4 5 6 7 8 9"
 #   INSTANCE_SEEDS  the benchmark's instance seeds, default 0..127
 # Environment: LEARNER (default: learner on PATH), SHARED (default
-#   ../shared/pogema), STEPS (default 1000000), AGENTS (default 16).
+#   ../shared/pogema), STEPS (default 1000000), AGENTS (default 16),
+#   CONFIG (a training config; default: none, i.e. the default recipe —
+#   the README's table was measured with the first recipe,
+#   learner/configs/recipe-impala-feedforward.toml).
 set -eu
 out=${1:?usage: learned-row.sh OUT [TRAIN_SEEDS] [INSTANCE_SEEDS]}
 train_seeds=${2:-0 1 2 3 4 5 6 7 8 9}
@@ -21,6 +24,7 @@ learner=${LEARNER:-learner}
 shared=${SHARED:-../shared/pogema}
 steps=${STEPS:-1000000}
 agents=${AGENTS:-16}
+config=${CONFIG:-}
 mkdir -p "$out/policies"
 for s in $train_seeds; do
   dir="$out/policies/seed-$s"
@@ -29,8 +33,8 @@ for s in $train_seeds; do
     continue
   fi
   start=$(date +%s)
-  "$learner" train --rules pogema --maps rm-3.1:1,rm-2.2:1 --agents "$agents" \
-    --steps "$steps" --seed "$s" --out "$dir" --quiet
+  "$learner" train ${config:+--config "$config"} --rules pogema --maps rm-3.1:1,rm-2.2:1 \
+    --agents "$agents" --steps "$steps" --seed "$s" --out "$dir" --quiet
   echo "seed $s: trained in $(( $(date +%s) - start )) s" | tee -a "$out/train-walls.txt"
 done
 set -- --controller pibt
