@@ -7,7 +7,12 @@ use std::sync::Arc;
 
 use buridan_eval::rescue::RescueController;
 use buridan_eval::{run_episode, Controller};
-use buridan_mapf::{planner_by_name, Limits};
+use buridan_mapf::{planner_by_name, Limits, Planner};
+
+/// A planner by name, shareable between a rescue net and a reference.
+fn planner(name: &str) -> Arc<dyn Planner> {
+    planner_by_name(name).unwrap().into()
+}
 
 #[test]
 fn lacam_frees_the_jammed_greedy_ppo_policy_and_stays_out_of_solved_episodes() {
@@ -15,7 +20,7 @@ fn lacam_frees_the_jammed_greedy_ppo_policy_and_stays_out_of_solved_episodes() {
     // end these seed-42 episodes in a jam (tests/shield.rs) ...
     let mut env = common::committed_ppo_env();
     let policy = common::committed_greedy_policy;
-    let lacam: Arc<dyn buridan_mapf::Planner> = planner_by_name("lacam").unwrap().into();
+    let lacam = planner("lacam");
     let mut rescued = RescueController::new(policy(), lacam, Limits::default());
     let mut raw = policy();
     for episode in common::JAMMED_EPISODES {
@@ -47,7 +52,7 @@ fn foresight_plans_jammed_episodes_from_the_start_and_leaves_solved_ones_alone()
     // stall detector), and never more steps than the late rescue needs.
     let mut env = common::committed_ppo_env();
     let policy = common::committed_greedy_policy;
-    let od: Arc<dyn buridan_mapf::Planner> = planner_by_name("od-astar").unwrap().into();
+    let od = planner("od-astar");
     let mut late = RescueController::new(policy(), od.clone(), Limits::default());
     let mut ahead =
         RescueController::new(policy(), od.clone(), Limits::default()).with_foresight(policy());
@@ -98,7 +103,7 @@ fn backstop_plans_only_the_episodes_the_policy_would_fail() {
     // without the net, and the planner is never called.
     let mut env = common::committed_ppo_env();
     let policy = common::committed_greedy_policy;
-    let od: Arc<dyn buridan_mapf::Planner> = planner_by_name("od-astar").unwrap().into();
+    let od = planner("od-astar");
     let mut backstop =
         RescueController::new(policy(), od.clone(), Limits::default()).with_backstop(policy());
     assert_eq!(backstop.name(), "ctde-policy+backstop-od-astar");
@@ -149,7 +154,7 @@ fn pace_hands_over_the_episodes_the_policy_would_fail_or_finish_slowly() {
     // the net, and the plan is dropped.
     let mut env = common::committed_ppo_env();
     let policy = common::committed_greedy_policy;
-    let od: Arc<dyn buridan_mapf::Planner> = planner_by_name("od-astar").unwrap().into();
+    let od = planner("od-astar");
     let mut pace =
         RescueController::new(policy(), od.clone(), Limits::default()).with_pace(policy());
     assert_eq!(pace.name(), "ctde-policy+pace-od-astar");

@@ -3,7 +3,7 @@
 
 Reads a `learner study` directory after `learner study report` (its
 `table.csv`: mean success and 95 % CI per layout, method and actions) and
-its evaluations' `episodes.csv` (through planner_share.py: the share of
+its evaluations' `episodes.csv` (planner_share.share_rows: the share of
 the backstop's and the pace net's episodes the planner drove, and the pace
 net's timesteps against a planner's makespans), and prints a Markdown
 table: sampled, greedy, shielded, backstop, pace. Cells whose episodes
@@ -15,9 +15,10 @@ from planner_share.py CSVs named after the planner CSV.
         docs/results/planners/seed42-4agents-cbs.csv docs/results/recipe-lstm-imitation/planner-share.csv
 """
 import csv
-import subprocess
 import sys
 from pathlib import Path
+
+from planner_share import HEADER, share_rows
 
 ACTIONS = ("sampled", "greedy", "shielded", "backstop", "pace")
 
@@ -39,12 +40,9 @@ def planner_cells(study, planner_csv, kept):
     for path in kept:
         with open(path, newline="") as f:
             cells.update({(r["layout"], r["method"], r["actions"]): r for r in csv.DictReader(f)})
-    script = Path(__file__).with_name("planner_share.py")
-    out = subprocess.run(
-        [sys.executable, str(script), str(study), planner_csv, "--csv"],
-        check=True, capture_output=True, text=True,
-    ).stdout
-    cells.update({(r["layout"], r["method"], r["actions"]): r for r in csv.DictReader(out.splitlines())})
+    for row in share_rows(study, planner_csv):
+        r = dict(zip(HEADER, (str(x) for x in row)))
+        cells[(r["layout"], r["method"], r["actions"])] = r
     return cells
 
 

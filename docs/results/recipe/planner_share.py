@@ -30,11 +30,13 @@ def planner_makespans(path):
     return out
 
 
-def main(argv):
-    args = [a for a in argv if not a.startswith("--")]
-    if len(args) != 2:
-        sys.exit(__doc__)
-    study, planner_csv = Path(args[0]), args[1]
+HEADER = ["layout", "method", "actions", "agents", "seeds", "success_mean",
+          "planner_share_mean", "planner_share_min", "planner_share_max",
+          "episodes_both_solve", "median_timesteps", "reference_median", "ratio"]
+
+
+def share_rows(study, planner_csv):
+    """The rows of the table (HEADER's columns, formatted) for a study directory."""
     ref = planner_makespans(planner_csv)
     # evals/LAYOUT/METHOD/seed-S/ACTIONS/agents-N/episodes.csv, or with an
     # evaluation layout of its own (a study with `[experiment.eval] layouts`):
@@ -59,15 +61,7 @@ def main(argv):
             key = (layout, n, int(r["episode"]))
             if r["success"] == "true" and key in ref:
                 cell["pairs"].append((int(r["timesteps"]), ref[key]))
-    header = ["layout", "method", "actions", "agents", "seeds", "success_mean",
-              "planner_share_mean", "planner_share_min", "planner_share_max",
-              "episodes_both_solve", "median_timesteps", "reference_median", "ratio"]
-    out = csv.writer(sys.stdout) if "--csv" in argv else None
-    if out:
-        out.writerow(header)
-    else:
-        print("| " + " | ".join(header) + " |")
-        print("|" + "---|" * len(header))
+    rows = []
     for (layout, method, actions, n), c in sorted(cells.items()):
         pol = [p for p, _ in c["pairs"]]
         ref_m = [r for _, r in c["pairs"]]
@@ -77,9 +71,23 @@ def main(argv):
                f"{100 * statistics.mean(c['share']):.1f}",
                f"{100 * min(c['share']):.0f}", f"{100 * max(c['share']):.0f}",
                len(pol), med, rmed, f"{med / rmed:.2f}" if pol else "nan"]
-        if out:
-            out.writerow(row)
-        else:
+        rows.append(row)
+    return rows
+
+
+def main(argv):
+    args = [a for a in argv if not a.startswith("--")]
+    if len(args) != 2:
+        sys.exit(__doc__)
+    rows = share_rows(Path(args[0]), args[1])
+    if "--csv" in argv:
+        out = csv.writer(sys.stdout)
+        out.writerow(HEADER)
+        out.writerows(rows)
+    else:
+        print("| " + " | ".join(HEADER) + " |")
+        print("|" + "---|" * len(HEADER))
+        for row in rows:
             print("| " + " | ".join(str(x) for x in row) + " |")
 
 
