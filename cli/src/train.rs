@@ -52,7 +52,7 @@ pub struct TrainArgs {
     /// `--set t_max=N` overrides).
     #[arg(long)]
     pub rules: Option<Rules>,
-    /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it. Without one: the default recipe (PPO-CTDE with the 64-cell LSTM, warm-started by imitating LaCAM and OD-A*, the path feature and shaping, 1M steps; README, "The recipe on the four layouts")
+    /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it. Without one: the default recipe (PPO-CTDE with the 64-cell LSTM, warm-started by imitating LaCAM and OD-A*, the path feature and shaping, 1M steps; README, "The default recipe")
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Env-step budget.

@@ -544,12 +544,12 @@ impl TrainConfig {
     /// path feature and potential-based shaping 0.05; one update thread, so
     /// two runs share two cores.
     ///
-    /// Chosen by measurement (README, "The recipe on the four layouts";
+    /// Chosen by measurement (README, "The default recipe";
     /// `learner/studies/recipe-lstm-imitation.toml`, 10 seeds per layout):
-    /// shielded greedy it solves 96-99 % of the seed-42 episodes on rm-2.1,
+    /// shielded greedy it solves 95-99 % of the seed-42 episodes on rm-2.1,
     /// rm-2.1b, rm-2.2 and rm-3.1 (the feed-forward IMPALA recipe before it:
     /// 58-91 %), and behind the planner backstop 100 % with the planner
-    /// driving 1-4 % of the episodes; a run takes 6-9 minutes here. The
+    /// driving 1-5 % of the episodes; a run takes 6-9 minutes here. The
     /// recipe before it, IMPALA feed-forward in 20-40 s, is kept as
     /// `learner/configs/recipe-impala-feedforward.toml`.
     ///
