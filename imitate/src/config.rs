@@ -46,6 +46,11 @@ pub struct ImitationConfig {
     pub beta: f64,
     /// How the policy acts in its rollouts.
     pub rollout: Rollout,
+    /// Round 0 follows the expert, so a fresh policy's data starts on the
+    /// expert's track. Off for a polish after learning from rewards
+    /// (`[polish]` in a training config), where every round follows the
+    /// trained policy and the expert labels the states it reaches.
+    pub expert_first: bool,
     /// Passes over the aggregated data after each round.
     pub epochs: usize,
     /// Rows per gradient step.
@@ -70,6 +75,7 @@ impl Default for ImitationConfig {
             envs: 16,
             beta: 0.25,
             rollout: Rollout::Greedy,
+            expert_first: true,
             epochs: 3,
             minibatch: 1024,
             lr: 1e-3,

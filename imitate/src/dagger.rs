@@ -9,7 +9,7 @@
 //! ```text
 //! D ← ∅
 //! for round k = 0 .. K−1:
-//!     roll out π_k      (round 0: the expert itself;
+//!     roll out π_k      (round 0: the expert itself, or π_0 when polishing;
 //!                        later: the policy, the expert with probability β)
 //!     D ← D ∪ {(o, a*(s)) for every visited state s, every agent}
 //!     π_{k+1} ← argmin_π  −Σ_D log π(a* | o)     (behaviour cloning on D)
@@ -43,7 +43,7 @@ enum Data {
 /// What one DAgger round did.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RoundReport {
-    /// Round index (0: the expert's rollouts).
+    /// Round index (0: the expert's rollouts, unless `expert_first` is off).
     pub round: usize,
     /// Env steps collected in this round.
     pub env_steps: u64,
@@ -138,11 +138,12 @@ pub fn dagger<S: EnvSlot>(
     for round in 0..cfg.rounds {
         let t0 = std::time::Instant::now();
         let (calls0, failures0) = (expert.calls, expert.failures);
-        // Round 0 follows the expert. A recurrent policy watches it all the
-        // same, so that its state is the one it would have after these
-        // steps, and keeps its memory from round to round as an actor does
-        // (with new weights); a feed-forward one starts afresh each round.
-        let expert_only = round == 0;
+        // Round 0 follows the expert (unless `expert_first` is off). A
+        // recurrent policy watches it all the same, so that its state is the
+        // one it would have after these steps, and keeps its memory from
+        // round to round as an actor does (with new weights); a feed-forward
+        // one starts afresh each round.
+        let expert_only = round == 0 && cfg.expert_first;
         match actor.as_mut() {
             Some(recurrent) if spec.lstm.is_some() => recurrent.policy().copy_from(policy)?,
             _ if expert_only && spec.lstm.is_none() => {}

@@ -160,6 +160,38 @@ fn dagger_teaches_a_recurrent_policy_on_windows_of_its_own_steps() {
     );
 }
 
+/// With `expert_first` off (a polish after learning from rewards) round 0
+/// rolls out the policy, not the expert: an untrained policy's greedy
+/// rollouts fail where the expert's succeed, and the expert still labels
+/// the states they reach.
+#[test]
+fn without_expert_first_round_zero_follows_the_policy() {
+    let env_cfg = EnvConfig {
+        agents: 2,
+        seed: 5,
+        ..EnvConfig::default()
+    };
+    let first_round = |expert_first: bool| {
+        let mut venv = VecEnv::new(map("rm-2.1"), env_cfg.clone(), 8, ObsKind::Local, 1).unwrap();
+        let policy = Policy::new(ModelSpec::new(Mode::Ctde, 2, venv.obs_dim()), 0).unwrap();
+        let cfg = ImitationConfig {
+            rounds: 1,
+            steps_per_round: 4_000,
+            envs: 8,
+            beta: 0.0,
+            expert_first,
+            ..ImitationConfig::default()
+        };
+        dagger(&cfg, &policy, &mut venv, 1, &mut |_| {})
+            .unwrap()
+            .remove(0)
+    };
+    let (expert, policy) = (first_round(true), first_round(false));
+    assert!(expert.success_rate > 0.95, "{expert:?}");
+    assert!(policy.success_rate < 0.5, "{policy:?}");
+    assert!(policy.expert_calls > 0 && policy.rows > 0, "{policy:?}");
+}
+
 #[test]
 fn policies_it_cannot_clone_are_refused_with_the_reason() {
     let mut venv = VecEnv::new(

@@ -96,7 +96,7 @@ fn check_config(path: &Path, text: &str) -> Result<bool, TestCaseError> {
         Err(
             ConfigError::Parse { .. }
             | ConfigError::Invalid(_)
-            | ConfigError::Imitation(_)
+            | ConfigError::Imitation { .. }
             | ConfigError::MapAndMaps { .. }
             | ConfigError::NoMaps
             | ConfigError::BadWeight { .. }

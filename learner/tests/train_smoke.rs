@@ -248,6 +248,63 @@ fn imitation_runs_before_learning_and_logs_its_rounds() {
 }
 
 #[test]
+fn polish_imitates_after_learning_and_before_the_final_checkpoint() {
+    buridan_policy::threads::pin_threads(1);
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = tiny(Algo::Ppo, Mode::Ctde);
+    cfg.starts = Starts::Random;
+    let trained = dir.path().join("trained");
+    train(&cfg, &trained, &mut NoProgress).unwrap();
+    assert!(!trained.join("polish.csv").exists());
+    // Polish the trained run: resumed at its budget, it learns no more
+    // from rewards, and DAgger rolls out the trained policy from round 0.
+    cfg.resume = Some(final_checkpoint(&trained));
+    cfg.polish = Some(buridan_imitate::ImitationConfig {
+        rounds: 2,
+        steps_per_round: 400,
+        envs: 4,
+        expert_first: false,
+        ..Default::default()
+    });
+    let polished = dir.path().join("polished");
+    let summary = train(&cfg, &polished, &mut NoProgress).unwrap();
+    assert_eq!(summary.env_steps, cfg.steps);
+    let csv = std::fs::read_to_string(polished.join("polish.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+    assert!(!polished.join("imitation.csv").exists());
+    let weights = |run: &std::path::Path| {
+        Policy::load(&final_checkpoint(run))
+            .unwrap()
+            .weights(0)
+            .unwrap()
+            .tensors[0]
+            .data
+            .clone()
+    };
+    assert_ne!(weights(&trained), weights(&polished));
+    // A bad [polish] section names itself.
+    cfg.polish.as_mut().unwrap().rounds = 0;
+    let err = train(&cfg, &dir.path().join("bad"), &mut NoProgress).unwrap_err();
+    let chain = error_chain(&err);
+    assert!(
+        chain.contains("[polish]") && chain.contains("rounds"),
+        "{chain}"
+    );
+}
+
+/// The error with its sources, as a binary reports it.
+fn error_chain(err: &dyn std::error::Error) -> String {
+    let mut text = err.to_string();
+    let mut source = err.source();
+    while let Some(e) = source {
+        text.push_str(": ");
+        text.push_str(&e.to_string());
+        source = e.source();
+    }
+    text
+}
+
+#[test]
 fn schedules_set_each_updates_learning_rate_and_entropy_coefficient() {
     buridan_policy::threads::pin_threads(1);
     let dir = tempfile::tempdir().unwrap();

@@ -49,9 +49,15 @@ pub enum ConfigError {
         /// What it must be ("finite and positive", ...).
         range: &'static str,
     },
-    /// The `[imitation]` section is out of range.
-    #[error("invalid configuration")]
-    Imitation(#[source] Box<buridan_imitate::ImitationError>),
+    /// The `[imitation]` or `[polish]` section is out of range.
+    #[error("invalid configuration: [{section}]")]
+    Imitation {
+        /// `imitation` or `polish`.
+        section: &'static str,
+        /// What is wrong in it.
+        #[source]
+        source: Box<buridan_imitate::ImitationError>,
+    },
     /// A file sets both `map` and `maps`.
     #[error("config {} sets both map and maps: use one (maps lists several layouts with weights)", path.display())]
     MapAndMaps {
@@ -105,9 +111,12 @@ pub enum ConfigError {
     /// `plant` and `maps` are both set.
     #[error("invalid configuration: plant and maps are both set: a run trains on one AGV plant or on grid layouts, not both")]
     PlantAndMaps,
-    /// A plant run with an `[imitation]` section.
-    #[error("invalid configuration: [imitation] cannot be used with a plant: DAgger imitates grid planners, and the AGV plant has none")]
-    PlantWithImitation,
+    /// A plant run with an `[imitation]` or `[polish]` section.
+    #[error("invalid configuration: [{section}] cannot be used with a plant: DAgger imitates grid planners, and the AGV plant has none")]
+    PlantWithImitation {
+        /// `imitation` or `polish`.
+        section: &'static str,
+    },
     /// A plant run with a grid-only option.
     #[error("invalid configuration: {what} applies to grid layouts only, not to the AGV plant (leave it out with plant)")]
     GridOnlyOption {
@@ -496,6 +505,13 @@ pub struct TrainConfig {
     /// `algo` for `steps` env steps (0: imitation only). Off by default.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub imitation: Option<ImitationConfig>,
+    /// Imitate a planner after learning from rewards, TOML `[polish]`: the
+    /// trained policy's own rollouts (greedy by default) get the planner's
+    /// next steps as labels, DAgger on the states deterministic execution
+    /// reaches, before the final checkpoint. With `expert_first = false`
+    /// every round follows the policy. Off by default.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub polish: Option<ImitationConfig>,
 }
 
 impl Default for TrainConfig {
@@ -530,6 +546,7 @@ impl Default for TrainConfig {
             ppo: PpoConfig::default(),
             impala: ImpalaConfig::default(),
             imitation: None,
+            polish: None,
         }
     }
 }
@@ -876,16 +893,26 @@ impl TrainConfig {
         )?;
         ensure(self.lstm_cells >= 1, "lstm_cells must be positive")?;
         self.validate_hyperparameters()?;
-        if let Some(im) = &self.imitation {
-            im.validate()
-                .map_err(|e| ConfigError::Imitation(Box::new(e)))?;
+        for (section, im) in self.imitation_phases() {
+            im.validate().map_err(|e| ConfigError::Imitation {
+                section,
+                source: Box::new(e),
+            })?;
             ensure(
                 self.mode == Mode::Ctde,
-                "[imitation] trains a policy shared by all agents: mode = \"ctde\"",
+                "[imitation] and [polish] train a policy shared by all agents: mode = \"ctde\"",
             )?;
         }
         self.validate_plant()?;
         self.validate_maps()
+    }
+
+    /// The run's imitation phases with their TOML section names: `imitation`
+    /// before learning from rewards, `polish` after.
+    fn imitation_phases(&self) -> impl Iterator<Item = (&'static str, &ImitationConfig)> {
+        [("imitation", &self.imitation), ("polish", &self.polish)]
+            .into_iter()
+            .filter_map(|(section, im)| im.as_ref().map(|im| (section, im)))
     }
 
     /// Checks that a plant run sets nothing that only a grid run has.
@@ -896,8 +923,8 @@ impl TrainConfig {
         if self.maps.is_some() {
             return Err(ConfigError::PlantAndMaps);
         }
-        if self.imitation.is_some() {
-            return Err(ConfigError::PlantWithImitation);
+        if let Some((section, _)) = self.imitation_phases().next() {
+            return Err(ConfigError::PlantWithImitation { section });
         }
         if !self.features.is_none() {
             return Err(ConfigError::GridOnlyOption { what: "features" });
@@ -1071,13 +1098,19 @@ mod tests {
         assert!(msg.contains("plant and maps are both set"), "{msg}");
         let err = plant_run(|c| c.imitation = Some(ImitationConfig::default()));
         assert!(
-            matches!(err, Err(ConfigError::PlantWithImitation)),
+            matches!(err, Err(ConfigError::PlantWithImitation { .. })),
             "{err:?}"
         );
         assert!(err
             .unwrap_err()
             .to_string()
             .contains("DAgger imitates grid planners"));
+        let err = plant_run(|c| c.polish = Some(ImitationConfig::default()));
+        let msg = err.unwrap_err().to_string();
+        assert!(
+            msg.contains("[polish] cannot be used with a plant"),
+            "{msg}"
+        );
         let err = plant_run(|c| c.shaping = 0.05);
         assert!(
             matches!(err, Err(ConfigError::GridOnlyOption { what: "shaping" })),

@@ -263,18 +263,49 @@ pub fn env_config(cfg: &TrainConfig, seed: u64) -> EnvConfig {
 /// The imitation rounds of a run, one CSV row each.
 pub const IMITATION_FILE: &str = "imitation.csv";
 
-/// Fits a fresh policy to the planner's actions by DAgger on the run's
-/// layouts (its own envs and seed), logging each round to
-/// [`IMITATION_FILE`] in `out`.
+/// The polish rounds of a run (`[polish]`, after learning from rewards),
+/// one CSV row each.
+pub const POLISH_FILE: &str = "polish.csv";
+
+/// When a run imitates its planners: which phase, its CSV and env stream.
+#[derive(Debug, Clone, Copy)]
+enum Phase {
+    /// `[imitation]`: a fresh policy, before learning from rewards.
+    Warmup,
+    /// `[polish]`: the trained policy, before the final checkpoint.
+    Polish,
+}
+
+impl Phase {
+    fn file(self) -> &'static str {
+        match self {
+            Phase::Warmup => IMITATION_FILE,
+            Phase::Polish => POLISH_FILE,
+        }
+    }
+
+    /// A pseudo-actor index no real actor has, so the phase's episodes
+    /// replay neither the actors' nor the other phase's.
+    fn stream(self) -> u64 {
+        match self {
+            Phase::Warmup => u64::from(u32::MAX),
+            Phase::Polish => u64::from(u32::MAX) - 1,
+        }
+    }
+}
+
+/// Fits `policy` to the planner's actions by DAgger on the run's layouts
+/// (envs and seeds of the phase's own), logging each round to the phase's
+/// CSV in `out`.
 fn imitate(
     cfg: &TrainConfig,
     im: &ImitationConfig,
+    phase: Phase,
     layouts: &[WeightedLayout],
     policy: &Policy,
     out: &Path,
 ) -> Result<(), TrainError> {
-    // Episodes of their own: imitation does not replay the actors' episodes.
-    let seed = seed::actor_env(cfg.seed, u64::from(u32::MAX), 0);
+    let seed = seed::actor_env(cfg.seed, phase.stream(), 0);
     let env = env_config(cfg, seed);
     let kind = cfg.mode.obs_kind();
     let imitated = match layouts {
@@ -288,7 +319,7 @@ fn imitate(
         }
     };
     let rounds = imitated.map_err(|e| TrainError::Imitation(Box::new(e)))?;
-    let path = out.join(IMITATION_FILE);
+    let path = out.join(phase.file());
     let mut csv = csv::Writer::from_writer(Vec::new());
     for round in &rounds {
         csv.serialize(round)
@@ -389,7 +420,7 @@ impl Run {
             None => {
                 let policy = Policy::new(spec.clone(), cfg.seed)?;
                 if let Some(im) = &cfg.imitation {
-                    imitate(cfg, im, &layouts, &policy, out)?;
+                    imitate(cfg, im, Phase::Warmup, &layouts, &policy, out)?;
                 }
                 (policy, TrainerState::default())
             }
@@ -570,7 +601,8 @@ impl Run {
 
     /// The learner loop: publish weights, gather a train batch from
     /// `exchange`, update, repeat until `cfg.steps` env steps; then the
-    /// final checkpoint and `summary.json`. Always calls
+    /// `[polish]` rounds if configured, the final checkpoint and
+    /// `summary.json`. Always calls
     /// [`Exchange::finish`]; an actor's failure is returned with its cause.
     pub fn learn(
         mut self,
@@ -581,6 +613,16 @@ impl Run {
         let finished = exchange.finish(result.is_ok());
         let stopped_early = result?;
         finished?;
+        if let Some(polish) = &self.cfg.polish {
+            imitate(
+                &self.cfg,
+                polish,
+                Phase::Polish,
+                &self.layouts,
+                &self.policy,
+                &self.out,
+            )?;
+        }
         let final_dir = checkpoint::final_dir(&self.out);
         self.save_checkpoint(&final_dir)?;
         progress.on_checkpoint(&final_dir);
