@@ -25,6 +25,7 @@ use std::pin::Pin;
 use std::sync::Arc;
 use std::time::Duration;
 
+use buridan_env::error::error_chain;
 use buridan_env::{BatchedEnv, EnvError, MapError, VecEnv};
 use buridan_policy::{ActMode, Inference, ModelSpec, Policy, PolicyError, Weights};
 use buridan_proto::convert::{
@@ -321,18 +322,6 @@ impl tonic::service::Interceptor for TokenInterceptor {
         }
         Ok(req)
     }
-}
-
-/// `error: cause: cause …`, for log lines.
-fn error_chain(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    let mut cause = e.source();
-    while let Some(c) = cause {
-        text.push_str(": ");
-        text.push_str(&c.to_string());
-        cause = c.source();
-    }
-    text
 }
 
 /// Runs an actor until the learner finishes the run (`Ok`), or until

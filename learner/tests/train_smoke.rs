@@ -288,23 +288,11 @@ fn polish_imitates_after_learning_and_before_the_final_checkpoint() {
     // A bad [polish] section names itself.
     cfg.polish.as_mut().unwrap().rounds = 0;
     let err = train(&cfg, &dir.path().join("bad"), &mut NoProgress).unwrap_err();
-    let chain = error_chain(&err);
+    let chain = buridan_env::error::error_chain(&err);
     assert!(
         chain.contains("[polish]") && chain.contains("rounds"),
         "{chain}"
     );
-}
-
-/// The error with its sources, as a binary reports it.
-fn error_chain(err: &dyn std::error::Error) -> String {
-    let mut text = err.to_string();
-    let mut source = err.source();
-    while let Some(e) = source {
-        text.push_str(": ");
-        text.push_str(&e.to_string());
-        source = e.source();
-    }
-    text
 }
 
 #[test]
