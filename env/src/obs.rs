@@ -232,7 +232,12 @@ impl GridEnv {
             features = rest;
         }
         if features_on.pressure {
-            self.write_pressure_feature(agent, features);
+            let (pressure, rest) = features.split_at_mut(crate::PRESSURE_FEATURE_DIM);
+            self.write_pressure_feature(agent, pressure);
+            features = rest;
+        }
+        if features_on.intent {
+            self.write_intent_feature(agent, features);
         }
         Ok(())
     }
@@ -273,6 +278,23 @@ impl GridEnv {
                 let via_me = self.goal_distance_at(other, here);
                 f32::from(u8::from(via_me < there))
             };
+        }
+    }
+
+    /// The intent feature ([`crate::recipe`]): the path feature of every
+    /// other agent in the window.
+    fn write_intent_feature(&self, agent: usize, out: &mut [f32]) {
+        let raw = self.raw();
+        let r = self.config().sensor_range;
+        let cells = raw
+            .window_rows(agent, r)
+            .flat_map(|row| raw.occupant[row].iter());
+        for (slot, &who) in out.chunks_exact_mut(crate::PATH_FEATURE_DIM).zip(cells) {
+            match usize::from(who) {
+                0 => slot.fill(0.0),
+                k if k - 1 == agent => slot.fill(0.0),
+                k => self.write_path_feature(k - 1, slot),
+            }
         }
     }
 

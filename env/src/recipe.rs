@@ -46,8 +46,25 @@
 //! observer is in its way), else 0 — the blocking pressure the
 //! dissertation's author later added to the reference env.
 //!
+//! # The intent feature
+//!
+//! The window shows where the other agents stand, not where they are
+//! going: two agents bound for one dead-end aisle must enter it deepest
+//! goal first, and nothing in the observer's view says which goal is
+//! whose. With [`ObsFeatures::intent`] each window cell holding another
+//! agent carries that agent's own path feature — its shortest-path
+//! directions and cost-to-go —, so the observation ends with
+//! [`intent_feature_dim`]`(R)` floats:
+//!
+//! | offset | content |
+//! |---|---|
+//! | `5k .. 5k+5` | window cell `k` (row-major, as the window): the path feature of the other agent standing there (0 on its goal), zeros if the cell holds no other agent |
+//!
+//! The observer's own directions are the path feature's; its centre cell
+//! stays zero.
+//!
 //! The features follow one another in this order: path, priority,
-//! pressure.
+//! pressure, intent.
 //!
 //! # Shaping
 //!
@@ -77,6 +94,17 @@ pub const fn priority_feature_dim(sensor_range: usize) -> usize {
     side * side + 1
 }
 
+/// Floats the intent feature appends to a local observation with sensor
+/// range `r`: the path feature of the agent in each window cell.
+///
+/// ```
+/// assert_eq!(buridan_env::intent_feature_dim(2), 125);
+/// ```
+pub const fn intent_feature_dim(sensor_range: usize) -> usize {
+    let side = 2 * sensor_range + 1;
+    side * side * PATH_FEATURE_DIM
+}
+
 /// Optional local-observation features (none by default: the dissertation's
 /// observation).
 ///
@@ -85,8 +113,8 @@ pub const fn priority_feature_dim(sensor_range: usize) -> usize {
 /// assert_eq!(ObsFeatures::default().extra_dim(2), 0);
 /// let path = ObsFeatures { path: true, ..ObsFeatures::default() };
 /// assert_eq!(path.extra_dim(2), 5);
-/// let all = ObsFeatures { path: true, priority: true, pressure: true };
-/// assert_eq!(all.extra_dim(2), 5 + 26 + 4);
+/// let all = ObsFeatures { path: true, priority: true, pressure: true, intent: true };
+/// assert_eq!(all.extra_dim(2), 5 + 26 + 4 + 125);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -97,6 +125,8 @@ pub struct ObsFeatures {
     pub priority: bool,
     /// Which neighbours the observer stands in the way of (module docs).
     pub pressure: bool,
+    /// Where the agents in the window are headed (module docs).
+    pub intent: bool,
 }
 
 impl ObsFeatures {
@@ -113,12 +143,15 @@ impl ObsFeatures {
         if self.pressure {
             dim += PRESSURE_FEATURE_DIM;
         }
+        if self.intent {
+            dim += intent_feature_dim(sensor_range);
+        }
         dim
     }
 
     /// True if no feature is on.
     pub const fn is_none(&self) -> bool {
-        !(self.path || self.priority || self.pressure)
+        !(self.path || self.priority || self.pressure || self.intent)
     }
 }
 

@@ -5,8 +5,8 @@
 mod common;
 
 use buridan_env::{
-    local_obs_dim, priority_feature_dim, EnvConfig, GridEnv, ObsFeatures, Shaping,
-    PATH_FEATURE_DIM, PRESSURE_FEATURE_DIM,
+    intent_feature_dim, local_obs_dim, priority_feature_dim, EnvConfig, GridEnv, ObsFeatures,
+    Shaping, PATH_FEATURE_DIM, PRESSURE_FEATURE_DIM,
 };
 use common::{fixed_cfg, map_from_rows, step};
 
@@ -14,6 +14,7 @@ const SYMMETRY: ObsFeatures = ObsFeatures {
     path: false,
     priority: true,
     pressure: true,
+    intent: false,
 };
 
 /// A U-shaped corridor: the goal at (0, 2) lies two columns right of the
@@ -244,4 +245,81 @@ fn symmetry_features_leave_the_dynamics_unchanged() {
         let (rb, ob) = step(&mut with, &actions);
         assert_eq!((ra, oa), (rb, ob));
     }
+}
+
+/// The intent window of `agent`: 5 floats per window cell.
+fn intent_window(env: &GridEnv, agent: usize) -> Vec<Vec<f32>> {
+    let mut obs = vec![f32::NAN; env.local_obs_dim()];
+    env.write_local_obs(agent, &mut obs).unwrap();
+    obs[obs.len() - intent_feature_dim(1)..]
+        .chunks(PATH_FEATURE_DIM)
+        .map(<[f32]>::to_vec)
+        .collect()
+}
+
+#[test]
+fn intent_shows_where_each_agent_in_the_window_is_headed() {
+    let intent = ObsFeatures {
+        intent: true,
+        ..ObsFeatures::default()
+    };
+    let env = aisle(intent);
+    assert_eq!(
+        env.local_obs_dim(),
+        local_obs_dim(1) + intent_feature_dim(1)
+    );
+    let none = vec![0.0; PATH_FEATURE_DIM];
+    // Agent 1 at (1, 1): agent 2 above-right sits on its goal (no way
+    // closer, distance 0); agent 0 on its left is 4 steps from (1, 4), and
+    // only "right" leads closer. Distances are over height + width = 7.
+    let seen = intent_window(&env, 1);
+    assert_eq!(seen[2], vec![0.0, 0.0, 0.0, 0.0, 0.0]);
+    assert_eq!(seen[3], vec![0.0, 1.0, 0.0, 0.0, 4.0 / 7.0]);
+    for k in [0, 1, 4, 5, 6, 7, 8] {
+        assert_eq!(seen[k], none, "cell {k}: walls, the observer, empty cells");
+    }
+    // Agent 0 at (1, 0) sees agent 1 on its right, one step "left" from
+    // its goal (1, 0).
+    let seen = intent_window(&env, 0);
+    assert_eq!(seen[5], vec![0.0, 0.0, 0.0, 1.0, 1.0 / 7.0]);
+    assert_eq!(seen.iter().filter(|c| **c != none).count(), 1);
+}
+
+#[test]
+fn intent_follows_the_other_features_and_moves_with_the_agents() {
+    let all = ObsFeatures {
+        path: true,
+        priority: true,
+        pressure: true,
+        intent: true,
+    };
+    let mut env = aisle(all);
+    assert_eq!(
+        env.local_obs_dim(),
+        local_obs_dim(1)
+            + PATH_FEATURE_DIM
+            + priority_feature_dim(1)
+            + PRESSURE_FEATURE_DIM
+            + intent_feature_dim(1)
+    );
+    // The pressure flags still sit right after the priority window.
+    assert_eq!(symmetry_tail_after_path(&env, 1), vec![0., 0., 0., 1.]);
+    // Agent 1 steps right to (1, 2): agent 0 is now two cells left of it,
+    // out of the 3×3 window; agent 2 straight above, still parked.
+    step(&mut env, &[0, 2, 0]);
+    let seen = intent_window(&env, 1);
+    let none = vec![0.0; PATH_FEATURE_DIM];
+    assert_eq!(seen.iter().filter(|c| **c != none).count(), 0);
+    // Agent 2 sees agent 1
+    // below it, two steps (left, left) from (1, 0).
+    let seen = intent_window(&env, 2);
+    assert_eq!(seen[7], vec![0.0, 0.0, 0.0, 1.0, 2.0 / 7.0]);
+}
+
+/// The four pressure flags of `agent` when the path feature comes first.
+fn symmetry_tail_after_path(env: &GridEnv, agent: usize) -> Vec<f32> {
+    let mut obs = vec![f32::NAN; env.local_obs_dim()];
+    env.write_local_obs(agent, &mut obs).unwrap();
+    let start = local_obs_dim(1) + PATH_FEATURE_DIM + priority_feature_dim(1);
+    obs[start..start + PRESSURE_FEATURE_DIM].to_vec()
 }

@@ -415,6 +415,7 @@ pub fn env_to_message(e: &EnvConfig) -> v1::EnvSettings {
         path_feature: e.features.path,
         priority_feature: e.features.priority,
         pressure_feature: e.features.pressure,
+        intent_feature: e.features.intent,
         shaping: e.shaping.map_or(0.0, |s| s.coeff),
         shaping_gamma: e.shaping.map_or(0.0, |s| s.gamma),
         rules: e.rules.name().into(),
@@ -444,6 +445,7 @@ pub fn env_from_message(m: &v1::EnvSettings, seed: u64) -> Result<EnvConfig, Con
             path: m.path_feature,
             priority: m.priority_feature,
             pressure: m.pressure_feature,
+            intent: m.intent_feature,
         },
         shaping: (m.shaping > 0.0).then_some(Shaping {
             coeff: m.shaping,

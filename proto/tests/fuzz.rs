@@ -707,7 +707,7 @@ fn fuzz_env_settings() {
         (edge_u32(), edge_u32(), edge_u32(), edge_u32()),
         (word.clone(), word),
         (f.clone(), f),
-        any::<[bool; 4]>(),
+        any::<[bool; 5]>(),
         any::<u64>(),
     );
     run(
@@ -727,6 +727,7 @@ fn fuzz_env_settings() {
                 path_feature: flags[1],
                 priority_feature: flags[2],
                 pressure_feature: flags[3],
+                intent_feature: flags[4],
             };
             convert_env(&m, seed)
         },

@@ -185,7 +185,8 @@ pub fn map_arg(obj: &Bound<'_, PyAny>) -> PyResult<Arc<Map>> {
         .map_err(|e| map_err(obj.py(), e))
 }
 
-/// Observation features by name (`"path"`, `"priority"`, `"pressure"`).
+/// Observation features by name (`"path"`, `"priority"`, `"pressure"`,
+/// `"intent"`).
 pub fn features_arg(names: &[String]) -> PyResult<ObsFeatures> {
     let mut f = ObsFeatures::default();
     for name in names {
@@ -193,9 +194,10 @@ pub fn features_arg(names: &[String]) -> PyResult<ObsFeatures> {
             "path" => f.path = true,
             "priority" => f.priority = true,
             "pressure" => f.pressure = true,
+            "intent" => f.intent = true,
             other => {
                 return Err(PyEnvError::new_err(format!(
-                    "invalid configuration: unknown observation feature '{other}' (expected path, priority or pressure)"
+                    "invalid configuration: unknown observation feature '{other}' (expected path, priority, pressure or intent)"
                 )))
             }
         }
@@ -214,6 +216,9 @@ pub fn feature_names(f: &ObsFeatures) -> Vec<&'static str> {
     }
     if f.pressure {
         out.push("pressure");
+    }
+    if f.intent {
+        out.push("intent");
     }
     out
 }
