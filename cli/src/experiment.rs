@@ -1006,14 +1006,17 @@ mod tests {
         assert_eq!((cfg.shaping, cfg.lstm), (recipe.shaping, true));
         assert_eq!(cfg.imitation, recipe.imitation);
         // The shipped study that measured the recipe trains exactly it (its
-        // method names a config and settings, so its kept runs stay valid).
+        // method names a config and settings, so its kept runs stay valid):
+        // the intent study's second method, since the intent feature joined.
         let shipped = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../learner/studies/recipe-lstm-imitation.toml");
+            .join("../learner/studies/recipe-lstm-imitation-intent.toml");
         let shipped = Experiment::from_file(&shipped).unwrap();
         let cell = shipped
             .train
             .iter()
-            .find(|c| c.layout == "rm-2.1" && c.seed == 0)
+            .find(|c| {
+                c.layout == "rm-2.1" && c.seed == 0 && c.method == "ppo-lstm-imitation-intent-ctde"
+            })
             .unwrap();
         assert!(cell.config.is_some());
         assert_eq!(cell.config_in(Path::new("out")).unwrap(), cfg);

@@ -6,9 +6,14 @@ instances both solve").
 Reads a `learner study` directory (its plan.json and each evaluation's
 episodes.csv) and prints, per layout, method and action mode, the median
 timesteps of the policy and of the planner over the episodes both solved,
-pooled over seeds, and their ratio.
+pooled over seeds, and their ratio. The planner is one of the study's own
+methods, or a planner CSV (`map,agents,planner,episode,status,makespan,…`,
+as docs/results/planners/seed42-4agents-cbs.csv) whose makespans stand for
+its timesteps.
 
     python3 docs/results/recipe/timesteps_vs_planner.py runs/recipe cbs
+    python3 docs/results/recipe/timesteps_vs_planner.py runs/recipe-lstm-imitation-intent \
+        docs/results/planners/seed42-4agents-cbs.csv
 """
 import csv
 import json
@@ -22,11 +27,28 @@ def episodes(path):
         return {int(r["episode"]): r for r in csv.DictReader(f)}
 
 
+def planner_csv(path):
+    """The planner's name, and per (layout, agents): episode -> a solved row
+    with the plan's makespan as its timesteps."""
+    name, ref = path, {}
+    with open(path, newline="") as f:
+        for r in csv.DictReader(f):
+            name = r["planner"]
+            if r["status"] == "ok":
+                ref.setdefault((r["map"], int(r["agents"])), {})[int(r["episode"])] = {
+                    "success": "true",
+                    "timesteps": r["makespan"],
+                }
+    return name, ref
+
+
 def main(study, planner):
     study = Path(study)
     plan = json.loads((study / "plan.json").read_text())
     evals = plan["evals"]
     ref = {}
+    if planner.endswith(".csv"):
+        planner, ref = planner_csv(planner)
     for e in evals:
         if e["method"] == planner and e["evaluated"]["kind"] == "planner":
             path = study / e["dir"] / "episodes.csv"
