@@ -163,16 +163,21 @@ fn aisle(features: ObsFeatures) -> GridEnv {
 }
 
 /// The symmetry features of `agent`: the 3×3 priority window, the
-/// urgency, then the four pressure flags.
+/// urgency, then the four pressure flags (after the path feature, if on).
 fn symmetry_tail(env: &GridEnv, agent: usize) -> (Vec<f32>, f32, Vec<f32>) {
     let mut obs = vec![f32::NAN; env.local_obs_dim()];
     env.write_local_obs(agent, &mut obs).unwrap();
-    let tail = &obs[local_obs_dim(1)..];
+    let path = if env.config().features.path {
+        PATH_FEATURE_DIM
+    } else {
+        0
+    };
+    let tail = &obs[local_obs_dim(1) + path..];
     let window = priority_feature_dim(1) - 1;
     (
         tail[..window].to_vec(),
         tail[window],
-        tail[window + 1..].to_vec(),
+        tail[window + 1..window + 1 + PRESSURE_FEATURE_DIM].to_vec(),
     )
 }
 
@@ -303,23 +308,14 @@ fn intent_follows_the_other_features_and_moves_with_the_agents() {
             + intent_feature_dim(1)
     );
     // The pressure flags still sit right after the priority window.
-    assert_eq!(symmetry_tail_after_path(&env, 1), vec![0., 0., 0., 1.]);
+    assert_eq!(symmetry_tail(&env, 1).2, vec![0., 0., 0., 1.]);
     // Agent 1 steps right to (1, 2): agent 0 is now two cells left of it,
     // out of the 3×3 window; agent 2 straight above, still parked.
     step(&mut env, &[0, 2, 0]);
     let seen = intent_window(&env, 1);
     let none = vec![0.0; PATH_FEATURE_DIM];
     assert_eq!(seen.iter().filter(|c| **c != none).count(), 0);
-    // Agent 2 sees agent 1
-    // below it, two steps (left, left) from (1, 0).
+    // Agent 2 sees agent 1 below it, two steps (left, left) from (1, 0).
     let seen = intent_window(&env, 2);
     assert_eq!(seen[7], vec![0.0, 0.0, 0.0, 1.0, 2.0 / 7.0]);
-}
-
-/// The four pressure flags of `agent` when the path feature comes first.
-fn symmetry_tail_after_path(env: &GridEnv, agent: usize) -> Vec<f32> {
-    let mut obs = vec![f32::NAN; env.local_obs_dim()];
-    env.write_local_obs(agent, &mut obs).unwrap();
-    let start = local_obs_dim(1) + PATH_FEATURE_DIM + priority_feature_dim(1);
-    obs[start..start + PRESSURE_FEATURE_DIM].to_vec()
 }
