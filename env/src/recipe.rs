@@ -153,7 +153,54 @@ impl ObsFeatures {
     pub const fn is_none(&self) -> bool {
         !(self.path || self.priority || self.pressure || self.intent)
     }
+
+    /// Every feature's name, in observation order: the names a Python user
+    /// passes and [`Self::names`] returns.
+    pub const NAMES: [&'static str; 4] = ["path", "priority", "pressure", "intent"];
+
+    /// The features named (any order, repeats allowed).
+    ///
+    /// ```
+    /// use buridan_env::ObsFeatures;
+    /// let f = ObsFeatures::from_names(["intent", "path"]).unwrap();
+    /// assert!(f.path && f.intent && !f.priority);
+    /// assert_eq!(f.names(), ["path", "intent"]);
+    /// assert!(ObsFeatures::from_names(["paths"]).unwrap_err().to_string().contains("'paths'"));
+    /// ```
+    pub fn from_names<S: AsRef<str>>(
+        names: impl IntoIterator<Item = S>,
+    ) -> Result<Self, UnknownFeature> {
+        let mut f = Self::default();
+        for name in names {
+            let name = name.as_ref();
+            let flag = match name {
+                "path" => &mut f.path,
+                "priority" => &mut f.priority,
+                "pressure" => &mut f.pressure,
+                "intent" => &mut f.intent,
+                _ => return Err(UnknownFeature(name.to_string())),
+            };
+            *flag = true;
+        }
+        Ok(f)
+    }
+
+    /// The names of the features that are on, in observation order (the
+    /// inverse of [`Self::from_names`]).
+    pub fn names(&self) -> Vec<&'static str> {
+        let on = [self.path, self.priority, self.pressure, self.intent];
+        Self::NAMES
+            .into_iter()
+            .zip(on)
+            .filter_map(|(name, on)| on.then_some(name))
+            .collect()
+    }
 }
+
+/// An observation feature name that is none of [`ObsFeatures::NAMES`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown observation feature '{0}' (expected path, priority, pressure or intent)")]
+pub struct UnknownFeature(pub String);
 
 /// Potential-based reward shaping on the goal distance (module docs).
 ///

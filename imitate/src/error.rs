@@ -8,12 +8,14 @@ use buridan_policy::PolicyError;
 /// ```
 /// use buridan_imitate::ImitationError;
 /// let e = ImitationError::Invalid { field: "rounds", problem: "must be at least 1".into() };
-/// assert_eq!(e.to_string(), "imitation.rounds: must be at least 1");
+/// assert_eq!(e.to_string(), "rounds: must be at least 1");
 /// ```
 #[derive(Debug, thiserror::Error)]
 pub enum ImitationError {
-    /// A setting is out of range.
-    #[error("imitation.{field}: {problem}")]
+    /// A setting is out of range. The message names the key alone: the
+    /// training config's error wraps it with its section, `[imitation]` or
+    /// `[polish]`.
+    #[error("{field}: {problem}")]
     Invalid {
         /// The setting (`rounds`, `expert`, ...).
         field: &'static str,

@@ -229,7 +229,7 @@ fn policies_it_cannot_clone_are_refused_with_the_reason() {
         &mut |_| {},
     )
     .unwrap_err();
-    assert_eq!(err.to_string(), "imitation.rounds: must be at least 1");
+    assert_eq!(err.to_string(), "rounds: must be at least 1");
 }
 
 #[test]

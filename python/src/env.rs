@@ -185,42 +185,11 @@ pub fn map_arg(obj: &Bound<'_, PyAny>) -> PyResult<Arc<Map>> {
         .map_err(|e| map_err(obj.py(), e))
 }
 
-/// Observation features by name (`"path"`, `"priority"`, `"pressure"`,
-/// `"intent"`).
+/// Observation features by name (`ObsFeatures::NAMES`: `"path"`,
+/// `"priority"`, `"pressure"`, `"intent"`).
 pub fn features_arg(names: &[String]) -> PyResult<ObsFeatures> {
-    let mut f = ObsFeatures::default();
-    for name in names {
-        match name.as_str() {
-            "path" => f.path = true,
-            "priority" => f.priority = true,
-            "pressure" => f.pressure = true,
-            "intent" => f.intent = true,
-            other => {
-                return Err(PyEnvError::new_err(format!(
-                    "invalid configuration: unknown observation feature '{other}' (expected path, priority, pressure or intent)"
-                )))
-            }
-        }
-    }
-    Ok(f)
-}
-
-/// Feature names of `f`, the inverse of [`features_arg`].
-pub fn feature_names(f: &ObsFeatures) -> Vec<&'static str> {
-    let mut out = Vec::new();
-    if f.path {
-        out.push("path");
-    }
-    if f.priority {
-        out.push("priority");
-    }
-    if f.pressure {
-        out.push("pressure");
-    }
-    if f.intent {
-        out.push("intent");
-    }
-    out
+    ObsFeatures::from_names(names)
+        .map_err(|e| PyEnvError::new_err(format!("invalid configuration: {e}")))
 }
 
 pub fn rules_arg(rules: &str) -> PyResult<Rules> {

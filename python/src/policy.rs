@@ -12,7 +12,7 @@ use numpy::{
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-use crate::env::{feature_names, features_arg, rules_arg, PyGridEnv};
+use crate::env::{features_arg, rules_arg, PyGridEnv};
 use crate::errors::{env_err, policy_err, PolicyError as PyPolicyError};
 use crate::to_py;
 
@@ -383,7 +383,7 @@ impl PyPolicy {
         let spec = self.spec();
         let d = pyo3::types::PyDict::new(py);
         d.set_item("sensor_range", spec.sensor_range)?;
-        d.set_item("features", feature_names(&spec.features))?;
+        d.set_item("features", spec.features.names())?;
         d.set_item("rules", spec.rules.name())?;
         Ok(d)
     }
