@@ -43,6 +43,7 @@ use tonic::{Code, Request, Status};
 
 use crate::collector::{ActorEnv, CollectError, Collector};
 use crate::remote_env::{RemoteEnv, RemoteEnvError, RemoteEnvOptions};
+use crate::shield::RolloutShield;
 use buridan_proto::env_convert::EnvSpec;
 
 /// Why an actor stopped (or could not start).
@@ -877,6 +878,9 @@ fn collector_over(
         fragment_len: join.fragment_len as usize,
         // Nothing loaded yet: the first weights always load.
         version: u64::MAX,
+        shield: join
+            .shield_rollouts
+            .then(|| RolloutShield::new(buridan_env::seed::session_sampling(join.seed))),
     })
 }
 

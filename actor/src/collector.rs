@@ -7,6 +7,8 @@
 use buridan_env::{BatchedEnv, EnvError, VecEnv};
 use buridan_policy::{ActMode, Fragment, Inference, PolicyError, Weights};
 
+use crate::shield::{RolloutShield, RolloutShieldError};
+
 /// The envs of a collector whose kind is chosen at run time: the grid
 /// [`VecEnv`], a plant batch, or a [`crate::remote_env::RemoteEnv`] on an
 /// external simulator. One virtual call per step; the buffers are the
@@ -22,6 +24,9 @@ pub enum CollectError {
     /// Inference or loading weights failed.
     #[error("the policy failed")]
     Policy(#[from] PolicyError),
+    /// The collision shield of shielded rollouts failed.
+    #[error("the rollout shield failed")]
+    Shield(#[from] RolloutShieldError),
 }
 
 /// An actor's envs and its copy of the policy.
@@ -42,6 +47,7 @@ pub enum CollectError {
 ///     venv,
 ///     fragment_len: 10,
 ///     version: 0,
+///     shield: None,
 /// };
 /// let f = c.collect().unwrap();
 /// assert_eq!((f.len, f.rows, f.env_steps), (10, 6, 30));
@@ -60,6 +66,11 @@ pub struct Collector<E = VecEnv> {
     pub fragment_len: usize,
     /// Weights version currently loaded.
     pub version: u64,
+    /// Rollouts through the PIBT collision shield (`shield_rollouts`):
+    /// the policy acts under wall masks and the env executes the shield's
+    /// joint move ([`crate::shield`]). `None`: the env executes the
+    /// policy's actions.
+    pub shield: Option<RolloutShield>,
 }
 
 impl<E: BatchedEnv> Collector<E> {
@@ -103,12 +114,23 @@ impl<E: BatchedEnv> Collector<E> {
         let mut logp = vec![0f32; rows];
         let mut row_rewards = vec![0f32; rows];
         let mut row_done = vec![0u8; rows];
+        let (mut wall_masks, mut executed) = match self.shield {
+            Some(_) => (vec![0u8; self.venv.masks().len()], vec![0u8; rows * heads]),
+            None => (Vec::new(), Vec::new()),
+        };
         for t in 0..t_len {
             f.obs.extend_from_slice(self.venv.obs());
-            f.masks.extend_from_slice(self.venv.masks());
+            let masks = match &self.shield {
+                Some(shield) => {
+                    shield.write_masks(&self.venv, &mut wall_masks)?;
+                    &wall_masks[..]
+                }
+                None => self.venv.masks(),
+            };
+            f.masks.extend_from_slice(masks);
             let logits = self.inference.act(
                 self.venv.obs(),
-                self.venv.masks(),
+                masks,
                 self.behaviour,
                 &mut actions,
                 &mut logp,
@@ -116,11 +138,19 @@ impl<E: BatchedEnv> Collector<E> {
             f.behaviour_logits.extend_from_slice(logits);
             f.actions.extend_from_slice(&actions);
             f.behaviour_logp.extend_from_slice(&logp);
-            self.venv.step(&actions)?;
+            match &mut self.shield {
+                Some(shield) => {
+                    shield.joint_move(&self.venv, &actions, logits, masks, &mut executed)?;
+                    self.venv.step(&executed)?;
+                }
+                None => self.venv.step(&actions)?,
+            }
             self.venv.write_row_rewards(&mut row_rewards);
             self.venv.write_row_done(&mut row_done);
             f.rewards.extend_from_slice(&row_rewards);
             self.record_ends(&mut f, t);
+            // The learner replays the recurrent inputs from the fragment's
+            // actions: the chosen ones, even where the shield moved otherwise.
             if let Some(st) = self.inference.state_mut() {
                 st.observe(&actions, &row_rewards, &row_done);
             }
@@ -151,5 +181,66 @@ impl<E: BatchedEnv> Collector<E> {
                     .extend_from_slice(&self.venv.final_obs()[r * d..(r + 1) * d]);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use buridan_env::{EnvConfig, Map, ObsKind, VecEnv, NUM_ACTIONS};
+    use buridan_policy::{ActMode, Inference, Mode, ModelSpec, Policy};
+
+    use super::*;
+
+    /// An untrained policy on a crowded block layout: moves into occupied
+    /// cells are frequent.
+    fn crowded(shield: Option<RolloutShield>) -> Collector {
+        let map = Arc::new(Map::load("rm-2.1").unwrap());
+        let env = EnvConfig {
+            agents: 12,
+            t_max: 20,
+            ..EnvConfig::default()
+        };
+        let venv = VecEnv::new(map, env, 4, ObsKind::Local, 1).unwrap();
+        let policy = Policy::new(ModelSpec::new(Mode::Ctde, 12, venv.obs_dim()), 5).unwrap();
+        Collector {
+            id: 0,
+            inference: Inference::new(policy, venv.rows(), 11),
+            behaviour: ActMode::Sample,
+            venv,
+            fragment_len: 100,
+            version: 0,
+            shield,
+        }
+    }
+
+    fn blocked_moves(f: &Fragment) -> u32 {
+        f.episodes.iter().map(|e| e.blocked_moves).sum()
+    }
+
+    #[test]
+    fn shielded_rollouts_never_block_a_move() {
+        let mut plain = crowded(None);
+        let f = plain.collect().unwrap();
+        assert!(f.episodes.len() >= 16, "{} episodes", f.episodes.len());
+        assert!(
+            blocked_moves(&f) > 0,
+            "an untrained crowd bumps into itself"
+        );
+
+        let mut shielded = crowded(Some(RolloutShield::new(5)));
+        let f = shielded.collect().unwrap();
+        assert!(f.episodes.len() >= 16, "{} episodes", f.episodes.len());
+        assert_eq!(blocked_moves(&f), 0, "every shielded move succeeds");
+        // The fragment records the masks the policy acted under, so the
+        // learner's log-probabilities are those of the sampled actions.
+        let legal_under_walls = f
+            .actions
+            .iter()
+            .enumerate()
+            .all(|(k, &a)| f.masks[k * NUM_ACTIONS + usize::from(a)] == 1);
+        assert!(legal_under_walls);
+        assert_eq!(f.masks.len(), f.actions.len() * NUM_ACTIONS);
     }
 }

@@ -3,6 +3,8 @@
 //!
 //! - [`Collector`]: envs + inference → [`buridan_policy::Fragment`]; used
 //!   in-process by `learner train` and here.
+//! - [`shield`]: [`shield::RolloutShield`], rollouts through the PIBT
+//!   collision shield (`shield_rollouts`), trained as deployed.
 //! - [`client`]: the stateless gRPC actor behind the `actor` binary — join,
 //!   receive weights, submit fragments, reconnect with backoff.
 //! - [`remote_env`]: [`remote_env::RemoteEnv`], envs stepped on an external
@@ -15,5 +17,6 @@ pub mod client;
 pub mod collector;
 pub mod misbehave;
 pub mod remote_env;
+pub mod shield;
 
 pub use collector::{ActorEnv, CollectError, Collector};

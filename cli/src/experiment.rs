@@ -24,6 +24,8 @@
 //! episodes = 100                    # 1000 for generalization
 //! seed = 42
 //! actions = ["sampled", "greedy"]  # and/or "shielded": greedy through the PIBT shield,
+//!                                   # "fallback": shielded, an agent without progress for 16 steps
+//!                                   #   follows its shortest path (PIBT with swap)
 //!                                   # "rescued": shielded, a planner plans whenever an agent is stuck
 //!                                   # "lookahead": rescued, with foresight (a twin plays the episode ahead;
 //!                                   #   if it would get stuck, the planner plans from the start)
@@ -51,6 +53,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use buridan_env::Starts;
+use buridan_eval::shield::DEFAULT_PATIENCE;
 use buridan_learner::train::{TrainConfig, WeightedMap};
 use serde::{Deserialize, Serialize};
 
@@ -189,6 +192,11 @@ pub enum Actions {
     /// (`learner eval --controller shield:checkpoint:DIR`): deterministic,
     /// conflict-free.
     Shielded,
+    /// Shielded, and an agent that has not come closer to its goal for
+    /// [`buridan_eval::shield::DEFAULT_PATIENCE`] steps follows its
+    /// shortest path, with PIBT's swap (`--controller
+    /// shield=16:checkpoint:DIR`): deterministic, no planner search.
+    Fallback,
     /// Shielded, with LaCAM then OD-A* planning from the current state whenever an
     /// agent is stuck (`--controller rescue:shield:checkpoint:DIR`, within
     /// `rescue_time` seconds per call).
@@ -214,24 +222,26 @@ impl Actions {
     /// ```
     /// use buridan_cli::experiment::Actions;
     /// let names: Vec<_> = Actions::ALL.iter().map(|a| a.name()).collect();
-    /// assert_eq!(names, ["sampled", "greedy", "shielded", "rescued", "lookahead", "backstop", "pace"]);
+    /// assert_eq!(names, ["sampled", "greedy", "shielded", "fallback", "rescued", "lookahead", "backstop", "pace"]);
     /// ```
-    pub const ALL: [Actions; 7] = [
+    pub const ALL: [Actions; 8] = [
         Actions::Sampled,
         Actions::Greedy,
         Actions::Shielded,
+        Actions::Fallback,
         Actions::Rescued,
         Actions::Lookahead,
         Actions::Backstop,
         Actions::Pace,
     ];
 
-    /// `sampled`, `greedy`, `shielded`, `rescued`, `lookahead`, `backstop` or `pace`.
+    /// `sampled`, `greedy`, `shielded`, `fallback`, `rescued`, `lookahead`, `backstop` or `pace`.
     pub fn name(&self) -> &'static str {
         match self {
             Actions::Sampled => "sampled",
             Actions::Greedy => "greedy",
             Actions::Shielded => "shielded",
+            Actions::Fallback => "fallback",
             Actions::Rescued => "rescued",
             Actions::Lookahead => "lookahead",
             Actions::Backstop => "backstop",
@@ -749,6 +759,7 @@ impl Experiment {
             Evaluated::Policy { train, actions } => {
                 let shield = match (actions, &self.eval.rescue_planner) {
                     (Actions::Shielded, _) => "shield:".to_string(),
+                    (Actions::Fallback, _) => format!("shield={DEFAULT_PATIENCE}:"),
                     (Actions::Rescued, None) => "rescue:shield:".to_string(),
                     (Actions::Rescued, Some(planner)) => format!("rescue={planner}:shield:"),
                     (Actions::Lookahead, None) => "lookahead:shield:".to_string(),
@@ -810,7 +821,7 @@ impl Experiment {
                 Actions::Rescued | Actions::Lookahead | Actions::Backstop | Actions::Pace => {
                     args.extend(["--time-limit".into(), self.time_limit(cell).to_string()])
                 }
-                Actions::Greedy | Actions::Shielded => {}
+                Actions::Greedy | Actions::Shielded | Actions::Fallback => {}
             },
             Evaluated::Planner => args.extend([
                 "--time-limit".into(),

@@ -19,6 +19,7 @@
 use crate::error::EnvError;
 use crate::obs::ObsKind;
 use crate::stats::EpisodeStats;
+use crate::world::GridEnv;
 
 /// Envs stepped as one batch with auto-reset (see [`crate::VecEnv`] for the
 /// buffer contract).
@@ -48,6 +49,13 @@ pub trait BatchedEnv {
     fn final_obs(&self) -> &[f32];
     /// Statistics of the episodes finished since the last call.
     fn drain_episodes(&mut self) -> Vec<EpisodeStats>;
+
+    /// Env `e` as a grid world (map, positions, goals), for what acts on
+    /// the grid beside the policy — a collision shield in rollouts. `None`
+    /// (the default) for envs that are no grid world, such as a plant.
+    fn grid_env(&self, _e: usize) -> Option<&GridEnv> {
+        None
+    }
 
     /// Rows per env: agents for local observations, 1 for central ones.
     fn rows_per_env(&self) -> usize {
@@ -129,6 +137,9 @@ impl<E: BatchedEnv + ?Sized> BatchedEnv for Box<E> {
     }
     fn drain_episodes(&mut self) -> Vec<EpisodeStats> {
         (**self).drain_episodes()
+    }
+    fn grid_env(&self, e: usize) -> Option<&GridEnv> {
+        (**self).grid_env(e)
     }
     fn rows_per_env(&self) -> usize {
         (**self).rows_per_env()

@@ -336,6 +336,37 @@ impl GridEnv {
         Ok(())
     }
 
+    /// Writes agent `i`'s wall mask, 5 bytes: like
+    /// [`GridEnv::write_action_mask`] but only walls and the grid's edge
+    /// are illegal — a move into a cell another agent holds stays legal
+    /// (what a collision shield ranks: PIBT may push that agent away).
+    ///
+    /// ```
+    /// use std::sync::Arc;
+    /// use buridan_env::{Cell, EnvConfig, Grid, GridEnv, Map};
+    /// let grid = Grid::from_rows(&["...", "..."]).unwrap();
+    /// let map = Arc::new(Map { name: "row".into(), grid, scenario: None });
+    /// let cfg = EnvConfig { agents: 2, ..EnvConfig::default() };
+    /// let mut env = GridEnv::new(map, cfg).unwrap();
+    /// env.reset_with(0, &[Cell::new(0, 0), Cell::new(0, 1)], &[Cell::new(0, 2), Cell::new(0, 0)]).unwrap();
+    /// let (mut legal, mut open) = ([0u8; 5], [0u8; 5]);
+    /// env.write_action_mask(0, &mut legal).unwrap();
+    /// env.write_wall_mask(0, &mut open).unwrap();
+    /// // stay, up (the edge), right (agent 1's cell), down, left (the edge)
+    /// assert_eq!(legal, [1, 0, 0, 1, 0]);
+    /// assert_eq!(open, [1, 0, 1, 1, 0]);
+    /// ```
+    pub fn write_wall_mask(&self, agent: usize, out: &mut [u8]) -> Result<(), EnvError> {
+        check_len("mask bytes", NUM_ACTIONS, out.len())?;
+        let grid = &self.map().grid;
+        let p = self.position(agent);
+        out[0] = 1;
+        for (open, a) in out.iter_mut().zip(0u8..).skip(1) {
+            *open = u8::from(grid.neighbour(p, a).is_some_and(|c| !grid.is_wall(c)));
+        }
+        Ok(())
+    }
+
     /// Writes the central one-hot planes (layout in the module docs).
     pub fn write_central_obs(&self, out: &mut [f32]) -> Result<(), EnvError> {
         check_len(

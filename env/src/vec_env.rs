@@ -450,4 +450,7 @@ impl<S: EnvSlot> BatchedEnv for VecEnv<S> {
     fn drain_episodes(&mut self) -> Vec<EpisodeStats> {
         VecEnv::drain_episodes(self)
     }
+    fn grid_env(&self, e: usize) -> Option<&GridEnv> {
+        self.envs.get(e).map(EnvSlot::env)
+    }
 }

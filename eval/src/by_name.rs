@@ -4,7 +4,9 @@
 //! A name is a planner (`cbs`, `lacam`, `pp`, …, `planner_by_name`),
 //! `random`, `checkpoint:DIR` (a trained policy), `shield:checkpoint:DIR` /
 //! `shield-env:checkpoint:DIR` (the policy through the PIBT collision
-//! shield, ranked by walls or by the env's order), or a rescue around any of
+//! shield, ranked by walls or by the env's order; `shield=K:…` lets an
+//! agent that has not come closer to its goal for K steps follow its
+//! shortest path), or a rescue around any of
 //! these: `rescue:INNER`, `rescue=PLANNER:INNER`, `lookahead:INNER`,
 //! `lookahead=PLANNER:INNER` (a planner takes over when an agent is stuck,
 //! or before it jams), `backstop:INNER`, `backstop=PLANNER:INNER` (a
@@ -91,12 +93,20 @@ pub enum ControllerNameError {
         source: PlannerLookupError,
     },
     /// The shield was asked to drive something other than a checkpoint.
-    #[error("'{name}': the shield drives trained policies only ({prefix}checkpoint:DIR)")]
+    #[error("'{name}': the shield drives trained policies only ({prefix}:checkpoint:DIR)")]
     ShieldNeedsPolicy {
         /// The name given.
         name: String,
-        /// `shield:` or `shield-env:`.
+        /// `shield` or `shield-env`.
         prefix: &'static str,
+    },
+    /// `shield=K:` with a K that is no step count.
+    #[error("'{name}': the shield's patience '{value}' is not a number of steps (shield=K:checkpoint:DIR)")]
+    ShieldPatience {
+        /// The name given.
+        name: String,
+        /// What stood for K.
+        value: String,
     },
     /// A checkpoint that cannot drive these episodes.
     #[error(transparent)]
@@ -127,6 +137,32 @@ fn rescue_parts(name: &str, agents: usize, rules: Rules) -> Option<(&'static str
     })
 }
 
+/// Splits `PREFIX:INNER` and `PREFIX=K:INNER` (a shield with the progress
+/// fallback after K steps) into (patience, inner); `None` when `name` is
+/// neither.
+fn shield_parts<'a>(
+    name: &'a str,
+    prefix: &'static str,
+) -> Result<Option<(Option<u32>, &'a str)>, ControllerNameError> {
+    let Some(rest) = name.strip_prefix(prefix) else {
+        return Ok(None);
+    };
+    if let Some(inner) = rest.strip_prefix(':') {
+        return Ok(Some((None, inner)));
+    }
+    let Some(named) = rest.strip_prefix('=') else {
+        return Ok(None);
+    };
+    let (value, inner) = named.split_once(':').unwrap_or((named, ""));
+    let patience = value
+        .parse()
+        .map_err(|_| ControllerNameError::ShieldPatience {
+            name: name.to_string(),
+            value: value.to_string(),
+        })?;
+    Ok(Some((Some(patience), inner)))
+}
+
 /// Resolves a controller name to a factory for episodes with `agents`
 /// agents under `rules`: planners (also the rescue's) plan for that rule
 /// set, and one that cannot (OD-A* under pogema) is an error; policies act
@@ -144,6 +180,10 @@ fn rescue_parts(name: &str, agents: usize, rules: Rules) -> Option<(&'static str
 /// assert_eq!(make().name(), "ctde-policy+shield");
 /// let err = controller_factory("shield:cbs", 4, 42, Default::default(), g, t).err().unwrap();
 /// assert!(err.to_string().contains("trained policies only"), "{err}");
+/// let patient = controller_factory(&format!("shield=8:checkpoint:{ckpt}"), 4, 42, Default::default(), g, t).unwrap();
+/// assert_eq!(patient().name(), "ctde-policy+shield=8");
+/// let err = controller_factory(&format!("shield=soon:checkpoint:{ckpt}"), 4, 42, Default::default(), g, t).err().unwrap();
+/// assert!(err.to_string().contains("patience 'soon' is not a number of steps"), "{err}");
 /// let rescued = controller_factory("rescue:random", 4, 42, Default::default(), g, t).unwrap();
 /// assert_eq!(rescued().name(), "random+rescue-lacam+od-astar");
 /// let crowd = controller_factory("rescue:random", 16, 42, Default::default(), g, t).unwrap();
@@ -202,8 +242,8 @@ pub fn controller_factory(
             })
         }));
     }
-    for (prefix, ranking) in [("shield:", Ranking::Walls), ("shield-env:", Ranking::Env)] {
-        if let Some(inner) = name.strip_prefix(prefix) {
+    for (prefix, ranking) in [("shield", Ranking::Walls), ("shield-env", Ranking::Env)] {
+        if let Some((patience, inner)) = shield_parts(name, prefix)? {
             let Some(dir) = inner.strip_prefix("checkpoint:") else {
                 return Err(ControllerNameError::ShieldNeedsPolicy {
                     name: name.to_string(),
@@ -211,7 +251,13 @@ pub fn controller_factory(
                 });
             };
             let dir = PathBuf::from(dir);
-            let load = move || ShieldController::load(&dir, agents, act_mode, seed, ranking);
+            let load = move || {
+                let shield = ShieldController::load(&dir, agents, act_mode, seed, ranking)?;
+                Ok::<_, PolicyLoadError>(match patience {
+                    Some(k) => shield.with_progress_fallback(k),
+                    None => shield,
+                })
+            };
             load()?;
             return Ok(Box::new(move || {
                 Box::new(load().expect("loaded once already"))

@@ -178,14 +178,8 @@ impl PolicyController {
             }
         }
         if mask == MaskKind::Walls {
-            let grid = &env.map().grid;
-            for (i, &pos) in env.positions().iter().enumerate() {
-                for a in 1..NUM_ACTIONS {
-                    let open = grid
-                        .neighbour(pos, a as u8)
-                        .is_some_and(|c| !grid.is_wall(c));
-                    self.masks[i * NUM_ACTIONS + a] = u8::from(open);
-                }
+            for (i, out) in self.masks.chunks_mut(NUM_ACTIONS).enumerate() {
+                env.write_wall_mask(i, out).expect("sized at load");
             }
         }
         let logits = self.inference.act(

@@ -35,6 +35,7 @@ fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
         venv,
         fragment_len: cfg.fragment_len,
         version: 0,
+        shield: None,
     };
     let frags = (0..count).map(|_| actor.collect().unwrap()).collect();
     (policy, frags)

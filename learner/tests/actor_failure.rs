@@ -84,6 +84,7 @@ fn the_learner_names_the_failing_actors_cause() {
         behaviour: healthy.behaviour,
         fragment_len: healthy.fragment_len,
         version: healthy.version,
+        shield: None,
     };
     let mut exchange =
         InProcess::spawn(vec![broken], cfg.queue_capacity(), cfg.staleness()).unwrap();

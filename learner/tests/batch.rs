@@ -24,6 +24,7 @@ fn actor(cfg: &TrainConfig, kind: ObsKind) -> (Collector, Policy) {
         venv,
         fragment_len: cfg.fragment_len,
         version: 0,
+        shield: None,
     };
     (a, policy)
 }

@@ -33,7 +33,7 @@ use buridan_env::{Cell, EnvConfig, EnvError, EpisodeStats, Grid, GridEnv, Map};
 
 use crate::graph::{distance_table, Topology};
 use crate::limits::{check_instance, InstanceError};
-use crate::pibt::online_step;
+use crate::pibt::{online_step, Generator};
 use crate::replay::action_between;
 use crate::rules::Rules;
 
@@ -101,9 +101,7 @@ impl LifelongPibt {
             }
         }
         let next = online_step(
-            &self.topo,
-            self.rules,
-            self.seed ^ self.steps,
+            Generator::new(&self.topo, self.rules, self.seed ^ self.steps),
             &self.dist,
             &cur,
             &self.goals,

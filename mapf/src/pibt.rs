@@ -163,6 +163,8 @@ pub(crate) struct Swap {
 pub(crate) struct SwapInfo<'a> {
     dist: &'a [Vec<u32>],
     goals: &'a [u32],
+    /// Only these agents start a swap (all when `None`).
+    only: Option<&'a [bool]>,
 }
 
 /// The one-step configuration generator (see the [module docs](self)).
@@ -204,7 +206,27 @@ impl<'a> Generator<'a> {
     /// Enables the *swap* operation (see [the module docs](self#swap)),
     /// judged with the distance tables `dist` to the agents' `goals`.
     pub fn with_swap(mut self, dist: &'a [Vec<u32>], goals: &'a [u32]) -> Self {
-        self.swap = Some(SwapInfo { dist, goals });
+        self.swap = Some(SwapInfo {
+            dist,
+            goals,
+            only: None,
+        });
+        self
+    }
+
+    /// Enables the swap operation for the agents marked in `only` (the
+    /// collision shield's stalled agents): only they start a swap.
+    pub fn with_swap_for(
+        mut self,
+        dist: &'a [Vec<u32>],
+        goals: &'a [u32],
+        only: &'a [bool],
+    ) -> Self {
+        self.swap = Some(SwapInfo {
+            dist,
+            goals,
+            only: Some(only),
+        });
         self
     }
 
@@ -439,7 +461,7 @@ impl<'a> Generator<'a> {
     ///    pulls `k` into its cell, so that `k` enters first.
     fn swap_partner(&self, info: SwapInfo<'_>, i: u32, best: u32, cur: &[u32]) -> Option<Swap> {
         let here = cur[i as usize];
-        if best == here {
+        if best == here || info.only.is_some_and(|only| !only[i as usize]) {
             return None;
         }
         let undecided = |j: u32| j != NONE && j != i && self.next[j as usize] == NONE;
@@ -683,22 +705,20 @@ pub(crate) fn priority_order(priorities: &[f64]) -> Vec<u32> {
 }
 
 /// One step of online PIBT, shared by lifelong PIBT and the collision
-/// shield: the next configuration after `cur` with agents in `priorities`
-/// order (tie-breaking between equal keys seeded by `seed`), then the
-/// priorities advanced towards `goals`. Without constraints every agent can
-/// at least stay, so the generator cannot fail; should it ever, everybody
-/// stays (a legal step), rather than handing the env an illegal one.
+/// shield: the next configuration `gen` (a fresh [`Generator`], with the
+/// swap operation if the caller wants it) finds after `cur` with agents in
+/// `priorities` order, then the priorities advanced towards `goals`.
+/// Without constraints every agent can at least stay, so the generator
+/// cannot fail; should it ever, everybody stays (a legal step), rather than
+/// handing the env an illegal one.
 pub(crate) fn online_step<P: Preference>(
-    topo: &Topology,
-    rules: Rules,
-    seed: u64,
+    mut gen: Generator<'_>,
     pref: &P,
     cur: &[u32],
     goals: &[u32],
     priorities: &mut [f64],
 ) -> Vec<u32> {
     let order = priority_order(priorities);
-    let mut gen = Generator::new(topo, rules, seed);
     let mut next = Vec::with_capacity(cur.len());
     let ok = gen.generate(pref, cur, &order, &[], &mut next);
     debug_assert!(ok, "without constraints every agent can at least stay");

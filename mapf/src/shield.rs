@@ -51,14 +51,39 @@
 
 use buridan_env::{Cell, Grid, NUM_ACTIONS};
 
-use crate::graph::{Topology, NONE};
+use crate::graph::{distance_table, Topology, NONE};
 use crate::limits::{check_instance, InstanceError};
-use crate::pibt::{online_step, Preference};
+use crate::pibt::{online_step, Generator, Preference};
 use crate::rules::Rules;
 
 /// One agent's five actions (0 stay, 1 up, 2 right, 3 down, 4 left), most
 /// preferred first: a permutation of `0..5`.
 pub type ActionOrder = [u8; NUM_ACTIONS];
+
+/// One agent's preference order: `first` (the policy's greedy or sampled
+/// choice), then the allowed actions (`allowed[a] != 0`) by decreasing
+/// logit, then the others by decreasing logit; ties by action index.
+///
+/// ```
+/// use buridan_mapf::shield::preference_order;
+/// let logits = [0.5, 2.0, -1.0, 3.0, 1.0];
+/// // Action 3 is masked (another agent's cell): after all allowed ones.
+/// assert_eq!(preference_order(1, &logits, &[1, 1, 1, 0, 1]), [1, 4, 0, 2, 3]);
+/// // A sampled first choice leads, the rest follow by logit.
+/// assert_eq!(preference_order(2, &logits, &[1; 5]), [2, 3, 1, 4, 0]);
+/// ```
+pub fn preference_order(first: u8, logits: &[f32], allowed: &[u8]) -> ActionOrder {
+    let mut order: ActionOrder = [0, 1, 2, 3, 4];
+    order.sort_by(|&a, &b| {
+        let (a, b) = (usize::from(a), usize::from(b));
+        (b == usize::from(first))
+            .cmp(&(a == usize::from(first)))
+            .then((allowed[b] != 0).cmp(&(allowed[a] != 0)))
+            .then(logits[b].total_cmp(&logits[a]))
+            .then(a.cmp(&b))
+    });
+    order
+}
 
 /// Why the shield refused a step.
 ///
@@ -129,6 +154,72 @@ pub struct Shield {
     cur: Vec<u32>,
     goals: Vec<u32>,
     ranks: Ranks,
+    fallback: Option<ProgressFallback>,
+}
+
+/// Each agent's progress towards its goal, for
+/// [`Shield::with_progress_fallback`].
+struct ProgressFallback {
+    /// Steps without progress before the shortest path leads.
+    patience: u32,
+    /// Per agent: its goal and the distance table to it.
+    goal: Vec<Cell>,
+    dist: Vec<Vec<u32>>,
+    /// Per agent: the shortest distance to its goal since it last
+    /// improved it or left its goal.
+    best: Vec<u32>,
+    /// Per agent: steps since then.
+    waiting: Vec<u32>,
+    /// Per agent: whether it follows its shortest path this step.
+    stalled: Vec<bool>,
+}
+
+impl ProgressFallback {
+    /// Updates agent `i`'s progress at `pos` and says whether it has waited
+    /// `patience` steps or more.
+    fn update(&mut self, grid: &Grid, i: usize, pos: Cell, goal: Cell) -> bool {
+        if self.goal.get(i) != Some(&goal) {
+            let n = self.goal.len().max(i + 1);
+            self.goal.resize(n, goal);
+            self.dist.resize_with(n, Vec::new);
+            self.best.resize(n, u32::MAX);
+            self.waiting.resize(n, 0);
+            self.stalled.resize(n, false);
+            self.goal[i] = goal;
+            self.dist[i] = distance_table(grid, goal);
+            self.best[i] = u32::MAX;
+            self.waiting[i] = 0;
+        }
+        let d = self.dist[i][grid.index(pos)];
+        if d == 0 {
+            // On the goal: nothing to wait for; leaving it starts afresh.
+            self.best[i] = u32::MAX;
+            self.waiting[i] = 0;
+        } else if d < self.best[i] {
+            self.best[i] = d;
+            self.waiting[i] = 0;
+        } else {
+            self.waiting[i] += 1;
+        }
+        self.stalled[i] = self.waiting[i] >= self.patience;
+        self.stalled[i]
+    }
+
+    /// Agent `i`'s actions from `pos` by the distance they leave to its
+    /// goal (walls and the edge last), ties by `rank` (the policy's order).
+    fn shortest_first(&self, grid: &Grid, i: usize, pos: Cell, rank: &mut [u8; NUM_ACTIONS]) {
+        let dist = &self.dist[i];
+        let after = |a: u8| {
+            grid.neighbour(pos, a)
+                .filter(|&c| !grid.is_wall(c))
+                .map_or(u32::MAX, |c| dist[grid.index(c)])
+        };
+        let mut order: ActionOrder = [0, 1, 2, 3, 4];
+        order.sort_by_key(|&a| (after(a), rank[usize::from(a)]));
+        for (r, &a) in order.iter().enumerate() {
+            rank[usize::from(a)] = r as u8;
+        }
+    }
 }
 
 impl Shield {
@@ -150,7 +241,65 @@ impl Shield {
             cur: Vec::new(),
             goals: Vec::new(),
             ranks: Ranks(Vec::new()),
+            fallback: None,
         }
+    }
+
+    /// A shield whose agents fall back on their shortest paths when stuck:
+    /// an agent off its goal that has not come closer to it for `patience`
+    /// steps ranks its actions by the distance they leave to its goal
+    /// (the policy's order breaks ties) until it comes closer. Classic
+    /// PIBT's preferences, for the stuck ones only: the standoffs where the
+    /// highest-priority agent prefers to wait for an agent that cannot push
+    /// it are broken, since an agent that takes its shortest path pushes
+    /// the lower-priority agents in its way. `patience = 0` makes every
+    /// agent off its goal follow its shortest path at every step.
+    ///
+    /// Stalled agents also start the swap operation of LaCAM3 (see
+    /// [`crate::pibt`]): where two of them must pass each other in a lane,
+    /// one backs away and pulls the other along. Under the env's index
+    /// order this does not settle every dead-end ordering (two agents bound
+    /// for one dead-end aisle, the shallower goal's agent in front, can
+    /// still livelock at its mouth); measured on the reference layouts it
+    /// settles most (README, "The progress fallback").
+    ///
+    /// ```
+    /// use buridan_env::{Cell, Grid};
+    /// use buridan_mapf::shield::Shield;
+    /// // A corridor with a pocket; agent 0 stands on its goal between
+    /// // agent 1 and agent 1's goal, and both prefer to wait.
+    /// let grid = Grid::from_rows(&["@.@@", "...."]).unwrap();
+    /// let (pos, goals) = ([Cell::new(1, 1), Cell::new(1, 0)], [Cell::new(1, 1), Cell::new(1, 3)]);
+    /// let wait = [[0, 1, 2, 3, 4]; 2];
+    /// let mut actions = [9; 2];
+    /// let mut patient = Shield::new(&grid);
+    /// for _ in 0..5 {
+    ///     patient.step(&pos, &goals, &wait, &mut actions).unwrap();
+    ///     assert_eq!(actions, [0, 0]); // the policy's wish: both wait
+    /// }
+    /// let mut shield = Shield::new(&grid).with_progress_fallback(2);
+    /// let moved = (0..10)
+    ///     .position(|_| {
+    ///         shield.step(&pos, &goals, &wait, &mut actions).unwrap();
+    ///         actions != [0, 0]
+    ///     })
+    ///     .unwrap();
+    /// // Once agent 1 has waited 2 steps off its goal without coming closer
+    /// // (and outranks agent 0), it heads right and pushes agent 0 into the
+    /// // pocket.
+    /// assert!(moved >= 2);
+    /// assert_eq!(actions, [1, 2]);
+    /// ```
+    pub fn with_progress_fallback(mut self, patience: u32) -> Self {
+        self.fallback = Some(ProgressFallback {
+            patience,
+            goal: Vec::new(),
+            dist: Vec::new(),
+            best: Vec::new(),
+            waiting: Vec::new(),
+            stalled: Vec::new(),
+        });
+        self
     }
 
     /// Starts an episode with `agents` agents: priorities restart from
@@ -166,6 +315,10 @@ impl Shield {
     pub fn begin_episode(&mut self, agents: usize, tie_seed: u64) {
         self.tie_seed = tie_seed;
         self.steps = 0;
+        if let Some(f) = &mut self.fallback {
+            f.best.iter_mut().for_each(|b| *b = u32::MAX);
+            f.waiting.iter_mut().for_each(|w| *w = 0);
+        }
         let base = splitmix64(tie_seed);
         self.priorities = (0..agents as u64)
             .map(|i| (splitmix64(base.wrapping_add(i)) >> 11) as f64 / (1u64 << 53) as f64)
@@ -218,6 +371,12 @@ impl Shield {
                     }
                 }
             }
+            if let Some(f) = &mut self.fallback {
+                let (pos, goal) = (positions[agent], goals[agent]);
+                if f.update(&self.grid, agent, pos, goal) {
+                    f.shortest_first(&self.grid, agent, pos, &mut rank);
+                }
+            }
             self.ranks.0.push(rank);
         }
         if self.priorities.len() != n {
@@ -228,10 +387,18 @@ impl Shield {
             .extend(positions.iter().map(|&c| self.topo.index(c)));
         self.goals.clear();
         self.goals.extend(goals.iter().map(|&c| self.topo.index(c)));
-        let next = online_step(
+        let mut gen = Generator::new(
             &self.topo,
             Rules::ENV_EXECUTABLE,
             self.tie_seed ^ self.steps,
+        );
+        // Stalled agents also back away and pull where two of them must
+        // pass in a lane (LaCAM3's swap, see [`crate::pibt`]).
+        if let Some(f) = self.fallback.as_ref().filter(|f| f.stalled.contains(&true)) {
+            gen = gen.with_swap_for(&f.dist, &self.goals, &f.stalled);
+        }
+        let next = online_step(
+            gen,
             &self.ranks,
             &self.cur,
             &self.goals,

@@ -1,7 +1,8 @@
 //! The collision shield against the env: every shielded joint move is
 //! executed exactly (no blocked move) from many random states, the same
-//! input gives the same joint move, and a face-to-face deadlock that greedy
-//! preferences never leave is resolved.
+//! input gives the same joint move, a face-to-face deadlock that greedy
+//! preferences never leave is resolved, and with the progress fallback so
+//! is a standoff where the policy prefers to wait.
 
 use std::sync::Arc;
 
@@ -56,8 +57,18 @@ fn shielded_moves_never_fail_in_the_env() {
         ("rm-3.1", 24),
     ] {
         let map = Arc::new(Map::load(id).unwrap());
-        let mut shield = Shield::new(&map.grid);
+        // Half the episodes (two of every four, lifelong or not) with the
+        // progress fallback (and its swaps) after 3 steps.
+        let (mut plain, mut patient) = (
+            Shield::new(&map.grid),
+            Shield::new(&map.grid).with_progress_fallback(3),
+        );
         for episode in 0..24u64 {
+            let shield = if episode % 4 < 2 {
+                &mut plain
+            } else {
+                &mut patient
+            };
             let cfg = EnvConfig {
                 agents,
                 t_max: 60,
@@ -219,6 +230,52 @@ fn the_shield_resolves_the_face_to_face_deadlock() {
     }
     // Both agents had the upper hand in some episodes.
     assert!(first_mover.iter().all(|&k| k > 0), "{first_mover:?}");
+}
+
+/// Plays an episode of `map`'s scenario with preferences that wait first
+/// and then head for the goal, through `shield`; whether it succeeded.
+fn patient_policy_episode(map: &Arc<Map>, shield: &mut Shield) -> bool {
+    let mut env = GridEnv::new(map.clone(), fixed(2)).unwrap();
+    shield.begin_episode(2, 1);
+    let (mut rewards, mut actions) = ([0.0; 2], [0u8; 2]);
+    loop {
+        let (pos, goals) = (env.positions(), env.goals());
+        let prefs: Vec<ActionOrder> = (0..2)
+            .map(|i| {
+                let mut order = goal_greedy(&map.grid, pos[i], goals[i]);
+                let stay = order.iter().position(|&a| a == 0).unwrap();
+                order[..=stay].rotate_right(1);
+                order
+            })
+            .collect();
+        shield.step(&pos, &goals, &prefs, &mut actions).unwrap();
+        let outcome = env.step(&actions, &mut rewards).unwrap();
+        assert_eq!(outcome.blocked_moves, 0);
+        if outcome.done() {
+            return env.stats().success;
+        }
+    }
+}
+
+#[test]
+fn the_progress_fallback_ends_standoffs_where_the_policy_waits() {
+    // (Not every dead-end ordering: two agents whose goals lie in one
+    // dead-end aisle in the wrong order can still livelock at its mouth,
+    // the swap notwithstanding — see `Shield::with_progress_fallback`.)
+    for map in [two_pocket_corridor()] {
+        let mut plain = Shield::new(&map.grid);
+        assert!(
+            !patient_policy_episode(&map, &mut plain),
+            "{}: a policy that waits first never moves through the plain shield",
+            map.name
+        );
+        let mut patient = Shield::new(&map.grid).with_progress_fallback(4);
+        assert!(
+            patient_policy_episode(&map, &mut patient),
+            "{}: stalled agents follow their shortest paths",
+            map.name
+        );
+    }
 }
 
 #[test]

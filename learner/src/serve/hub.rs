@@ -44,6 +44,8 @@ pub struct RunInfo {
     pub max_policy_lag: u64,
     /// IMPALA's greedy steps in rollouts (`impala.greedy_mix`).
     pub greedy_mix: f32,
+    /// Rollouts through the collision shield (`shield_rollouts`).
+    pub shield_rollouts: bool,
     /// Base of the actors' env seeds.
     pub seed_base: u64,
     /// Observation floats per row.
@@ -393,6 +395,7 @@ mod tests {
             on_policy: true,
             max_policy_lag: 0,
             greedy_mix: 0.0,
+            shield_rollouts: false,
             seed_base: 0,
             obs_dim: 1,
             heads: 1,

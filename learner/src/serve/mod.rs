@@ -330,6 +330,7 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
         on_policy: cfg.on_policy(),
         max_policy_lag: cfg.impala.max_policy_lag,
         greedy_mix: cfg.behaviour().greedy_mix(),
+        shield_rollouts: cfg.shield_rollouts,
         seed_base: run.actor_seed(0),
         obs_dim: spec.obs_dim as u32,
         heads: spec.heads as u32,

@@ -156,6 +156,7 @@ impl Learner for LearnerService {
             env: info.env.clone(),
             plant: info.plant.clone(),
             greedy_mix: info.greedy_mix,
+            shield_rollouts: info.shield_rollouts,
             run_finished: false,
         }))
     }

@@ -120,7 +120,7 @@ pub enum ConfigError {
     /// A plant run with a grid-only option.
     #[error("invalid configuration: {what} applies to grid layouts only, not to the AGV plant (leave it out with plant)")]
     GridOnlyOption {
-        /// The option (`features`, `shaping`).
+        /// The option (`features`, `shaping`, `shield_rollouts`).
         what: &'static str,
     },
     /// The plant cannot be loaded.
@@ -476,6 +476,13 @@ pub struct TrainConfig {
     pub envs_per_actor: usize,
     /// Rollout fragment length T (50).
     pub fragment_len: usize,
+    /// Rollouts through the PIBT collision shield, as a shielded policy is
+    /// deployed (`buridan_actor::shield`; CS-PIBT): the policy acts under
+    /// wall masks, so asking for a neighbour's cell is legal, and the env
+    /// executes the shield's conflict-free joint move. Grid runs only; off
+    /// by default.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub shield_rollouts: bool,
     /// Discount γ (0.99).
     pub gamma: f32,
     /// Hidden layer sizes ([64, 64]).
@@ -534,6 +541,7 @@ impl Default for TrainConfig {
             num_actors: 1,
             envs_per_actor: 16,
             fragment_len: 50,
+            shield_rollouts: false,
             gamma: 0.99,
             hidden: vec![64, 64],
             lstm: false,
@@ -936,6 +944,11 @@ impl TrainConfig {
         if self.shaping != 0.0 {
             return Err(ConfigError::GridOnlyOption { what: "shaping" });
         }
+        if self.shield_rollouts {
+            return Err(ConfigError::GridOnlyOption {
+                what: "shield_rollouts",
+            });
+        }
         ensure(self.t_max >= 1, "t_max must be at least 1")
     }
 
@@ -1125,10 +1138,33 @@ mod tests {
             matches!(err, Err(ConfigError::GridOnlyOption { what: "features" })),
             "{err:?}"
         );
+        let err = plant_run(|c| c.shield_rollouts = true);
+        assert!(
+            matches!(
+                err,
+                Err(ConfigError::GridOnlyOption {
+                    what: "shield_rollouts"
+                })
+            ),
+            "{err:?}"
+        );
         let err = plant_run(|c| c.t_max = 0);
         assert!(matches!(err, Err(ConfigError::Invalid(_))), "{err:?}");
     }
 
+    #[test]
+    fn shield_rollouts_are_written_only_when_on() {
+        let mut cfg = TrainConfig::default();
+        assert!(
+            !cfg.to_toml().contains("shield_rollouts"),
+            "older runs' configs stay as they were"
+        );
+        cfg.shield_rollouts = true;
+        let text = cfg.to_toml();
+        assert!(text.contains("shield_rollouts = true"), "{text}");
+        let back: TrainConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back, cfg);
+    }
     #[test]
     fn a_plant_file_takes_the_plant_t_max_unless_it_sets_one() {
         let dir = tempfile::tempdir().unwrap();

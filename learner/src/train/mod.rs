@@ -37,6 +37,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use buridan_actor::shield::RolloutShield;
 use buridan_actor::Collector;
 use buridan_env::{seed, BatchedEnv, EnvConfig, Map, Shaping, VecEnv, WeightedLayout};
 use buridan_imitate::ImitationConfig;
@@ -511,6 +512,7 @@ impl Run {
             venv,
             fragment_len: cfg.fragment_len,
             version: self.state.updates,
+            shield: cfg.shield_rollouts.then(|| RolloutShield::new(seed)),
         })
     }
 
