@@ -13,7 +13,7 @@
 //! 1. the policy acts under the wall mask ([`GridEnv::write_wall_mask`]):
 //!    a move into a neighbour's cell is a legal request, "make way";
 //! 2. each agent's sampled action leads its preference order, the others
-//!    follow by logit ([`preference_order`]);
+//!    follow by logit ([`preference_orders`]);
 //! 3. [`Shield`] turns the preferences into one joint move, which the env
 //!    executes.
 //!
@@ -24,8 +24,7 @@
 use std::sync::Arc;
 
 use buridan_env::{seed, BatchedEnv, EnvError, GridEnv, Map, NUM_ACTIONS};
-use buridan_mapf::shield::{preference_order, ActionOrder, Shield, ShieldError};
-use rand::RngCore;
+use buridan_mapf::shield::{preference_orders, ActionOrder, Shield, ShieldError};
 
 /// Why a shielded rollout step could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -132,14 +131,12 @@ impl RolloutShield {
             let env = grid_env(venv, e)?;
             let agents = e * n..(e + 1) * n;
             let moves = agents.start * NUM_ACTIONS..agents.end * NUM_ACTIONS;
-            self.prefs.clear();
-            for ((&first, l), m) in chosen[agents.clone()]
-                .iter()
-                .zip(logits[moves.clone()].chunks(NUM_ACTIONS))
-                .zip(masks[moves].chunks(NUM_ACTIONS))
-            {
-                self.prefs.push(preference_order(first, l, m));
-            }
+            preference_orders(
+                &chosen[agents.clone()],
+                &logits[moves.clone()],
+                &masks[moves],
+                &mut self.prefs,
+            );
             let shield = shield_for(&mut self.envs[e], self.seed, e, env);
             shield
                 .step(
@@ -172,8 +169,7 @@ fn shield_for<'a>(
         };
         // Tie-breaks drawn per episode as the evaluation's shield draws
         // them, from the batch's seed and the env's index.
-        let ties =
-            buridan_env::episode_rng(seed::shield_ties(seed ^ e as u64), env.episode()).next_u64();
+        let ties = seed::shield_ties(seed ^ e as u64, env.episode());
         shield.begin_episode(env.agents(), ties);
         *slot = Some(EnvShield {
             map: env.map().clone(),

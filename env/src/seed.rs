@@ -83,9 +83,17 @@ pub fn random_controller(seed: u64) -> u64 {
     seed ^ 0x7261_6e64_6f6d // "random"
 }
 
-/// Seed of the collision shield's per-episode priority tie-breaks for
-/// evaluation seed `seed` (one stream per episode, as [`crate::episode_rng`]
-/// draws them).
-pub fn shield_ties(seed: u64) -> u64 {
-    seed ^ 0x7368_6965_6c64 // "shield"
+/// Tie seed of the collision shield's priorities in episode `episode` of
+/// seed `seed` (evaluation seed, or a rollout batch's): one stream per
+/// episode, as [`crate::episode_rng`] draws them, so an episode's order
+/// among equals does not depend on which thread plays it.
+///
+/// ```
+/// use buridan_env::seed::shield_ties;
+/// assert_eq!(shield_ties(42, 3), shield_ties(42, 3));
+/// assert_ne!(shield_ties(42, 3), shield_ties(42, 4));
+/// ```
+pub fn shield_ties(seed: u64, episode: u64) -> u64 {
+    use rand::RngCore;
+    crate::episode_rng(seed ^ 0x7368_6965_6c64, episode).next_u64() // "shield"
 }

@@ -3,7 +3,7 @@
 //! ICAPS 2024).
 //!
 //! Each step the policy's action probabilities become each agent's
-//! preference order over its five actions ([`preference_order`]), and
+//! preference order over its five actions ([`preference_orders`]), and
 //! [`buridan_mapf::shield::Shield`] turns the preferences into one joint
 //! move that the env executes exactly: no blocked move, symmetric waits
 //! broken by PIBT's priorities (a fixed random order per episode among
@@ -24,10 +24,9 @@
 
 use std::path::Path;
 
-use buridan_env::{seed, GridEnv, NUM_ACTIONS};
-use buridan_mapf::shield::{preference_order, ActionOrder, Shield};
+use buridan_env::{seed, GridEnv};
+use buridan_mapf::shield::{preference_orders, ActionOrder, Shield};
 use buridan_policy::ActMode;
-use rand::RngCore;
 
 use crate::policy::{MaskKind, PolicyController, PolicyLoadError};
 
@@ -140,7 +139,7 @@ impl Controller for ShieldController {
         self.policy.begin_episode(env)?;
         // A fixed order among equals per episode, independent of which
         // evaluation thread plays it.
-        let ties = buridan_env::episode_rng(seed::shield_ties(self.seed), env.episode()).next_u64();
+        let ties = seed::shield_ties(self.seed, env.episode());
         let mut shield = new_shield(&env.map().grid, self.patience);
         shield.begin_episode(env.agents(), ties);
         self.shield = Some(shield);
@@ -157,12 +156,7 @@ impl Controller for ShieldController {
             actions.fill(0);
             return;
         };
-        self.prefs.clear();
-        for (i, &first) in d.actions.iter().enumerate() {
-            let k = i * NUM_ACTIONS..(i + 1) * NUM_ACTIONS;
-            self.prefs
-                .push(preference_order(first, &d.logits[k.clone()], &d.masks[k]));
-        }
+        preference_orders(d.actions, d.logits, d.masks, &mut self.prefs);
         let shield = self
             .shield
             .get_or_insert_with(|| new_shield(&env.map().grid, self.patience));

@@ -85,6 +85,33 @@ pub fn preference_order(first: u8, logits: &[f32], allowed: &[u8]) -> ActionOrde
     order
 }
 
+/// Every agent's preference order ([`preference_order`]) into `out`:
+/// agent `i` chose `chosen[i]`, and its five logits and mask bytes are
+/// `logits[5i..5i + 5]` and `allowed[5i..5i + 5]`.
+///
+/// ```
+/// use buridan_mapf::shield::preference_orders;
+/// let logits = [0.5, 2.0, -1.0, 3.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+/// let mut out = Vec::new();
+/// preference_orders(&[1, 0], &logits, &[1; 10], &mut out);
+/// assert_eq!(out, [[1, 3, 4, 0, 2], [0, 4, 1, 2, 3]]);
+/// ```
+pub fn preference_orders(
+    chosen: &[u8],
+    logits: &[f32],
+    allowed: &[u8],
+    out: &mut Vec<ActionOrder>,
+) {
+    out.clear();
+    out.extend(
+        chosen
+            .iter()
+            .zip(logits.chunks(NUM_ACTIONS))
+            .zip(allowed.chunks(NUM_ACTIONS))
+            .map(|((&first, l), m)| preference_order(first, l, m)),
+    );
+}
+
 /// Why the shield refused a step.
 ///
 /// ```
@@ -162,8 +189,8 @@ pub struct Shield {
 struct ProgressFallback {
     /// Steps without progress before the shortest path leads.
     patience: u32,
-    /// Per agent: its goal and the distance table to it.
-    goal: Vec<Cell>,
+    /// Per agent: its goal (once seen) and the distance table to it.
+    goal: Vec<Option<Cell>>,
     dist: Vec<Vec<u32>>,
     /// Per agent: the shortest distance to its goal since it last
     /// improved it or left its goal.
@@ -175,22 +202,27 @@ struct ProgressFallback {
 }
 
 impl ProgressFallback {
-    /// Updates agent `i`'s progress at `pos` and says whether it has waited
-    /// `patience` steps or more.
-    fn update(&mut self, grid: &Grid, i: usize, pos: Cell, goal: Cell) -> bool {
-        if self.goal.get(i) != Some(&goal) {
-            let n = self.goal.len().max(i + 1);
-            self.goal.resize(n, goal);
-            self.dist.resize_with(n, Vec::new);
-            self.best.resize(n, u32::MAX);
-            self.waiting.resize(n, 0);
-            self.stalled.resize(n, false);
-            self.goal[i] = goal;
+    /// Sizes the per-agent tables for `n` agents (new agents start with
+    /// no goal yet).
+    fn fit(&mut self, n: usize) {
+        self.goal.resize(n, None);
+        self.dist.resize_with(n, Vec::new);
+        self.best.resize(n, u32::MAX);
+        self.waiting.resize(n, 0);
+        self.stalled.resize(n, false);
+    }
+
+    /// Updates agent `i`'s progress at cell `at` (a topology index)
+    /// towards `goal` and says whether it has waited `patience` steps or
+    /// more.
+    fn update(&mut self, grid: &Grid, i: usize, at: u32, goal: Cell) -> bool {
+        if self.goal[i] != Some(goal) {
+            self.goal[i] = Some(goal);
             self.dist[i] = distance_table(grid, goal);
             self.best[i] = u32::MAX;
             self.waiting[i] = 0;
         }
-        let d = self.dist[i][grid.index(pos)];
+        let d = self.dist[i][at as usize];
         if d == 0 {
             // On the goal: nothing to wait for; leaving it starts afresh.
             self.best[i] = u32::MAX;
@@ -205,14 +237,14 @@ impl ProgressFallback {
         self.stalled[i]
     }
 
-    /// Agent `i`'s actions from `pos` by the distance they leave to its
-    /// goal (walls and the edge last), ties by `rank` (the policy's order).
-    fn shortest_first(&self, grid: &Grid, i: usize, pos: Cell, rank: &mut [u8; NUM_ACTIONS]) {
+    /// Agent `i`'s actions from `moves` (its cell's move table) by the
+    /// distance they leave to its goal (walls and the edge last), ties by
+    /// `rank` (the policy's order).
+    fn shortest_first(&self, i: usize, moves: &[u32; NUM_ACTIONS], rank: &mut [u8; NUM_ACTIONS]) {
         let dist = &self.dist[i];
-        let after = |a: u8| {
-            grid.neighbour(pos, a)
-                .filter(|&c| !grid.is_wall(c))
-                .map_or(u32::MAX, |c| dist[grid.index(c)])
+        let after = |a: u8| match moves[usize::from(a)] {
+            NONE => u32::MAX,
+            v => dist[v as usize],
         };
         let mut order: ActionOrder = [0, 1, 2, 3, 4];
         order.sort_by_key(|&a| (after(a), rank[usize::from(a)]));
@@ -357,6 +389,14 @@ impl Shield {
                 });
             }
         }
+        self.cur.clear();
+        self.cur
+            .extend(positions.iter().map(|&c| self.topo.index(c)));
+        self.goals.clear();
+        self.goals.extend(goals.iter().map(|&c| self.topo.index(c)));
+        if let Some(f) = &mut self.fallback {
+            f.fit(n);
+        }
         self.ranks.0.clear();
         for (agent, order) in preferences.iter().enumerate() {
             let mut rank = [u8::MAX; NUM_ACTIONS];
@@ -372,9 +412,9 @@ impl Shield {
                 }
             }
             if let Some(f) = &mut self.fallback {
-                let (pos, goal) = (positions[agent], goals[agent]);
-                if f.update(&self.grid, agent, pos, goal) {
-                    f.shortest_first(&self.grid, agent, pos, &mut rank);
+                let at = self.cur[agent];
+                if f.update(&self.grid, agent, at, goals[agent]) {
+                    f.shortest_first(agent, self.topo.moves(at), &mut rank);
                 }
             }
             self.ranks.0.push(rank);
@@ -382,11 +422,6 @@ impl Shield {
         if self.priorities.len() != n {
             self.begin_episode(n, self.tie_seed);
         }
-        self.cur.clear();
-        self.cur
-            .extend(positions.iter().map(|&c| self.topo.index(c)));
-        self.goals.clear();
-        self.goals.extend(goals.iter().map(|&c| self.topo.index(c)));
         let mut gen = Generator::new(
             &self.topo,
             Rules::ENV_EXECUTABLE,
