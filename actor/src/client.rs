@@ -26,6 +26,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use buridan_env::error::error_chain;
+use buridan_env::replay::ReplayConfig;
 use buridan_env::{BatchedEnv, EnvError, MapError, VecEnv};
 use buridan_policy::{ActMode, Inference, ModelSpec, Policy, PolicyError, Weights};
 use buridan_proto::convert::{
@@ -904,5 +905,15 @@ pub fn build_collector(join: &v1::JoinReply) -> Result<Collector<ActorEnv>, Setu
     )?;
     let kind = spec.mode.obs_kind();
     let venv = VecEnv::new(Arc::new(map), env, join.envs as usize, kind, 1)?;
-    collector_over(join, spec, Box::new(venv))
+    match join.replay {
+        Some(r) => {
+            let replay = ReplayConfig {
+                share: r.share,
+                tries: r.tries,
+                capacity: r.capacity as usize,
+            };
+            collector_over(join, spec, Box::new(venv.with_failure_replay(replay)?))
+        }
+        None => collector_over(join, spec, Box::new(venv)),
+    }
 }

@@ -8,6 +8,7 @@
 //! - [`obs`]: CTDE/DTE local and CTE central observations, action masks.
 //! - [`vec_env`]: [`VecEnv`], a batch of envs with auto-reset.
 //! - [`mixture`]: [`LayoutMixture`], one env over several layouts with weights.
+//! - [`replay`]: [`replay::FailureReplay`], a slot that plays its failed episodes again.
 //! - [`monitor`]: deadlock and livelock detection.
 //! - [`api`]: [`BatchedEnv`], the batched interface actors drive.
 //! - [`seed`]: how one run seed becomes every random stream's seed.
@@ -30,6 +31,7 @@ pub mod mixture;
 pub mod monitor;
 pub mod obs;
 pub mod recipe;
+pub mod replay;
 pub mod reward;
 pub mod rules;
 pub mod seed;

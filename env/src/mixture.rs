@@ -148,6 +148,9 @@ impl EnvSlot for LayoutMixture {
     fn env_mut(&mut self) -> &mut GridEnv {
         LayoutMixture::env_mut(self)
     }
+    fn reset_to(&mut self, episode: u64) -> Result<(), EnvError> {
+        LayoutMixture::reset_to(self, episode)
+    }
     fn reset_next(&mut self, stride: u64) -> Result<(), EnvError> {
         LayoutMixture::reset_next(self, stride)
     }

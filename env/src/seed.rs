@@ -78,6 +78,13 @@ pub fn layout_draw(env_seed: u64) -> u64 {
     env_seed ^ 0x6c61_796f_7574 // "layout"
 }
 
+/// Seed of the failure-replay draws of an env slot seeded `env_seed`
+/// ([`crate::replay::FailureReplay`]: whether a reset replays a failed
+/// episode; a stream apart from the episode instances').
+pub fn failure_replay(env_seed: u64) -> u64 {
+    env_seed ^ 0x7265_706c_6179 // "replay"
+}
+
 /// Seed of the random controller's action draws for evaluation seed `seed`.
 pub fn random_controller(seed: u64) -> u64 {
     seed ^ 0x7261_6e64_6f6d // "random"

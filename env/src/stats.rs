@@ -27,6 +27,10 @@ pub struct EpisodeStats {
     /// the [`crate::LayoutMixture`]'s list); 0 for a single-map env.
     #[serde(default)]
     pub layout: u32,
+    /// 0 for a fresh episode; k for its k-th replay after a failure
+    /// ([`crate::replay::FailureReplay`]).
+    #[serde(default)]
+    pub replay: u32,
 }
 
 impl EpisodeStats {

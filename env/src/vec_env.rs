@@ -38,6 +38,7 @@ use crate::error::EnvError;
 use crate::map::Map;
 use crate::mixture::{LayoutMixture, WeightedLayout};
 use crate::obs::ObsKind;
+use crate::replay::{FailureReplay, ReplayConfig};
 use crate::stats::EpisodeStats;
 use crate::world::{GridEnv, NUM_ACTIONS};
 
@@ -50,6 +51,9 @@ pub trait EnvSlot: Send {
     fn env(&self) -> &GridEnv;
     /// The env of the current episode, to step it.
     fn env_mut(&mut self) -> &mut GridEnv;
+    /// Starts episode `episode` (its starts and goals, and its layout in a
+    /// mixture, follow from the index).
+    fn reset_to(&mut self, episode: u64) -> Result<(), EnvError>;
     /// Starts the slot's next episode (`episode + stride`).
     fn reset_next(&mut self, stride: u64) -> Result<(), EnvError>;
     /// Statistics of the current episode.
@@ -64,6 +68,9 @@ impl EnvSlot for GridEnv {
     #[inline]
     fn env_mut(&mut self) -> &mut GridEnv {
         self
+    }
+    fn reset_to(&mut self, episode: u64) -> Result<(), EnvError> {
+        GridEnv::reset_to(self, episode)
     }
     fn reset_next(&mut self, stride: u64) -> Result<(), EnvError> {
         GridEnv::reset_next(self, stride)
@@ -348,6 +355,56 @@ impl<S: EnvSlot> VecEnv<S> {
     /// Takes the statistics of the episodes finished since the last call.
     pub fn drain_episodes(&mut self) -> Vec<EpisodeStats> {
         std::mem::take(&mut self.episodes)
+    }
+
+    /// The same batch, each slot replaying its failed episodes
+    /// ([`FailureReplay`]); the current episodes play on. Slot `e` draws
+    /// its replays from a stream of its own env seed and index.
+    ///
+    /// ```
+    /// use buridan_env::replay::ReplayConfig;
+    /// use buridan_env::{EnvConfig, Map, ObsKind, VecEnv};
+    /// let map = std::sync::Arc::new(Map::load("rm-2.1").unwrap());
+    /// let env = EnvConfig { t_max: 10, ..EnvConfig::default() };
+    /// let venv = VecEnv::new(map, env, 2, ObsKind::Local, 1).unwrap();
+    /// let replay = ReplayConfig { share: 1.0, ..ReplayConfig::default() };
+    /// let mut venv = venv.with_failure_replay(replay).unwrap();
+    /// for _ in 0..20 {
+    ///     venv.step(&[0; 8]).unwrap();
+    /// }
+    /// // Standing still fails: the second episode of each slot is a replay.
+    /// let eps = venv.drain_episodes();
+    /// assert_eq!(eps.iter().map(|e| (e.episode, e.replay)).collect::<Vec<_>>(), [(0, 0), (1, 0), (0, 1), (1, 1)]);
+    /// ```
+    pub fn with_failure_replay(
+        self,
+        replay: ReplayConfig,
+    ) -> Result<VecEnv<FailureReplay<S>>, EnvError> {
+        let envs = self
+            .envs
+            .into_iter()
+            .enumerate()
+            .map(|(e, slot)| {
+                let seed = slot.env().config().seed.wrapping_add(e as u64);
+                FailureReplay::new(slot, replay, seed)
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(VecEnv {
+            envs,
+            kind: self.kind,
+            agents: self.agents,
+            obs_dim: self.obs_dim,
+            mask_dim: self.mask_dim,
+            obs: self.obs,
+            final_obs: self.final_obs,
+            masks: self.masks,
+            rewards: self.rewards,
+            terminated: self.terminated,
+            truncated: self.truncated,
+            finished: self.finished,
+            episodes: self.episodes,
+            pool: self.pool,
+        })
     }
 }
 

@@ -708,6 +708,7 @@ impl GridEnv {
             livelock_steps: self.monitor.livelock_steps(),
             deadlock_events: self.monitor.deadlock_events(),
             layout: 0,
+            replay: 0,
         }
     }
 

@@ -103,6 +103,7 @@ impl Kpis {
             livelock_steps: 0,
             deadlock_events: self.deadlock_events,
             layout: 0,
+            replay: 0,
         }
     }
 }

@@ -324,6 +324,7 @@ fn episode_to_message(e: &EpisodeStats) -> v1::EpisodeStats {
         livelock_steps: e.livelock_steps,
         deadlock_events: e.deadlock_events,
         layout: e.layout,
+        replay: e.replay,
     }
 }
 
@@ -340,6 +341,7 @@ fn episode_from_message(m: &v1::EpisodeStats) -> EpisodeStats {
         livelock_steps: m.livelock_steps,
         deadlock_events: m.deadlock_events,
         layout: m.layout,
+        replay: m.replay,
     }
 }
 

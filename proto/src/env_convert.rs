@@ -284,6 +284,7 @@ pub fn episode_from_message(
         livelock_steps: m.livelock_steps,
         deadlock_events: m.deadlock_events,
         layout: 0,
+        replay: 0,
     };
     Ok((stats, kpis))
 }

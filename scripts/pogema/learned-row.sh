@@ -2,8 +2,9 @@
 # The POGEMA benchmark's learned row (issue 18): the recipe trained under
 # pogema rules on the reference layouts rm-3.1 and rm-2.2 (never on the
 # warehouse), one policy per training seed, then `learner bench pogema` with
-# each policy raw (greedy), through the PIBT collision shield, and sampled,
-# beside PIBT alone; the seeds pool into one row per mode (mean success and
+# each policy raw (greedy), through the PIBT collision shield, through the
+# shield with its progress fallback (patience 16, the study action
+# `fallback`), and sampled, beside PIBT alone; the seeds pool into one row per mode (mean success and
 # its 95 % bootstrap interval).
 #
 # Usage: scripts/pogema/learned-row.sh OUT [TRAIN_SEEDS] [INSTANCE_SEEDS]
@@ -38,12 +39,13 @@ for s in $train_seeds; do
   echo "seed $s: trained in $(( $(date +%s) - start )) s" | tee -a "$out/train-walls.txt"
 done
 set -- --controller pibt
-for mode in learned learned-shield learned-sampled; do
+for mode in learned learned-shield learned-fallback learned-sampled; do
   for s in $train_seeds; do
     ckpt="checkpoint:$out/policies/seed-$s"
     case $mode in
       learned) set -- "$@" --controller "learned#$s=$ckpt" ;;
       learned-shield) set -- "$@" --controller "learned-shield#$s=shield:$ckpt" ;;
+      learned-fallback) set -- "$@" --controller "learned-fallback#$s=shield=16:$ckpt" ;;
       learned-sampled) set -- "$@" --controller "learned-sampled#$s=sampled:$ckpt" ;;
     esac
   done

@@ -46,6 +46,8 @@ pub struct RunInfo {
     pub greedy_mix: f32,
     /// Rollouts through the collision shield (`shield_rollouts`).
     pub shield_rollouts: bool,
+    /// Replay of failed episodes (`[replay]`; `None`: off).
+    pub replay: Option<v1::FailureReplay>,
     /// Base of the actors' env seeds.
     pub seed_base: u64,
     /// Observation floats per row.
@@ -396,6 +398,7 @@ mod tests {
             max_policy_lag: 0,
             greedy_mix: 0.0,
             shield_rollouts: false,
+            replay: None,
             seed_base: 0,
             obs_dim: 1,
             heads: 1,

@@ -331,6 +331,11 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
         max_policy_lag: cfg.impala.max_policy_lag,
         greedy_mix: cfg.behaviour().greedy_mix(),
         shield_rollouts: cfg.shield_rollouts,
+        replay: cfg.replay.enabled().then(|| v1::FailureReplay {
+            share: cfg.replay.share,
+            tries: cfg.replay.tries,
+            capacity: u32::try_from(cfg.replay.capacity).unwrap_or(u32::MAX),
+        }),
         seed_base: run.actor_seed(0),
         obs_dim: spec.obs_dim as u32,
         heads: spec.heads as u32,

@@ -157,6 +157,7 @@ impl Learner for LearnerService {
             plant: info.plant.clone(),
             greedy_mix: info.greedy_mix,
             shield_rollouts: info.shield_rollouts,
+            replay: info.replay,
             run_finished: false,
         }))
     }

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use buridan_env::replay::ReplayConfig;
 use buridan_env::{EnvError, Map, MapError, ObsFeatures, Rules, Starts, WeightedLayout};
 use buridan_imitate::ImitationConfig;
 use buridan_plant::{Plant, PlantConfig, PlantEnv, PlantError};
@@ -120,7 +121,7 @@ pub enum ConfigError {
     /// A plant run with a grid-only option.
     #[error("invalid configuration: {what} applies to grid layouts only, not to the AGV plant (leave it out with plant)")]
     GridOnlyOption {
-        /// The option (`features`, `shaping`, `shield_rollouts`).
+        /// The option (`features`, `shaping`, `shield_rollouts`, `replay`).
         what: &'static str,
     },
     /// The plant cannot be loaded.
@@ -149,6 +150,11 @@ fn load_plant_file(name: &str) -> Result<Plant, ConfigError> {
         plant: name.to_string(),
         source: Box::new(source),
     })
+}
+
+/// Whether failure replay is off (then `[replay]` is left out of a saved config).
+fn replay_off(replay: &ReplayConfig) -> bool {
+    *replay == ReplayConfig::default()
 }
 
 fn ensure(ok: bool, why: &'static str) -> Result<(), ConfigError> {
@@ -483,6 +489,14 @@ pub struct TrainConfig {
     /// by default.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub shield_rollouts: bool,
+    /// Replay of failed training episodes, TOML `[replay]`
+    /// ([`buridan_env::replay`], prioritized level replay in its simplest
+    /// form): with probability `share` a reset plays a failed episode again
+    /// (at most `tries` times, until it succeeds) instead of a fresh one.
+    /// The training success and return count fresh episodes only. Grid
+    /// runs with in-process actors; off by default (`share = 0`).
+    #[serde(skip_serializing_if = "replay_off")]
+    pub replay: ReplayConfig,
     /// Discount γ (0.99).
     pub gamma: f32,
     /// Hidden layer sizes ([64, 64]).
@@ -542,6 +556,7 @@ impl Default for TrainConfig {
             envs_per_actor: 16,
             fragment_len: 50,
             shield_rollouts: false,
+            replay: ReplayConfig::default(),
             gamma: 0.99,
             hidden: vec![64, 64],
             lstm: false,
@@ -904,6 +919,14 @@ impl TrainConfig {
             "impala.greedy_mix needs algo = \"impala\" (PPO's ratio assumes sampled rollouts)",
         )?;
         ensure(self.lstm_cells >= 1, "lstm_cells must be positive")?;
+        ensure(
+            (0.0..=1.0).contains(&self.replay.share),
+            "replay.share must be in [0, 1]",
+        )?;
+        ensure(
+            !self.replay.enabled() || (self.replay.tries >= 1 && self.replay.capacity >= 1),
+            "replay.tries and replay.capacity must be at least 1 when replay.share > 0",
+        )?;
         self.validate_hyperparameters()?;
         for (section, im) in self.imitation_phases() {
             im.validate().map_err(|e| ConfigError::Imitation {
@@ -948,6 +971,9 @@ impl TrainConfig {
             return Err(ConfigError::GridOnlyOption {
                 what: "shield_rollouts",
             });
+        }
+        if self.replay.enabled() {
+            return Err(ConfigError::GridOnlyOption { what: "replay" });
         }
         ensure(self.t_max >= 1, "t_max must be at least 1")
     }
@@ -1148,8 +1174,52 @@ mod tests {
             ),
             "{err:?}"
         );
+        let err = plant_run(|c| c.replay.share = 0.5);
+        assert!(
+            matches!(err, Err(ConfigError::GridOnlyOption { what: "replay" })),
+            "{err:?}"
+        );
         let err = plant_run(|c| c.t_max = 0);
         assert!(matches!(err, Err(ConfigError::Invalid(_))), "{err:?}");
+    }
+
+    #[test]
+    fn failure_replay_is_written_only_when_on_and_its_ranges_are_checked() {
+        let mut cfg = TrainConfig::default();
+        assert!(!cfg.to_toml().contains("[replay]"));
+        cfg.replay.share = 0.5;
+        let text = cfg.to_toml();
+        assert!(text.contains("[replay]\nshare = 0.5"), "{text}");
+        let back: TrainConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back, cfg);
+        back.validate().unwrap();
+        for bad in [
+            ReplayConfig {
+                share: 1.5,
+                ..ReplayConfig::default()
+            },
+            ReplayConfig {
+                share: f64::NAN,
+                ..ReplayConfig::default()
+            },
+            ReplayConfig {
+                share: 0.5,
+                tries: 0,
+                capacity: 8,
+            },
+            ReplayConfig {
+                share: 0.5,
+                tries: 2,
+                capacity: 0,
+            },
+        ] {
+            let cfg = TrainConfig {
+                replay: bad,
+                ..TrainConfig::default()
+            };
+            let err = cfg.validate().unwrap_err().to_string();
+            assert!(err.contains("replay."), "{bad:?}: {err}");
+        }
     }
 
     #[test]

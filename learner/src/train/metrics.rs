@@ -10,7 +10,8 @@ use serde::{Deserialize, Serialize};
 /// Episodes the reported means run over (RLlib's smoothing window).
 pub const EPISODE_WINDOW: usize = 100;
 
-/// The last [`EPISODE_WINDOW`] finished episodes.
+/// The last [`EPISODE_WINDOW`] finished fresh episodes (replays of failed
+/// ones, `[replay]`, are practice and not counted).
 #[derive(Debug, Clone, Default)]
 pub struct EpisodeWindow {
     recent: VecDeque<EpisodeStats>,
@@ -34,9 +35,19 @@ impl EpisodeWindow {
         self.recent.iter().copied().collect()
     }
 
-    /// Adds finished episodes.
+    /// Adds finished episodes (replays skipped).
+    ///
+    /// ```
+    /// use buridan_env::EpisodeStats;
+    /// use buridan_learner::train::EpisodeWindow;
+    /// let mut w = EpisodeWindow::default();
+    /// let fresh = EpisodeStats { success: true, ..Default::default() };
+    /// let replayed = EpisodeStats { success: false, replay: 1, ..Default::default() };
+    /// w.extend(&[fresh, replayed]);
+    /// assert_eq!((w.total, w.success_rate()), (1, 1.0));
+    /// ```
     pub fn extend(&mut self, episodes: &[EpisodeStats]) {
-        for e in episodes {
+        for e in episodes.iter().filter(|e| e.replay == 0) {
             if self.recent.len() == EPISODE_WINDOW {
                 self.recent.pop_front();
             }

@@ -486,20 +486,22 @@ impl Run {
                 envs,
                 kind,
             )?),
-            (None, [(map, _)]) => Box::new(VecEnv::new(
-                map.clone(),
-                env_config(cfg, seed),
-                envs,
-                kind,
-                1,
-            )?),
-            (None, layouts) => Box::new(VecEnv::with_layouts(
-                layouts,
-                env_config(cfg, seed),
-                envs,
-                kind,
-                1,
-            )?),
+            (None, [(map, _)]) => {
+                let venv = VecEnv::new(map.clone(), env_config(cfg, seed), envs, kind, 1)?;
+                if cfg.replay.enabled() {
+                    Box::new(venv.with_failure_replay(cfg.replay)?)
+                } else {
+                    Box::new(venv)
+                }
+            }
+            (None, layouts) => {
+                let venv = VecEnv::with_layouts(layouts, env_config(cfg, seed), envs, kind, 1)?;
+                if cfg.replay.enabled() {
+                    Box::new(venv.with_failure_replay(cfg.replay)?)
+                } else {
+                    Box::new(venv)
+                }
+            }
         };
         let policy = Policy::new(self.spec.clone(), cfg.seed)?;
         policy.copy_from(&self.policy)?;
