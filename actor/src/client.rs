@@ -26,12 +26,11 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use buridan_env::error::error_chain;
-use buridan_env::replay::ReplayConfig;
 use buridan_env::{BatchedEnv, EnvError, MapError, VecEnv};
 use buridan_policy::{ActMode, Inference, ModelSpec, Policy, PolicyError, Weights};
 use buridan_proto::convert::{
-    env_from_message, fragment_to_message, map_from_message, weights_from_message, ConvertError,
-    WireTag,
+    env_from_message, fragment_to_message, map_from_message, replay_from_message,
+    weights_from_message, ConvertError, WireTag,
 };
 use buridan_proto::v1;
 use buridan_proto::v1::learner_client::LearnerClient;
@@ -904,16 +903,11 @@ pub fn build_collector(join: &v1::JoinReply) -> Result<Collector<ActorEnv>, Setu
         join.seed,
     )?;
     let kind = spec.mode.obs_kind();
-    let venv = VecEnv::new(Arc::new(map), env, join.envs as usize, kind, 1)?;
-    match join.replay {
-        Some(r) => {
-            let replay = ReplayConfig {
-                share: r.share,
-                tries: r.tries,
-                capacity: r.capacity as usize,
-            };
-            collector_over(join, spec, Box::new(venv.with_failure_replay(replay)?))
-        }
-        None => collector_over(join, spec, Box::new(venv)),
-    }
+    let replay = join
+        .replay
+        .as_ref()
+        .map(replay_from_message)
+        .unwrap_or_default();
+    let venv = VecEnv::new(Arc::new(map), env, join.envs as usize, kind, 1)?.boxed(replay)?;
+    collector_over(join, spec, venv)
 }

@@ -406,6 +406,37 @@ impl<S: EnvSlot> VecEnv<S> {
             pool: self.pool,
         })
     }
+
+    /// The batch as an actor drives it, boxed: replaying failed episodes
+    /// if `replay` is on ([`Self::with_failure_replay`]), as it is
+    /// otherwise.
+    ///
+    /// ```
+    /// use buridan_env::replay::ReplayConfig;
+    /// use buridan_env::{EnvConfig, Map, ObsKind, VecEnv};
+    /// let map = std::sync::Arc::new(Map::load("rm-2.1").unwrap());
+    /// let env = EnvConfig { t_max: 10, ..EnvConfig::default() };
+    /// let replayed = |replay| {
+    ///     let venv = VecEnv::new(map.clone(), env.clone(), 2, ObsKind::Local, 1).unwrap();
+    ///     let mut boxed = venv.boxed(replay).unwrap();
+    ///     for _ in 0..20 {
+    ///         boxed.step(&[0; 8]).unwrap();
+    ///     }
+    ///     boxed.drain_episodes().iter().filter(|e| e.replay > 0).count()
+    /// };
+    /// assert_eq!(replayed(ReplayConfig::default()), 0);
+    /// assert_eq!(replayed(ReplayConfig { share: 1.0, ..ReplayConfig::default() }), 2);
+    /// ```
+    pub fn boxed(self, replay: ReplayConfig) -> Result<Box<dyn BatchedEnv + Send>, EnvError>
+    where
+        S: 'static,
+    {
+        Ok(if replay.enabled() {
+            Box::new(self.with_failure_replay(replay)?)
+        } else {
+            Box::new(self)
+        })
+    }
 }
 
 /// One env's share of the batch buffers.

@@ -25,6 +25,7 @@
 //! assert_eq!((back_tag, back), (tag, f));
 //! ```
 
+use buridan_env::replay::ReplayConfig;
 use buridan_env::{EnvConfig, EpisodeStats, MapSource, ObsFeatures, Shaping, Starts};
 use buridan_policy::{Fragment, NamedTensor, PolicyError, RecurrentState, Weights};
 
@@ -454,6 +455,33 @@ pub fn env_from_message(m: &v1::EnvSettings, seed: u64) -> Result<EnvConfig, Con
             gamma: m.shaping_gamma,
         }),
     })
+}
+
+/// Failure-replay settings for the wire: `None` when replay is off.
+///
+/// ```
+/// use buridan_env::replay::ReplayConfig;
+/// use buridan_proto::convert::{replay_from_message, replay_to_message};
+/// assert!(replay_to_message(&ReplayConfig::default()).is_none());
+/// let on = ReplayConfig { share: 0.5, ..ReplayConfig::default() };
+/// assert_eq!(replay_from_message(&replay_to_message(&on).unwrap()), on);
+/// ```
+pub fn replay_to_message(r: &ReplayConfig) -> Option<v1::FailureReplay> {
+    r.enabled().then(|| v1::FailureReplay {
+        share: r.share,
+        tries: r.tries,
+        capacity: u32::try_from(r.capacity).unwrap_or(u32::MAX),
+    })
+}
+
+/// Failure-replay settings from the wire (the env checks their ranges
+/// when it wraps its slots).
+pub fn replay_from_message(m: &v1::FailureReplay) -> ReplayConfig {
+    ReplayConfig {
+        share: m.share,
+        tries: m.tries,
+        capacity: m.capacity as usize,
+    }
 }
 
 /// A map's texts for the wire.

@@ -49,7 +49,7 @@ use std::time::Duration;
 
 use buridan_env::MapSource;
 use buridan_proto::codec::UNDECODABLE_METADATA;
-use buridan_proto::convert::{env_to_message, map_to_message};
+use buridan_proto::convert::{env_to_message, map_to_message, replay_to_message};
 use buridan_proto::v1;
 use buridan_proto::v1::learner_server::LearnerServer;
 use rand::Rng;
@@ -331,11 +331,7 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
         max_policy_lag: cfg.impala.max_policy_lag,
         greedy_mix: cfg.behaviour().greedy_mix(),
         shield_rollouts: cfg.shield_rollouts,
-        replay: cfg.replay.enabled().then(|| v1::FailureReplay {
-            share: cfg.replay.share,
-            tries: cfg.replay.tries,
-            capacity: u32::try_from(cfg.replay.capacity).unwrap_or(u32::MAX),
-        }),
+        replay: replay_to_message(&cfg.replay),
         seed_base: run.actor_seed(0),
         obs_dim: spec.obs_dim as u32,
         heads: spec.heads as u32,

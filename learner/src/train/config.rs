@@ -39,6 +39,9 @@ pub enum ConfigError {
     /// A value is out of its range.
     #[error("invalid configuration: {0}")]
     Invalid(&'static str),
+    /// The `[replay]` settings are out of range.
+    #[error(transparent)]
+    Replay(EnvError),
     /// A hyperparameter is not a number in its range (NaN, infinite, or
     /// e.g. a negative learning rate).
     #[error("invalid configuration: {key} = {value} must be {range}")]
@@ -493,8 +496,9 @@ pub struct TrainConfig {
     /// ([`buridan_env::replay`], prioritized level replay in its simplest
     /// form): with probability `share` a reset plays a failed episode again
     /// (at most `tries` times, until it succeeds) instead of a fresh one.
-    /// The training success and return count fresh episodes only. Grid
-    /// runs with in-process actors; off by default (`share = 0`).
+    /// The training success and return count fresh episodes only; remote
+    /// actors get the settings with their join reply. Grid runs only; off
+    /// by default (`share = 0`).
     #[serde(skip_serializing_if = "replay_off")]
     pub replay: ReplayConfig,
     /// Discount γ (0.99).
@@ -919,14 +923,7 @@ impl TrainConfig {
             "impala.greedy_mix needs algo = \"impala\" (PPO's ratio assumes sampled rollouts)",
         )?;
         ensure(self.lstm_cells >= 1, "lstm_cells must be positive")?;
-        ensure(
-            (0.0..=1.0).contains(&self.replay.share),
-            "replay.share must be in [0, 1]",
-        )?;
-        ensure(
-            !self.replay.enabled() || (self.replay.tries >= 1 && self.replay.capacity >= 1),
-            "replay.tries and replay.capacity must be at least 1 when replay.share > 0",
-        )?;
+        self.replay.validate().map_err(ConfigError::Replay)?;
         self.validate_hyperparameters()?;
         for (section, im) in self.imitation_phases() {
             im.validate().map_err(|e| ConfigError::Imitation {

@@ -487,21 +487,10 @@ impl Run {
                 kind,
             )?),
             (None, [(map, _)]) => {
-                let venv = VecEnv::new(map.clone(), env_config(cfg, seed), envs, kind, 1)?;
-                if cfg.replay.enabled() {
-                    Box::new(venv.with_failure_replay(cfg.replay)?)
-                } else {
-                    Box::new(venv)
-                }
+                VecEnv::new(map.clone(), env_config(cfg, seed), envs, kind, 1)?.boxed(cfg.replay)?
             }
-            (None, layouts) => {
-                let venv = VecEnv::with_layouts(layouts, env_config(cfg, seed), envs, kind, 1)?;
-                if cfg.replay.enabled() {
-                    Box::new(venv.with_failure_replay(cfg.replay)?)
-                } else {
-                    Box::new(venv)
-                }
-            }
+            (None, layouts) => VecEnv::with_layouts(layouts, env_config(cfg, seed), envs, kind, 1)?
+                .boxed(cfg.replay)?,
         };
         let policy = Policy::new(self.spec.clone(), cfg.seed)?;
         policy.copy_from(&self.policy)?;
