@@ -64,6 +64,10 @@ pub struct EvalArgs {
     /// `checkpoint:DIR`, or a checkpoint through the PIBT collision shield:
     /// `shield:checkpoint:DIR` (preferences over every move but walls) or
     /// `shield-env:checkpoint:DIR` (moves into occupied cells ranked last);
+    /// `shield=K:…` lets an agent that has not come closer to its goal for
+    /// K steps follow its shortest path, `shield-ordered[=K]:…` also fills
+    /// dead-end aisles from the back (an agent bound nearer the mouth waits
+    /// outside until those bound deeper have passed its goal);
     /// `rescue:CONTROLLER` adds a planner as a safety net: it plans from the
     /// current state whenever an agent is stuck (within --time-limit), by
     /// default LaCAM then OD-A* (`lacam+od-astar`; beyond 8 agents

@@ -1,5 +1,6 @@
-//! `learner replay`: one episode of an evaluation drawn as an animated GIF,
-//! and the failed episodes' replays of `learner eval --replays`.
+//! `learner replay`: one episode of an evaluation drawn as an animated GIF
+//! (or written as its step-by-step trace in JSON), and the failed episodes'
+//! replays of `learner eval --replays`.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -61,19 +62,37 @@ pub struct ReplayArgs {
     /// Time per step in hundredths of a second.
     #[arg(long, default_value_t = 15)]
     pub delay: u16,
-    /// The GIF to write.
+    /// The file to write: `*.gif` draws the episode, `*.json` writes its
+    /// trace (every agent's cell and stall mark per step, the goals, the
+    /// harness's record).
     #[arg(long)]
     pub out: PathBuf,
 }
 
-/// Runs `learner replay`: records the episode and writes its GIF.
-pub fn run(args: &ReplayArgs) -> Result<Trace> {
-    if args.out.extension().is_none_or(|e| e != "gif") {
-        bail!(
-            "--out {}: the replay is a GIF, name it *.gif",
-            args.out.display()
-        );
+/// What `learner replay --out` writes, from the file's extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ReplayFormat {
+    Gif,
+    Json,
+}
+
+impl ReplayFormat {
+    fn of(path: &Path) -> Result<Self> {
+        match path.extension().and_then(|e| e.to_str()) {
+            Some("gif") => Ok(Self::Gif),
+            Some("json") => Ok(Self::Json),
+            _ => bail!(
+                "--out {}: name the replay *.gif (a drawing) or *.json (the step-by-step trace)",
+                path.display()
+            ),
+        }
     }
+}
+
+/// Runs `learner replay`: records the episode and writes its GIF or its
+/// JSON trace.
+pub fn run(args: &ReplayArgs) -> Result<Trace> {
+    let format = ReplayFormat::of(&args.out)?;
     if args.agents == 0 {
         bail!("--agents must be at least 1");
     }
@@ -112,7 +131,20 @@ pub fn run(args: &ReplayArgs) -> Result<Trace> {
     } else {
         Warmup::Fresh
     };
-    let trace = write_replay(&map, &spec, &make, args.episode, warmup, &args.out, &opts)?;
+    let trace = match format {
+        ReplayFormat::Gif => {
+            write_replay(&map, &spec, &make, args.episode, warmup, &args.out, &opts)?
+        }
+        ReplayFormat::Json => {
+            let trace = record_episode(&map, &spec, &*make, args.episode, warmup)
+                .with_context(|| format!("recording episode {} on {}", args.episode, map.name))?;
+            create_parent(&args.out)?;
+            let json = serde_json::to_vec_pretty(&trace).context("encoding the trace")?;
+            std::fs::write(&args.out, json)
+                .with_context(|| format!("writing {}", args.out.display()))?;
+            trace
+        }
+    };
     let r = &trace.record;
     eprintln!(
         "{} on {} with {} agents, seed {}, episode {}: {} after {} steps ({} deadlocked agents, {} stuck at the end) -> {}",
@@ -142,11 +174,17 @@ pub fn write_replay(
 ) -> Result<Trace> {
     let trace = record_episode(map, spec, &**make, episode, warmup)
         .with_context(|| format!("recording episode {episode} on {}", map.name))?;
+    create_parent(path)?;
+    write_gif(path, &trace, opts).with_context(|| format!("drawing {}", path.display()))?;
+    Ok(trace)
+}
+
+/// Creates the folder `path` goes into.
+fn create_parent(path: &Path) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    write_gif(path, &trace, opts).with_context(|| format!("drawing {}", path.display()))?;
-    Ok(trace)
+    Ok(())
 }
 
 /// Writes the replays of `report`'s failed episodes (those the controller

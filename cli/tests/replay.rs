@@ -86,7 +86,31 @@ fn bad_requests_are_reported() {
     assert!(err.contains("unknown controller 'teleport'"), "{err}");
     let args = replay_args(dir.path().join("x.png"));
     let err = format!("{:#}", replay::run(&args).unwrap_err());
-    assert!(err.contains("name it *.gif"), "{err}");
+    assert!(err.contains("name the replay *.gif"), "{err}");
+}
+
+#[test]
+fn a_json_replay_is_the_trace_of_the_drawn_episode() {
+    let dir = tempfile::tempdir().unwrap();
+    let drawn = replay::run(&replay_args(dir.path().join("ep3.gif"))).unwrap();
+    let args = replay_args(dir.path().join("traces/ep3.json"));
+    let trace = replay::run(&args).unwrap();
+    // The same episode (the compute time aside).
+    assert_eq!(
+        (&trace.snapshots, &trace.goals, trace.record.timesteps),
+        (&drawn.snapshots, &drawn.goals, drawn.record.timesteps)
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&args.out).unwrap()).unwrap();
+    let snapshots = json["snapshots"].as_array().unwrap();
+    assert_eq!(snapshots.len() as u32, trace.record.timesteps + 1);
+    let last = snapshots.last().unwrap();
+    let cells = last["positions"].as_array().unwrap();
+    assert_eq!(cells.len(), 8);
+    let final_cells = &trace.snapshots.last().unwrap().positions;
+    assert_eq!(cells[0], serde_json::to_value(final_cells[0]).unwrap());
+    assert_eq!(json["goals"].as_array().unwrap().len(), 8);
+    assert_eq!(json["episode"], 3);
 }
 
 #[test]

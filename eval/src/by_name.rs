@@ -6,7 +6,8 @@
 //! `shield-env:checkpoint:DIR` (the policy through the PIBT collision
 //! shield, ranked by walls or by the env's order; `shield=K:…` lets an
 //! agent that has not come closer to its goal for K steps follow its
-//! shortest path), or a rescue around any of
+//! shortest path; `shield-ordered:…` and `shield-ordered=K:…` also fill
+//! dead-end aisles from the back), or a rescue around any of
 //! these: `rescue:INNER`, `rescue=PLANNER:INNER`, `lookahead:INNER`,
 //! `lookahead=PLANNER:INNER` (a planner takes over when an agent is stuck,
 //! or before it jams), `backstop:INNER`, `backstop=PLANNER:INNER` (a
@@ -97,7 +98,7 @@ pub enum ControllerNameError {
     ShieldNeedsPolicy {
         /// The name given.
         name: String,
-        /// `shield` or `shield-env`.
+        /// `shield`, `shield-env` or `shield-ordered`.
         prefix: &'static str,
     },
     /// `shield=K:` with a K that is no step count.
@@ -182,6 +183,8 @@ fn shield_parts<'a>(
 /// assert!(err.to_string().contains("trained policies only"), "{err}");
 /// let patient = controller_factory(&format!("shield=8:checkpoint:{ckpt}"), 4, 42, Default::default(), g, t).unwrap();
 /// assert_eq!(patient().name(), "ctde-policy+shield=8");
+/// let ordered = controller_factory(&format!("shield-ordered=16:checkpoint:{ckpt}"), 4, 42, Default::default(), g, t).unwrap();
+/// assert_eq!(ordered().name(), "ctde-policy+shield-ordered=16");
 /// let err = controller_factory(&format!("shield=soon:checkpoint:{ckpt}"), 4, 42, Default::default(), g, t).err().unwrap();
 /// assert!(err.to_string().contains("patience 'soon' is not a number of steps"), "{err}");
 /// let rescued = controller_factory("rescue:random", 4, 42, Default::default(), g, t).unwrap();
@@ -242,7 +245,11 @@ pub fn controller_factory(
             })
         }));
     }
-    for (prefix, ranking) in [("shield", Ranking::Walls), ("shield-env", Ranking::Env)] {
+    for (prefix, ranking, ordered) in [
+        ("shield", Ranking::Walls, false),
+        ("shield-env", Ranking::Env, false),
+        ("shield-ordered", Ranking::Walls, true),
+    ] {
         if let Some((patience, inner)) = shield_parts(name, prefix)? {
             let Some(dir) = inner.strip_prefix("checkpoint:") else {
                 return Err(ControllerNameError::ShieldNeedsPolicy {
@@ -252,11 +259,14 @@ pub fn controller_factory(
             };
             let dir = PathBuf::from(dir);
             let load = move || {
-                let shield = ShieldController::load(&dir, agents, act_mode, seed, ranking)?;
-                Ok::<_, PolicyLoadError>(match patience {
-                    Some(k) => shield.with_progress_fallback(k),
-                    None => shield,
-                })
+                let mut shield = ShieldController::load(&dir, agents, act_mode, seed, ranking)?;
+                if let Some(k) = patience {
+                    shield = shield.with_progress_fallback(k);
+                }
+                if ordered {
+                    shield = shield.with_dead_end_order();
+                }
+                Ok::<_, PolicyLoadError>(shield)
             };
             load()?;
             return Ok(Box::new(move || {

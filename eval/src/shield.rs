@@ -79,6 +79,7 @@ pub struct ShieldController {
     ranking: Ranking,
     seed: u64,
     patience: Option<u32>,
+    dead_end_order: bool,
     shield: Option<Shield>,
     prefs: Vec<ActionOrder>,
 }
@@ -105,6 +106,7 @@ impl ShieldController {
             ranking,
             seed,
             patience: None,
+            dead_end_order: false,
             shield: None,
             prefs: Vec::with_capacity(agents),
         })
@@ -117,13 +119,38 @@ impl ShieldController {
         self.patience = Some(patience);
         self
     }
+
+    /// The same controller whose shield fills dead-end aisles from the
+    /// back ([`Shield::with_dead_end_order`];
+    /// `shield-ordered[=K]:checkpoint:DIR`).
+    pub fn with_dead_end_order(mut self) -> Self {
+        self.dead_end_order = true;
+        self
+    }
+
+    /// A fresh shield for `grid` with this controller's options.
+    fn new_shield(&self, grid: &buridan_env::Grid) -> Shield {
+        let mut shield = Shield::new(grid);
+        if let Some(k) = self.patience {
+            shield = shield.with_progress_fallback(k);
+        }
+        if self.dead_end_order {
+            shield = shield.with_dead_end_order();
+        }
+        shield
+    }
 }
 
 impl Controller for ShieldController {
     fn name(&self) -> String {
+        let shield = if self.dead_end_order {
+            "shield-ordered"
+        } else {
+            "shield"
+        };
         match self.patience {
-            None => format!("{}+shield", self.policy.name()),
-            Some(k) => format!("{}+shield={k}", self.policy.name()),
+            None => format!("{}+{shield}", self.policy.name()),
+            Some(k) => format!("{}+{shield}={k}", self.policy.name()),
         }
     }
 
@@ -140,7 +167,7 @@ impl Controller for ShieldController {
         // A fixed order among equals per episode, independent of which
         // evaluation thread plays it.
         let ties = seed::shield_ties(self.seed, env.episode());
-        let mut shield = new_shield(&env.map().grid, self.patience);
+        let mut shield = self.new_shield(&env.map().grid);
         shield.begin_episode(env.agents(), ties);
         self.shield = Some(shield);
         Ok(())
@@ -157,9 +184,10 @@ impl Controller for ShieldController {
             return;
         };
         preference_orders(d.actions, d.logits, d.masks, &mut self.prefs);
-        let shield = self
-            .shield
-            .get_or_insert_with(|| new_shield(&env.map().grid, self.patience));
+        if self.shield.is_none() {
+            self.shield = Some(self.new_shield(&env.map().grid));
+        }
+        let shield = self.shield.as_mut().expect("set above");
         if shield
             .step(&env.positions(), &env.goals(), &self.prefs, actions)
             .is_err()
@@ -172,15 +200,5 @@ impl Controller for ShieldController {
 
     fn after_step(&mut self, rewards: &[f32]) {
         self.policy.after_step(rewards);
-    }
-}
-
-/// A shield for `grid`, with the progress fallback after `patience` steps
-/// if set.
-fn new_shield(grid: &buridan_env::Grid, patience: Option<u32>) -> Shield {
-    let shield = Shield::new(grid);
-    match patience {
-        Some(k) => shield.with_progress_fallback(k),
-        None => shield,
     }
 }

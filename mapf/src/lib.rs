@@ -103,6 +103,7 @@
 #![warn(missing_docs)]
 
 pub mod cbs;
+pub mod dead_ends;
 mod graph;
 pub mod lacam;
 pub mod lifelong;

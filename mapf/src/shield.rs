@@ -51,6 +51,7 @@
 
 use buridan_env::{Cell, Grid, NUM_ACTIONS};
 
+use crate::dead_ends::DeadEnds;
 use crate::graph::{distance_table, Topology, NONE};
 use crate::limits::{check_instance, InstanceError};
 use crate::pibt::{online_step, Generator, Preference};
@@ -182,6 +183,7 @@ pub struct Shield {
     goals: Vec<u32>,
     ranks: Ranks,
     fallback: Option<ProgressFallback>,
+    dead_ends: Option<DeadEnds>,
 }
 
 /// Each agent's progress towards its goal, for
@@ -254,6 +256,53 @@ impl ProgressFallback {
     }
 }
 
+/// The dead-end order of [`Shield::with_dead_end_order`]: every agent
+/// outside the branch of its goal that must let another agent pass its
+/// goal first ranks the moves into that branch last (`ranks`, one table
+/// per agent) and drops to the lowest priority (its tie-breaker alone).
+fn yield_to_deeper_goals(
+    dead_ends: &DeadEnds,
+    topo: &Topology,
+    cur: &[u32],
+    goals: &[u32],
+    ranks: &mut [[u8; NUM_ACTIONS]],
+    priorities: &mut [f64],
+) {
+    for (i, (&at, &goal)) in cur.iter().zip(goals).enumerate() {
+        let Some(mouth) = dead_ends.mouth(goal) else {
+            continue;
+        };
+        if at == goal || dead_ends.mouth(at) == Some(mouth) {
+            continue;
+        }
+        // Someone bound deeper along this path has not passed `goal` yet.
+        let waits = goals
+            .iter()
+            .zip(cur)
+            .enumerate()
+            .any(|(j, (&deeper, &pos))| {
+                j != i
+                    && dead_ends.index_on_the_way(goal, deeper)
+                    && !dead_ends.index_on_the_way(goal, pos)
+            });
+        if !waits {
+            continue;
+        }
+        let moves = topo.moves(at);
+        let rank = &mut ranks[i];
+        let mut order: ActionOrder = [0, 1, 2, 3, 4];
+        let enters = |a: u8| {
+            let to = moves[usize::from(a)];
+            to != NONE && dead_ends.mouth(to) == Some(mouth)
+        };
+        order.sort_by_key(|&a| (enters(a), rank[usize::from(a)]));
+        for (r, &a) in order.iter().enumerate() {
+            rank[usize::from(a)] = r as u8;
+        }
+        priorities[i] = priorities[i].fract();
+    }
+}
+
 impl Shield {
     /// A shield for `grid`. Until [`Shield::begin_episode`] is called it
     /// breaks priority ties with seed 0.
@@ -274,6 +323,7 @@ impl Shield {
             goals: Vec::new(),
             ranks: Ranks(Vec::new()),
             fallback: None,
+            dead_ends: None,
         }
     }
 
@@ -331,6 +381,37 @@ impl Shield {
             waiting: Vec::new(),
             stalled: Vec::new(),
         });
+        self
+    }
+
+    /// A shield that fills dead-end aisles from the back
+    /// ([`crate::dead_ends`]): an agent whose goal lies on the way to
+    /// another agent's goal deeper in the same dead-end branch, while that
+    /// agent has not passed it yet, *yields*: standing outside the branch,
+    /// it ranks every move into the branch last (whatever the policy or the
+    /// progress fallback prefers) and takes the lowest priority, so that
+    /// the agents bound deeper push it out of their way. An agent already
+    /// inside the branch is left to the other rules. The order is strict
+    /// (by depth along one path), so agents never yield to each other in a
+    /// circle.
+    ///
+    /// ```
+    /// use buridan_env::{Cell, Grid};
+    /// use buridan_mapf::shield::Shield;
+    /// // A two-wide spine on the left, a dead-end aisle to the right.
+    /// let grid = Grid::from_rows(&["......", "..@@@@"]).unwrap();
+    /// // Agent 0 is bound for (0, 3), agent 1 for the far end (0, 5).
+    /// let (pos, goals) = ([Cell::new(0, 1), Cell::new(1, 1)], [Cell::new(0, 3), Cell::new(0, 5)]);
+    /// let towards_goal = [[2, 0, 1, 3, 4], [1, 0, 2, 3, 4]];
+    /// let mut actions = [9; 2];
+    /// Shield::new(&grid).step(&pos, &goals, &towards_goal, &mut actions).unwrap();
+    /// assert_eq!(actions[0], 2, "without the order, agent 0 enters first");
+    /// let mut ordered = Shield::new(&grid).with_dead_end_order();
+    /// ordered.step(&pos, &goals, &towards_goal, &mut actions).unwrap();
+    /// assert_ne!(actions[0], 2, "agent 0 lets agent 1 in first");
+    /// ```
+    pub fn with_dead_end_order(mut self) -> Self {
+        self.dead_ends = Some(DeadEnds::new(&self.grid));
         self
     }
 
@@ -421,6 +502,16 @@ impl Shield {
         }
         if self.priorities.len() != n {
             self.begin_episode(n, self.tie_seed);
+        }
+        if let Some(dead_ends) = &self.dead_ends {
+            yield_to_deeper_goals(
+                dead_ends,
+                &self.topo,
+                &self.cur,
+                &self.goals,
+                &mut self.ranks.0,
+                &mut self.priorities,
+            );
         }
         let mut gen = Generator::new(
             &self.topo,

@@ -1,8 +1,9 @@
 //! The collision shield against the env: every shielded joint move is
 //! executed exactly (no blocked move) from many random states, the same
 //! input gives the same joint move, a face-to-face deadlock that greedy
-//! preferences never leave is resolved, and with the progress fallback so
-//! is a standoff where the policy prefers to wait.
+//! preferences never leave is resolved, with the progress fallback so is
+//! a standoff where the policy prefers to wait, and with the dead-end order
+//! a dead-end aisle two agents would enter in the wrong order.
 
 use std::sync::Arc;
 
@@ -57,17 +58,21 @@ fn shielded_moves_never_fail_in_the_env() {
         ("rm-3.1", 24),
     ] {
         let map = Arc::new(Map::load(id).unwrap());
-        // Half the episodes (two of every four, lifelong or not) with the
-        // progress fallback (and its swaps) after 3 steps.
-        let (mut plain, mut patient) = (
+        // A third of the episodes (lifelong or not) each: the plain
+        // shield, the progress fallback (and its swaps) after 3 steps, and
+        // the fallback with the dead-end order.
+        let (mut plain, mut patient, mut ordered) = (
             Shield::new(&map.grid),
             Shield::new(&map.grid).with_progress_fallback(3),
+            Shield::new(&map.grid)
+                .with_progress_fallback(3)
+                .with_dead_end_order(),
         );
         for episode in 0..24u64 {
-            let shield = if episode % 4 < 2 {
-                &mut plain
-            } else {
-                &mut patient
+            let shield = match episode % 6 {
+                0 | 1 => &mut plain,
+                2 | 3 => &mut patient,
+                _ => &mut ordered,
             };
             let cfg = EnvConfig {
                 agents,
@@ -273,6 +278,66 @@ fn the_progress_fallback_ends_standoffs_where_the_policy_waits() {
         patient_policy_episode(&map, &mut patient),
         "stalled agents follow their shortest paths"
     );
+}
+
+/// A two-wide spine with a dead-end aisle of eight cells (rm-2.1b in
+/// small). Agent 0 starts at the aisle's mouth, bound for the aisle's
+/// second cell; agent 1 starts at the spine's far end, bound for the
+/// aisle's end: agent 0 must let agent 1 in first.
+fn wrong_order_aisle() -> Arc<Map> {
+    let grid = Grid::from_rows(&["..........", "..@@@@@@@@", "..@@@@@@@@", "..@@@@@@@@"]).unwrap();
+    Arc::new(Map {
+        name: "wrong-order aisle".into(),
+        grid,
+        scenario: Some(Scenario {
+            starts: vec![Cell::new(0, 1), Cell::new(3, 0)],
+            goals: vec![Cell::new(0, 3), Cell::new(0, 9)],
+        }),
+    })
+}
+
+/// Plays `map`'s scenario with goal-greedy preferences through `shield`;
+/// the episode's length if it succeeded.
+fn goal_greedy_episode(map: &Arc<Map>, shield: &mut Shield, tie_seed: u64) -> Option<u32> {
+    let n = map.scenario.as_ref().unwrap().starts.len();
+    let mut env = GridEnv::new(map.clone(), fixed(n)).unwrap();
+    shield.begin_episode(n, tie_seed);
+    let (mut rewards, mut actions) = (vec![0.0; n], vec![0u8; n]);
+    loop {
+        let (pos, goals) = (env.positions(), env.goals());
+        let prefs: Vec<ActionOrder> = (0..n)
+            .map(|i| goal_greedy(&map.grid, pos[i], goals[i]))
+            .collect();
+        shield.step(&pos, &goals, &prefs, &mut actions).unwrap();
+        let outcome = env.step(&actions, &mut rewards).unwrap();
+        assert_eq!(outcome.blocked_moves, 0);
+        if outcome.done() {
+            let stats = env.stats();
+            return stats.success.then_some(stats.length);
+        }
+    }
+}
+
+#[test]
+fn the_dead_end_order_lets_the_deeper_goal_in_first() {
+    let map = wrong_order_aisle();
+    for tie_seed in 0..8 {
+        let mut fallback = Shield::new(&map.grid).with_progress_fallback(16);
+        assert_eq!(
+            goal_greedy_episode(&map, &mut fallback, tie_seed),
+            None,
+            "tie seed {tie_seed}: agent 0 parks in the aisle and agent 1 never gets by"
+        );
+        let mut ordered = Shield::new(&map.grid)
+            .with_progress_fallback(16)
+            .with_dead_end_order();
+        let length = goal_greedy_episode(&map, &mut ordered, tie_seed);
+        // Agent 1 needs 3 + 9 = 12 steps; agent 0 follows it in.
+        assert!(
+            length.is_some_and(|t| t <= 14),
+            "tie seed {tie_seed}: {length:?}"
+        );
+    }
 }
 
 #[test]
