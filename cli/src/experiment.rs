@@ -26,6 +26,8 @@
 //! actions = ["sampled", "greedy"]  # and/or "shielded": greedy through the PIBT shield,
 //!                                   # "fallback": shielded, an agent without progress for 16 steps
 //!                                   #   follows its shortest path (PIBT with swap)
+//!                                   # "ordered": the fallback, and dead-end aisles filled from the
+//!                                   #   back (an agent bound nearer the mouth waits outside)
 //!                                   # "rescued": shielded, a planner plans whenever an agent is stuck
 //!                                   # "lookahead": rescued, with foresight (a twin plays the episode ahead;
 //!                                   #   if it would get stuck, the planner plans from the start)
@@ -197,6 +199,13 @@ pub enum Actions {
     /// shortest path, with PIBT's swap (`--controller
     /// shield=16:checkpoint:DIR`): deterministic, no planner search.
     Fallback,
+    /// The fallback, and the shield fills dead-end aisles from the back:
+    /// an agent bound nearer an aisle's mouth waits outside until those
+    /// bound deeper have passed its goal (`--controller
+    /// shield-ordered=16:checkpoint:DIR`,
+    /// [`buridan_mapf::shield::Shield::with_dead_end_order`]):
+    /// deterministic, no planner search.
+    Ordered,
     /// Shielded, with LaCAM then OD-A* planning from the current state whenever an
     /// agent is stuck (`--controller rescue:shield:checkpoint:DIR`, within
     /// `rescue_time` seconds per call).
@@ -222,26 +231,29 @@ impl Actions {
     /// ```
     /// use buridan_cli::experiment::Actions;
     /// let names: Vec<_> = Actions::ALL.iter().map(|a| a.name()).collect();
-    /// assert_eq!(names, ["sampled", "greedy", "shielded", "fallback", "rescued", "lookahead", "backstop", "pace"]);
+    /// assert_eq!(names, ["sampled", "greedy", "shielded", "fallback", "ordered", "rescued", "lookahead", "backstop", "pace"]);
     /// ```
-    pub const ALL: [Actions; 8] = [
+    pub const ALL: [Actions; 9] = [
         Actions::Sampled,
         Actions::Greedy,
         Actions::Shielded,
         Actions::Fallback,
+        Actions::Ordered,
         Actions::Rescued,
         Actions::Lookahead,
         Actions::Backstop,
         Actions::Pace,
     ];
 
-    /// `sampled`, `greedy`, `shielded`, `fallback`, `rescued`, `lookahead`, `backstop` or `pace`.
+    /// `sampled`, `greedy`, `shielded`, `fallback`, `ordered`, `rescued`,
+    /// `lookahead`, `backstop` or `pace`.
     pub fn name(&self) -> &'static str {
         match self {
             Actions::Sampled => "sampled",
             Actions::Greedy => "greedy",
             Actions::Shielded => "shielded",
             Actions::Fallback => "fallback",
+            Actions::Ordered => "ordered",
             Actions::Rescued => "rescued",
             Actions::Lookahead => "lookahead",
             Actions::Backstop => "backstop",
@@ -760,6 +772,7 @@ impl Experiment {
                 let shield = match (actions, &self.eval.rescue_planner) {
                     (Actions::Shielded, _) => "shield:".to_string(),
                     (Actions::Fallback, _) => format!("shield={DEFAULT_PATIENCE}:"),
+                    (Actions::Ordered, _) => format!("shield-ordered={DEFAULT_PATIENCE}:"),
                     (Actions::Rescued, None) => "rescue:shield:".to_string(),
                     (Actions::Rescued, Some(planner)) => format!("rescue={planner}:shield:"),
                     (Actions::Lookahead, None) => "lookahead:shield:".to_string(),
@@ -821,7 +834,7 @@ impl Experiment {
                 Actions::Rescued | Actions::Lookahead | Actions::Backstop | Actions::Pace => {
                     args.extend(["--time-limit".into(), self.time_limit(cell).to_string()])
                 }
-                Actions::Greedy | Actions::Shielded | Actions::Fallback => {}
+                Actions::Greedy | Actions::Shielded | Actions::Fallback | Actions::Ordered => {}
             },
             Evaluated::Planner => args.extend([
                 "--time-limit".into(),
