@@ -131,20 +131,16 @@ pub fn run(args: &ReplayArgs) -> Result<Trace> {
     } else {
         Warmup::Fresh
     };
-    let trace = match format {
-        ReplayFormat::Gif => {
-            write_replay(&map, &spec, &make, args.episode, warmup, &args.out, &opts)?
-        }
+    let trace = record(&map, &spec, &make, args.episode, warmup)?;
+    create_parent(&args.out)?;
+    match format {
+        ReplayFormat::Gif => draw(&args.out, &trace, &opts)?,
         ReplayFormat::Json => {
-            let trace = record_episode(&map, &spec, &*make, args.episode, warmup)
-                .with_context(|| format!("recording episode {} on {}", args.episode, map.name))?;
-            create_parent(&args.out)?;
             let json = serde_json::to_vec_pretty(&trace).context("encoding the trace")?;
             std::fs::write(&args.out, json)
                 .with_context(|| format!("writing {}", args.out.display()))?;
-            trace
         }
-    };
+    }
     let r = &trace.record;
     eprintln!(
         "{} on {} with {} agents, seed {}, episode {}: {} after {} steps ({} deadlocked agents, {} stuck at the end) -> {}",
@@ -172,11 +168,27 @@ pub fn write_replay(
     path: &Path,
     opts: &GifOptions,
 ) -> Result<Trace> {
-    let trace = record_episode(map, spec, &**make, episode, warmup)
-        .with_context(|| format!("recording episode {episode} on {}", map.name))?;
+    let trace = record(map, spec, make, episode, warmup)?;
     create_parent(path)?;
-    write_gif(path, &trace, opts).with_context(|| format!("drawing {}", path.display()))?;
+    draw(path, &trace, opts)?;
     Ok(trace)
+}
+
+/// Records episode `episode` of `spec`.
+fn record(
+    map: &Arc<Map>,
+    spec: &EvalSpec,
+    make: &ControllerFactory,
+    episode: u64,
+    warmup: Warmup,
+) -> Result<Trace> {
+    record_episode(map, spec, &**make, episode, warmup)
+        .with_context(|| format!("recording episode {episode} on {}", map.name))
+}
+
+/// Draws `trace` as a GIF at `path`.
+fn draw(path: &Path, trace: &Trace, opts: &GifOptions) -> Result<()> {
+    write_gif(path, trace, opts).with_context(|| format!("drawing {}", path.display()))
 }
 
 /// Creates the folder `path` goes into.

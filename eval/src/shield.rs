@@ -127,18 +127,6 @@ impl ShieldController {
         self.dead_end_order = true;
         self
     }
-
-    /// A fresh shield for `grid` with this controller's options.
-    fn new_shield(&self, grid: &buridan_env::Grid) -> Shield {
-        let mut shield = Shield::new(grid);
-        if let Some(k) = self.patience {
-            shield = shield.with_progress_fallback(k);
-        }
-        if self.dead_end_order {
-            shield = shield.with_dead_end_order();
-        }
-        shield
-    }
 }
 
 impl Controller for ShieldController {
@@ -167,7 +155,7 @@ impl Controller for ShieldController {
         // A fixed order among equals per episode, independent of which
         // evaluation thread plays it.
         let ties = seed::shield_ties(self.seed, env.episode());
-        let mut shield = self.new_shield(&env.map().grid);
+        let mut shield = new_shield(&env.map().grid, self.patience, self.dead_end_order);
         shield.begin_episode(env.agents(), ties);
         self.shield = Some(shield);
         Ok(())
@@ -184,10 +172,10 @@ impl Controller for ShieldController {
             return;
         };
         preference_orders(d.actions, d.logits, d.masks, &mut self.prefs);
-        if self.shield.is_none() {
-            self.shield = Some(self.new_shield(&env.map().grid));
-        }
-        let shield = self.shield.as_mut().expect("set above");
+        let (patience, ordered) = (self.patience, self.dead_end_order);
+        let shield = self
+            .shield
+            .get_or_insert_with(|| new_shield(&env.map().grid, patience, ordered));
         if shield
             .step(&env.positions(), &env.goals(), &self.prefs, actions)
             .is_err()
@@ -201,4 +189,17 @@ impl Controller for ShieldController {
     fn after_step(&mut self, rewards: &[f32]) {
         self.policy.after_step(rewards);
     }
+}
+
+/// A shield for `grid`, with the progress fallback after `patience` steps
+/// if set and the dead-end order if `dead_end_order`.
+fn new_shield(grid: &buridan_env::Grid, patience: Option<u32>, dead_end_order: bool) -> Shield {
+    let mut shield = Shield::new(grid);
+    if let Some(k) = patience {
+        shield = shield.with_progress_fallback(k);
+    }
+    if dead_end_order {
+        shield = shield.with_dead_end_order();
+    }
+    shield
 }

@@ -49,10 +49,6 @@ impl DeadEnds {
     /// Peels `grid`'s leaves (see the [module docs](self)).
     pub fn new(grid: &Grid) -> Self {
         let topo = Topology::new(grid);
-        Self::from_topology(topo)
-    }
-
-    pub(crate) fn from_topology(topo: Topology) -> Self {
         let n = topo.cells();
         let neighbours = |v: u32| {
             topo.moves(v)[1..]

@@ -248,11 +248,18 @@ impl ProgressFallback {
             NONE => u32::MAX,
             v => dist[v as usize],
         };
-        let mut order: ActionOrder = [0, 1, 2, 3, 4];
-        order.sort_by_key(|&a| (after(a), rank[usize::from(a)]));
-        for (r, &a) in order.iter().enumerate() {
-            rank[usize::from(a)] = r as u8;
-        }
+        rerank(rank, after);
+    }
+}
+
+/// Re-ranks one agent's actions (`rank[a]`: 0 for the most preferred) by
+/// `key`, the current ranks breaking ties: the progress fallback and the
+/// dead-end order each put their own criterion ahead of the policy's.
+fn rerank<K: Ord>(rank: &mut [u8; NUM_ACTIONS], key: impl Fn(u8) -> K) {
+    let mut order: ActionOrder = [0, 1, 2, 3, 4];
+    order.sort_by_key(|&a| (key(a), rank[usize::from(a)]));
+    for (r, &a) in order.iter().enumerate() {
+        rank[usize::from(a)] = r as u8;
     }
 }
 
@@ -289,16 +296,10 @@ fn yield_to_deeper_goals(
             continue;
         }
         let moves = topo.moves(at);
-        let rank = &mut ranks[i];
-        let mut order: ActionOrder = [0, 1, 2, 3, 4];
-        let enters = |a: u8| {
+        rerank(&mut ranks[i], |a| {
             let to = moves[usize::from(a)];
             to != NONE && dead_ends.mouth(to) == Some(mouth)
-        };
-        order.sort_by_key(|&a| (enters(a), rank[usize::from(a)]));
-        for (r, &a) in order.iter().enumerate() {
-            rank[usize::from(a)] = r as u8;
-        }
+        });
         priorities[i] = priorities[i].fract();
     }
 }
