@@ -67,7 +67,9 @@ pub struct EvalArgs {
     /// `shield=K:…` lets an agent that has not come closer to its goal for
     /// K steps follow its shortest path, `shield-ordered[=K]:…` also fills
     /// dead-end aisles from the back (an agent bound nearer the mouth waits
-    /// outside until those bound deeper have passed its goal);
+    /// outside until those bound deeper have passed its goal),
+    /// `shield-lanes[=K]:…` also keeps one-lane corridors one-way (an agent
+    /// waits outside a lane while another comes out towards it);
     /// `rescue:CONTROLLER` adds a planner as a safety net: it plans from the
     /// current state whenever an agent is stuck (within --time-limit), by
     /// default LaCAM then OD-A* (`lacam+od-astar`; beyond 8 agents

@@ -28,6 +28,8 @@
 //!                                   #   follows its shortest path (PIBT with swap)
 //!                                   # "ordered": the fallback, and dead-end aisles filled from the
 //!                                   #   back (an agent bound nearer the mouth waits outside)
+//!                                   # "lanes": ordered, and one-lane corridors kept one-way (an
+//!                                   #   agent waits outside while another comes out towards it)
 //!                                   # "rescued": shielded, a planner plans whenever an agent is stuck
 //!                                   # "lookahead": rescued, with foresight (a twin plays the episode ahead;
 //!                                   #   if it would get stuck, the planner plans from the start)
@@ -206,6 +208,13 @@ pub enum Actions {
     /// [`buridan_mapf::shield::Shield::with_dead_end_order`]):
     /// deterministic, no planner search.
     Ordered,
+    /// Ordered, and the shield keeps one-lane corridors one-way: an agent
+    /// about to enter a lane waits outside while another comes out towards
+    /// it, or while one bound deeper into the lane has yet to pass its goal
+    /// (`--controller shield-lanes=16:checkpoint:DIR`,
+    /// [`buridan_mapf::shield::Shield::with_one_way_lanes`]):
+    /// deterministic, no planner search.
+    Lanes,
     /// Shielded, with LaCAM then OD-A* planning from the current state whenever an
     /// agent is stuck (`--controller rescue:shield:checkpoint:DIR`, within
     /// `rescue_time` seconds per call).
@@ -231,22 +240,23 @@ impl Actions {
     /// ```
     /// use buridan_cli::experiment::Actions;
     /// let names: Vec<_> = Actions::ALL.iter().map(|a| a.name()).collect();
-    /// assert_eq!(names, ["sampled", "greedy", "shielded", "fallback", "ordered", "rescued", "lookahead", "backstop", "pace"]);
+    /// assert_eq!(names, ["sampled", "greedy", "shielded", "fallback", "ordered", "lanes", "rescued", "lookahead", "backstop", "pace"]);
     /// ```
-    pub const ALL: [Actions; 9] = [
+    pub const ALL: [Actions; 10] = [
         Actions::Sampled,
         Actions::Greedy,
         Actions::Shielded,
         Actions::Fallback,
         Actions::Ordered,
+        Actions::Lanes,
         Actions::Rescued,
         Actions::Lookahead,
         Actions::Backstop,
         Actions::Pace,
     ];
 
-    /// `sampled`, `greedy`, `shielded`, `fallback`, `ordered`, `rescued`,
-    /// `lookahead`, `backstop` or `pace`.
+    /// `sampled`, `greedy`, `shielded`, `fallback`, `ordered`, `lanes`,
+    /// `rescued`, `lookahead`, `backstop` or `pace`.
     pub fn name(&self) -> &'static str {
         match self {
             Actions::Sampled => "sampled",
@@ -254,6 +264,7 @@ impl Actions {
             Actions::Shielded => "shielded",
             Actions::Fallback => "fallback",
             Actions::Ordered => "ordered",
+            Actions::Lanes => "lanes",
             Actions::Rescued => "rescued",
             Actions::Lookahead => "lookahead",
             Actions::Backstop => "backstop",
@@ -773,6 +784,7 @@ impl Experiment {
                     (Actions::Shielded, _) => "shield:".to_string(),
                     (Actions::Fallback, _) => format!("shield={DEFAULT_PATIENCE}:"),
                     (Actions::Ordered, _) => format!("shield-ordered={DEFAULT_PATIENCE}:"),
+                    (Actions::Lanes, _) => format!("shield-lanes={DEFAULT_PATIENCE}:"),
                     (Actions::Rescued, None) => "rescue:shield:".to_string(),
                     (Actions::Rescued, Some(planner)) => format!("rescue={planner}:shield:"),
                     (Actions::Lookahead, None) => "lookahead:shield:".to_string(),
@@ -834,7 +846,11 @@ impl Experiment {
                 Actions::Rescued | Actions::Lookahead | Actions::Backstop | Actions::Pace => {
                     args.extend(["--time-limit".into(), self.time_limit(cell).to_string()])
                 }
-                Actions::Greedy | Actions::Shielded | Actions::Fallback | Actions::Ordered => {}
+                Actions::Greedy
+                | Actions::Shielded
+                | Actions::Fallback
+                | Actions::Ordered
+                | Actions::Lanes => {}
             },
             Evaluated::Planner => args.extend([
                 "--time-limit".into(),

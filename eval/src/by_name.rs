@@ -7,7 +7,8 @@
 //! shield, ranked by walls or by the env's order; `shield=K:…` lets an
 //! agent that has not come closer to its goal for K steps follow its
 //! shortest path; `shield-ordered:…` and `shield-ordered=K:…` also fill
-//! dead-end aisles from the back), or a rescue around any of
+//! dead-end aisles from the back; `shield-lanes:…` and `shield-lanes=K:…`
+//! also keep one-lane corridors one-way), or a rescue around any of
 //! these: `rescue:INNER`, `rescue=PLANNER:INNER`, `lookahead:INNER`,
 //! `lookahead=PLANNER:INNER` (a planner takes over when an agent is stuck,
 //! or before it jams), `backstop:INNER`, `backstop=PLANNER:INNER` (a
@@ -98,7 +99,7 @@ pub enum ControllerNameError {
     ShieldNeedsPolicy {
         /// The name given.
         name: String,
-        /// `shield`, `shield-env` or `shield-ordered`.
+        /// `shield`, `shield-env`, `shield-ordered` or `shield-lanes`.
         prefix: &'static str,
     },
     /// `shield=K:` with a K that is no step count.
@@ -185,6 +186,8 @@ fn shield_parts<'a>(
 /// assert_eq!(patient().name(), "ctde-policy+shield=8");
 /// let ordered = controller_factory(&format!("shield-ordered=16:checkpoint:{ckpt}"), 4, 42, Default::default(), g, t).unwrap();
 /// assert_eq!(ordered().name(), "ctde-policy+shield-ordered=16");
+/// let lanes = controller_factory(&format!("shield-lanes=16:checkpoint:{ckpt}"), 4, 42, Default::default(), g, t).unwrap();
+/// assert_eq!(lanes().name(), "ctde-policy+shield-lanes=16");
 /// let err = controller_factory(&format!("shield=soon:checkpoint:{ckpt}"), 4, 42, Default::default(), g, t).err().unwrap();
 /// assert!(err.to_string().contains("patience 'soon' is not a number of steps"), "{err}");
 /// let rescued = controller_factory("rescue:random", 4, 42, Default::default(), g, t).unwrap();
@@ -245,10 +248,11 @@ pub fn controller_factory(
             })
         }));
     }
-    for (prefix, ranking, ordered) in [
-        ("shield", Ranking::Walls, false),
-        ("shield-env", Ranking::Env, false),
-        ("shield-ordered", Ranking::Walls, true),
+    for (prefix, ranking, ordered, lanes) in [
+        ("shield", Ranking::Walls, false, false),
+        ("shield-env", Ranking::Env, false, false),
+        ("shield-ordered", Ranking::Walls, true, false),
+        ("shield-lanes", Ranking::Walls, true, true),
     ] {
         if let Some((patience, inner)) = shield_parts(name, prefix)? {
             let Some(dir) = inner.strip_prefix("checkpoint:") else {
@@ -265,6 +269,9 @@ pub fn controller_factory(
                 }
                 if ordered {
                     shield = shield.with_dead_end_order();
+                }
+                if lanes {
+                    shield = shield.with_one_way_lanes();
                 }
                 Ok::<_, PolicyLoadError>(shield)
             };

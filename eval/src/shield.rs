@@ -80,6 +80,7 @@ pub struct ShieldController {
     seed: u64,
     patience: Option<u32>,
     dead_end_order: bool,
+    one_way_lanes: bool,
     shield: Option<Shield>,
     prefs: Vec<ActionOrder>,
 }
@@ -107,6 +108,7 @@ impl ShieldController {
             seed,
             patience: None,
             dead_end_order: false,
+            one_way_lanes: false,
             shield: None,
             prefs: Vec::with_capacity(agents),
         })
@@ -127,11 +129,36 @@ impl ShieldController {
         self.dead_end_order = true;
         self
     }
+
+    /// The same controller whose shield keeps one-lane corridors one-way
+    /// ([`Shield::with_one_way_lanes`]; `shield-lanes[=K]:checkpoint:DIR`,
+    /// which also fills dead-end aisles from the back).
+    pub fn with_one_way_lanes(mut self) -> Self {
+        self.one_way_lanes = true;
+        self
+    }
+
+    /// The shield this controller plays through, for `grid`.
+    fn new_shield(&self, grid: &buridan_env::Grid) -> Shield {
+        let mut shield = Shield::new(grid);
+        if let Some(k) = self.patience {
+            shield = shield.with_progress_fallback(k);
+        }
+        if self.dead_end_order {
+            shield = shield.with_dead_end_order();
+        }
+        if self.one_way_lanes {
+            shield = shield.with_one_way_lanes();
+        }
+        shield
+    }
 }
 
 impl Controller for ShieldController {
     fn name(&self) -> String {
-        let shield = if self.dead_end_order {
+        let shield = if self.one_way_lanes {
+            "shield-lanes"
+        } else if self.dead_end_order {
             "shield-ordered"
         } else {
             "shield"
@@ -155,7 +182,7 @@ impl Controller for ShieldController {
         // A fixed order among equals per episode, independent of which
         // evaluation thread plays it.
         let ties = seed::shield_ties(self.seed, env.episode());
-        let mut shield = new_shield(&env.map().grid, self.patience, self.dead_end_order);
+        let mut shield = self.new_shield(&env.map().grid);
         shield.begin_episode(env.agents(), ties);
         self.shield = Some(shield);
         Ok(())
@@ -172,10 +199,11 @@ impl Controller for ShieldController {
             return;
         };
         preference_orders(d.actions, d.logits, d.masks, &mut self.prefs);
-        let (patience, ordered) = (self.patience, self.dead_end_order);
-        let shield = self
-            .shield
-            .get_or_insert_with(|| new_shield(&env.map().grid, patience, ordered));
+        let shield = match self.shield.take() {
+            Some(shield) => shield,
+            None => self.new_shield(&env.map().grid),
+        };
+        let shield = self.shield.insert(shield);
         if shield
             .step(&env.positions(), &env.goals(), &self.prefs, actions)
             .is_err()
@@ -189,17 +217,4 @@ impl Controller for ShieldController {
     fn after_step(&mut self, rewards: &[f32]) {
         self.policy.after_step(rewards);
     }
-}
-
-/// A shield for `grid`, with the progress fallback after `patience` steps
-/// if set and the dead-end order if `dead_end_order`.
-fn new_shield(grid: &buridan_env::Grid, patience: Option<u32>, dead_end_order: bool) -> Shield {
-    let mut shield = Shield::new(grid);
-    if let Some(k) = patience {
-        shield = shield.with_progress_fallback(k);
-    }
-    if dead_end_order {
-        shield = shield.with_dead_end_order();
-    }
-    shield
 }

@@ -106,6 +106,7 @@ pub mod cbs;
 pub mod dead_ends;
 mod graph;
 pub mod lacam;
+pub mod lanes;
 pub mod lifelong;
 pub mod limits;
 mod lowlevel;

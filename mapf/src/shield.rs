@@ -53,6 +53,7 @@ use buridan_env::{Cell, Grid, NUM_ACTIONS};
 
 use crate::dead_ends::DeadEnds;
 use crate::graph::{distance_table, Topology, NONE};
+use crate::lanes::Lanes;
 use crate::limits::{check_instance, InstanceError};
 use crate::pibt::{online_step, Generator, Preference};
 use crate::rules::Rules;
@@ -184,6 +185,34 @@ pub struct Shield {
     ranks: Ranks,
     fallback: Option<ProgressFallback>,
     dead_ends: Option<DeadEnds>,
+    lanes: Option<Lanes>,
+    /// Each agent's distance table to its goal, kept while the fallback or
+    /// the lane rule needs it.
+    dist: GoalDistances,
+}
+
+/// Per agent: its goal (once seen) and the distance table to it, rebuilt
+/// only when the goal changes.
+#[derive(Default)]
+struct GoalDistances {
+    goal: Vec<Option<Cell>>,
+    table: Vec<Vec<u32>>,
+}
+
+impl GoalDistances {
+    /// Keeps agent `i`'s table for `goal` and says whether the goal is new.
+    fn update(&mut self, grid: &Grid, i: usize, goal: Cell) -> bool {
+        if self.goal.len() <= i {
+            self.goal.resize(i + 1, None);
+            self.table.resize_with(i + 1, Vec::new);
+        }
+        if self.goal[i] == Some(goal) {
+            return false;
+        }
+        self.goal[i] = Some(goal);
+        self.table[i] = distance_table(grid, goal);
+        true
+    }
 }
 
 /// Each agent's progress towards its goal, for
@@ -191,9 +220,6 @@ pub struct Shield {
 struct ProgressFallback {
     /// Steps without progress before the shortest path leads.
     patience: u32,
-    /// Per agent: its goal (once seen) and the distance table to it.
-    goal: Vec<Option<Cell>>,
-    dist: Vec<Vec<u32>>,
     /// Per agent: the shortest distance to its goal since it last
     /// improved it or left its goal.
     best: Vec<u32>,
@@ -204,27 +230,21 @@ struct ProgressFallback {
 }
 
 impl ProgressFallback {
-    /// Sizes the per-agent tables for `n` agents (new agents start with
-    /// no goal yet).
+    /// Sizes the per-agent tables for `n` agents.
     fn fit(&mut self, n: usize) {
-        self.goal.resize(n, None);
-        self.dist.resize_with(n, Vec::new);
         self.best.resize(n, u32::MAX);
         self.waiting.resize(n, 0);
         self.stalled.resize(n, false);
     }
 
-    /// Updates agent `i`'s progress at cell `at` (a topology index)
-    /// towards `goal` and says whether it has waited `patience` steps or
-    /// more.
-    fn update(&mut self, grid: &Grid, i: usize, at: u32, goal: Cell) -> bool {
-        if self.goal[i] != Some(goal) {
-            self.goal[i] = Some(goal);
-            self.dist[i] = distance_table(grid, goal);
+    /// Updates agent `i`'s progress, `d` steps from its goal (`new_goal`:
+    /// a goal it has just been given), and says whether it has waited
+    /// `patience` steps or more.
+    fn update(&mut self, i: usize, d: u32, new_goal: bool) -> bool {
+        if new_goal {
             self.best[i] = u32::MAX;
             self.waiting[i] = 0;
         }
-        let d = self.dist[i][at as usize];
         if d == 0 {
             // On the goal: nothing to wait for; leaving it starts afresh.
             self.best[i] = u32::MAX;
@@ -238,18 +258,17 @@ impl ProgressFallback {
         self.stalled[i] = self.waiting[i] >= self.patience;
         self.stalled[i]
     }
+}
 
-    /// Agent `i`'s actions from `moves` (its cell's move table) by the
-    /// distance they leave to its goal (walls and the edge last), ties by
-    /// `rank` (the policy's order).
-    fn shortest_first(&self, i: usize, moves: &[u32; NUM_ACTIONS], rank: &mut [u8; NUM_ACTIONS]) {
-        let dist = &self.dist[i];
-        let after = |a: u8| match moves[usize::from(a)] {
-            NONE => u32::MAX,
-            v => dist[v as usize],
-        };
-        rerank(rank, after);
-    }
+/// An agent's actions from `moves` (its cell's move table) by the distance
+/// they leave to its goal (`dist`, its table; walls and the edge last), ties
+/// by `rank` (the policy's order).
+fn shortest_first(dist: &[u32], moves: &[u32; NUM_ACTIONS], rank: &mut [u8; NUM_ACTIONS]) {
+    let after = |a: u8| match moves[usize::from(a)] {
+        NONE => u32::MAX,
+        v => dist[v as usize],
+    };
+    rerank(rank, after);
 }
 
 /// Re-ranks one agent's actions (`rank[a]`: 0 for the most preferred) by
@@ -304,6 +323,138 @@ fn yield_to_deeper_goals(
     }
 }
 
+/// One agent about to enter a lane, for [`keep_lanes_one_way`].
+struct Entry {
+    agent: usize,
+    lane: u32,
+    /// The end it enters at (0 or 1).
+    end: usize,
+    /// How deep it goes, counted from its end: its goal's place, or the
+    /// lane's last cell if it passes through.
+    reach: u32,
+}
+
+/// The lane rule of [`Shield::with_one_way_lanes`]: an agent whose most
+/// preferred move enters a lane yields (ranks every move into the lane
+/// last and takes the lowest priority) while an agent inside comes towards
+/// it along the part of the lane it needs, or while a higher-priority agent
+/// enters the same part from the other end.
+fn keep_lanes_one_way(
+    lanes: &Lanes,
+    topo: &Topology,
+    cur: &[u32],
+    goals: &[u32],
+    dist: &[Vec<u32>],
+    ranks: &mut [[u8; NUM_ACTIONS]],
+    priorities: &mut [f64],
+) {
+    // Places counted from `end` of `lane`.
+    let depth = |lane: u32, end: usize, v: u32| {
+        let p = lanes.place(v);
+        if end == 0 {
+            p
+        } else {
+            lanes.len(lane) - 1 - p
+        }
+    };
+    // Each agent's most preferred next cell.
+    let wants: Vec<u32> = cur
+        .iter()
+        .zip(ranks.iter())
+        .map(|(&at, rank)| {
+            let first = rank.iter().position(|&r| r == 0).unwrap_or(0);
+            topo.moves(at)[first]
+        })
+        .collect();
+    let mut entries = Vec::new();
+    for (agent, (&at, &to)) in cur.iter().zip(&wants).enumerate() {
+        let Some(lane) = (to != NONE && to != at)
+            .then(|| lanes.lane_index(to))
+            .flatten()
+        else {
+            continue;
+        };
+        if lanes.lane_index(at) == Some(lane) {
+            continue;
+        }
+        let Some(end) = lanes.entrance_indices(lane).iter().position(|&e| e == at) else {
+            continue;
+        };
+        let reach = match lanes.lane_index(goals[agent]) {
+            Some(l) if l == lane => depth(lane, end, goals[agent]),
+            _ => lanes.len(lane) - 1,
+        };
+        entries.push(Entry {
+            agent,
+            lane,
+            end,
+            reach,
+        });
+    }
+    // Whether agent `j`, inside `lane`, heads out of it at `end`: it wants
+    // to move that way, or it wants to stay and its shortest path leads
+    // that way. (One that backs away makes room; one bound for a goal
+    // inside the lane is no reason to wait either: the entering agent would
+    // have to pass that goal anyway, or stops short of it.)
+    let comes_towards = |j: usize, lane: u32, end: usize| {
+        let at = cur[j];
+        if lanes.lane_index(at) != Some(lane) || lanes.lane_index(goals[j]) == Some(lane) {
+            return false;
+        }
+        let d = depth(lane, end, at);
+        let towards = topo.moves(at)[1..].iter().copied().find(|&u| {
+            u != NONE
+                && if d == 0 {
+                    u == lanes.entrance_indices(lane)[end]
+                } else {
+                    lanes.lane_index(u) == Some(lane) && depth(lane, end, u) + 1 == d
+                }
+        });
+        towards.is_some_and(|u| {
+            wants[j] == u || (wants[j] == at && dist[j][u as usize] < dist[j][at as usize])
+        })
+    };
+    // Whether agent `j`, bound deeper into the lane than `e`'s goal, has
+    // yet to pass that goal on its shortest path: `e` lets it by first
+    // (a lane entered from one end fills from the back).
+    let bound_deeper = |j: usize, e: &Entry| {
+        let (i, goal) = (e.agent, goals[e.agent]);
+        lanes.lane_index(goal) == Some(e.lane)
+            && lanes.lane_index(goals[j]) == Some(e.lane)
+            && depth(e.lane, e.end, goals[j]) > e.reach
+            && dist[j][cur[j] as usize] > 0
+            && dist[i][cur[j] as usize] + dist[j][goal as usize] == dist[j][cur[j] as usize]
+    };
+    let met_inside: Vec<bool> = entries
+        .iter()
+        .map(|e| {
+            (0..cur.len())
+                .any(|j| j != e.agent && (comes_towards(j, e.lane, e.end) || bound_deeper(j, e)))
+        })
+        .collect();
+    let before = priorities.to_vec();
+    for (k, e) in entries.iter().enumerate() {
+        let met_at_the_other_end = || {
+            entries.iter().zip(&met_inside).any(|(o, &o_waits)| {
+                !o_waits
+                    && o.lane == e.lane
+                    && o.end != e.end
+                    && (lanes.len(e.lane) - 1 - o.reach) <= e.reach
+                    && before[o.agent] > before[e.agent]
+            })
+        };
+        if !(met_inside[k] || met_at_the_other_end()) {
+            continue;
+        }
+        let moves = topo.moves(cur[e.agent]);
+        rerank(&mut ranks[e.agent], |a| {
+            let to = moves[usize::from(a)];
+            to != NONE && lanes.lane_index(to) == Some(e.lane)
+        });
+        priorities[e.agent] = priorities[e.agent].fract();
+    }
+}
+
 impl Shield {
     /// A shield for `grid`. Until [`Shield::begin_episode`] is called it
     /// breaks priority ties with seed 0.
@@ -325,6 +476,8 @@ impl Shield {
             ranks: Ranks(Vec::new()),
             fallback: None,
             dead_ends: None,
+            lanes: None,
+            dist: GoalDistances::default(),
         }
     }
 
@@ -376,8 +529,6 @@ impl Shield {
     pub fn with_progress_fallback(mut self, patience: u32) -> Self {
         self.fallback = Some(ProgressFallback {
             patience,
-            goal: Vec::new(),
-            dist: Vec::new(),
             best: Vec::new(),
             waiting: Vec::new(),
             stalled: Vec::new(),
@@ -413,6 +564,34 @@ impl Shield {
     /// ```
     pub fn with_dead_end_order(mut self) -> Self {
         self.dead_ends = Some(DeadEnds::new(&self.grid));
+        self
+    }
+
+    /// A shield that keeps one-lane corridors one-way ([`crate::lanes`]):
+    /// an agent about to enter a lane waits outside (it ranks every move into
+    /// the lane last and takes the lowest priority) while another agent
+    /// inside comes towards it through the part of the lane it needs, or
+    /// while a higher-priority agent enters that part from the other end.
+    /// Agents inside a lane are never held back, so the lane empties.
+    ///
+    /// ```
+    /// use buridan_env::{Cell, Grid};
+    /// use buridan_mapf::shield::Shield;
+    /// // A one-lane row between two open columns; agent 1 is inside,
+    /// // heading left, while agent 0 wants to enter from the left.
+    /// let grid = Grid::from_rows(&[".@@@@.", "......", ".@@@@."]).unwrap();
+    /// let (pos, goals) = ([Cell::new(1, 0), Cell::new(1, 3)], [Cell::new(1, 5), Cell::new(2, 0)]);
+    /// let prefs = [[2, 0, 1, 3, 4], [4, 0, 1, 3, 2]];
+    /// let mut actions = [9; 2];
+    /// Shield::new(&grid).step(&pos, &goals, &prefs, &mut actions).unwrap();
+    /// assert_eq!(actions[0], 2, "without the rule, agent 0 enters");
+    /// let mut one_way = Shield::new(&grid).with_one_way_lanes();
+    /// one_way.step(&pos, &goals, &prefs, &mut actions).unwrap();
+    /// assert_ne!(actions[0], 2, "agent 0 waits for agent 1 to come out");
+    /// assert_eq!(actions[1], 4);
+    /// ```
+    pub fn with_one_way_lanes(mut self) -> Self {
+        self.lanes = Some(Lanes::new(&self.grid));
         self
     }
 
@@ -493,10 +672,14 @@ impl Shield {
                     }
                 }
             }
-            if let Some(f) = &mut self.fallback {
-                let at = self.cur[agent];
-                if f.update(&self.grid, agent, at, goals[agent]) {
-                    f.shortest_first(agent, self.topo.moves(at), &mut rank);
+            if self.fallback.is_some() || self.lanes.is_some() {
+                let new_goal = self.dist.update(&self.grid, agent, goals[agent]);
+                if let Some(f) = &mut self.fallback {
+                    let at = self.cur[agent];
+                    let dist = &self.dist.table[agent];
+                    if f.update(agent, dist[at as usize], new_goal) {
+                        shortest_first(dist, self.topo.moves(at), &mut rank);
+                    }
                 }
             }
             self.ranks.0.push(rank);
@@ -514,6 +697,17 @@ impl Shield {
                 &mut self.priorities,
             );
         }
+        if let Some(lanes) = &self.lanes {
+            keep_lanes_one_way(
+                lanes,
+                &self.topo,
+                &self.cur,
+                &self.goals,
+                &self.dist.table,
+                &mut self.ranks.0,
+                &mut self.priorities,
+            );
+        }
         let mut gen = Generator::new(
             &self.topo,
             Rules::ENV_EXECUTABLE,
@@ -522,7 +716,7 @@ impl Shield {
         // Stalled agents also back away and pull where two of them must
         // pass in a lane (LaCAM3's swap, see [`crate::pibt`]).
         if let Some(f) = self.fallback.as_ref().filter(|f| f.stalled.contains(&true)) {
-            gen = gen.with_swap_for(&f.dist, &self.goals, &f.stalled);
+            gen = gen.with_swap_for(&self.dist.table, &self.goals, &f.stalled);
         }
         let next = online_step(
             gen,

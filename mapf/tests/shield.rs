@@ -2,8 +2,9 @@
 //! executed exactly (no blocked move) from many random states, the same
 //! input gives the same joint move, a face-to-face deadlock that greedy
 //! preferences never leave is resolved, with the progress fallback so is
-//! a standoff where the policy prefers to wait, and with the dead-end order
-//! a dead-end aisle two agents would enter in the wrong order.
+//! a standoff where the policy prefers to wait, with the dead-end order
+//! a dead-end aisle two agents would enter in the wrong order, and with the
+//! lane rule a one-lane corridor two agents would meet in head-on.
 
 use std::sync::Arc;
 
@@ -58,21 +59,26 @@ fn shielded_moves_never_fail_in_the_env() {
         ("rm-3.1", 24),
     ] {
         let map = Arc::new(Map::load(id).unwrap());
-        // A third of the episodes (lifelong or not) each: the plain
-        // shield, the progress fallback (and its swaps) after 3 steps, and
-        // the fallback with the dead-end order.
-        let (mut plain, mut patient, mut ordered) = (
+        // A quarter of the episodes (lifelong or not) each: the plain
+        // shield, the progress fallback (and its swaps) after 3 steps, the
+        // fallback with the dead-end order, and that with the lane rule.
+        let (mut plain, mut patient, mut ordered, mut one_way) = (
             Shield::new(&map.grid),
             Shield::new(&map.grid).with_progress_fallback(3),
             Shield::new(&map.grid)
                 .with_progress_fallback(3)
                 .with_dead_end_order(),
+            Shield::new(&map.grid)
+                .with_progress_fallback(3)
+                .with_dead_end_order()
+                .with_one_way_lanes(),
         );
         for episode in 0..24u64 {
-            let shield = match episode % 6 {
+            let shield = match episode % 8 {
                 0 | 1 => &mut plain,
                 2 | 3 => &mut patient,
-                _ => &mut ordered,
+                4 | 5 => &mut ordered,
+                _ => &mut one_way,
             };
             let cfg = EnvConfig {
                 agents,
@@ -299,12 +305,23 @@ fn wrong_order_aisle() -> Arc<Map> {
 /// Plays `map`'s scenario with goal-greedy preferences through `shield`;
 /// the episode's length if it succeeded.
 fn goal_greedy_episode(map: &Arc<Map>, shield: &mut Shield, tie_seed: u64) -> Option<u32> {
+    goal_greedy_episode_watched(map, shield, tie_seed, |_| {})
+}
+
+/// [`goal_greedy_episode`], showing `watch` the positions before each step.
+fn goal_greedy_episode_watched(
+    map: &Arc<Map>,
+    shield: &mut Shield,
+    tie_seed: u64,
+    mut watch: impl FnMut(&[Cell]),
+) -> Option<u32> {
     let n = map.scenario.as_ref().unwrap().starts.len();
     let mut env = GridEnv::new(map.clone(), fixed(n)).unwrap();
     shield.begin_episode(n, tie_seed);
     let (mut rewards, mut actions) = (vec![0.0; n], vec![0u8; n]);
     loop {
         let (pos, goals) = (env.positions(), env.goals());
+        watch(&pos);
         let prefs: Vec<ActionOrder> = (0..n)
             .map(|i| goal_greedy(&map.grid, pos[i], goals[i]))
             .collect();
@@ -338,6 +355,58 @@ fn the_dead_end_order_lets_the_deeper_goal_in_first() {
             "tie seed {tie_seed}: {length:?}"
         );
     }
+}
+
+/// Two open columns joined by a one-lane row of nine cells (rm-2.1's
+/// rows between the blocks, in small). Agent 0 starts top left, bound for
+/// the bottom right; agent 1 the other way round: both take the lane.
+fn crossing_lane() -> Arc<Map> {
+    let grid = Grid::from_rows(&[".@@@@@@@@@.", "...........", ".@@@@@@@@@."]).unwrap();
+    Arc::new(Map {
+        name: "crossing lane".into(),
+        grid,
+        scenario: Some(Scenario {
+            starts: vec![Cell::new(0, 0), Cell::new(0, 10)],
+            goals: vec![Cell::new(2, 10), Cell::new(2, 0)],
+        }),
+    })
+}
+
+#[test]
+fn the_lane_rule_keeps_agents_from_meeting_head_on() {
+    let map = crossing_lane();
+    let inside = |c: &Cell| c.row == 1 && (1..=9).contains(&c.col);
+    let (mut met_without, mut met_with) = (0, 0);
+    for tie_seed in 0..8 {
+        let mut both_inside = 0;
+        let mut ordered = Shield::new(&map.grid)
+            .with_progress_fallback(16)
+            .with_dead_end_order();
+        let plain = goal_greedy_episode_watched(&map, &mut ordered, tie_seed, |pos| {
+            both_inside += usize::from(pos.iter().all(inside));
+        });
+        assert!(plain.is_some(), "tie seed {tie_seed}");
+        met_without += usize::from(both_inside > 0);
+        both_inside = 0;
+        let mut one_way = Shield::new(&map.grid)
+            .with_progress_fallback(16)
+            .with_dead_end_order()
+            .with_one_way_lanes();
+        let length = goal_greedy_episode_watched(&map, &mut one_way, tie_seed, |pos| {
+            both_inside += usize::from(pos.iter().all(inside));
+        });
+        met_with += both_inside;
+        // One crosses (12 steps) while the other waits at the lane's
+        // end, then crosses too: 24 steps at most (without the rule they
+        // meet inside, one is pushed back out, and half the tie seeds take
+        // 28).
+        assert!(
+            length.is_some_and(|t| t <= 24),
+            "tie seed {tie_seed}: {length:?} (without the rule: {plain:?})"
+        );
+    }
+    assert_eq!(met_without, 8, "without the rule both enter the lane");
+    assert_eq!(met_with, 0, "with it, never two in the lane at once");
 }
 
 #[test]

@@ -17,7 +17,7 @@ unseen = sorted({r["layout"] for r in policy} - set(ref))
 print("| layouts | actions | runs | mean success % [95 % CI] |")
 print("|---|---|---|---|")
 for name, group in [("the four reference layouts", ref), ("the four unseen layouts", unseen)]:
-    for act in ["sampled", "greedy", "shielded", "fallback", "ordered", "rescued", "backstop", "pace"]:
+    for act in ["sampled", "greedy", "shielded", "fallback", "ordered", "lanes", "rescued", "backstop", "pace"]:
         per = {}
         for r in policy:
             # Cells not evaluated yet (a partial study) have no success rate.
