@@ -79,6 +79,10 @@ pub struct PlanNotes {
     /// Plans a rescuing controller followed to end a jam
     /// ([`crate::rescue`]).
     pub rescues: Option<u32>,
+    /// Agent-steps whose executed action was not the policy's first
+    /// choice: a policy through the collision shield ([`crate::shield`])
+    /// counts every move the shield or its rules changed.
+    pub overridden: Option<u32>,
 }
 
 /// Uniformly random legal actions (the action mask decides what is legal);

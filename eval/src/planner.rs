@@ -61,7 +61,7 @@ impl Controller for PlannerController {
                     plan_makespan: Some(solution.plan.makespan() as u32),
                     plan_sum_of_costs: Some(solution.plan.sum_of_costs() as u32),
                     expanded: Some(solution.stats.expanded),
-                    rescues: None,
+                    ..PlanNotes::default()
                 };
                 self.plan = Some(solution.plan);
                 Ok(())

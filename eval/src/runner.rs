@@ -91,6 +91,10 @@ pub struct EpisodeRecord {
     pub stuck_at_end: u32,
     /// Plans a rescuing controller followed to end a jam (empty for others).
     pub rescues: Option<u32>,
+    /// Agent-steps whose action was not the policy's first choice, for a
+    /// policy through the collision shield (empty for others): of
+    /// `agents × timesteps`, the moves that were not the policy's own.
+    pub overridden: Option<u32>,
     /// The `.scen` file of an instance set's episode (empty for generated
     /// episodes).
     pub instance: Option<String>,
@@ -460,6 +464,7 @@ fn play_episode(
             jammed_at_end: 0,
             stuck_at_end: 0,
             rescues: notes.rescues,
+            overridden: notes.overridden,
             instance: None,
             soc: costs.iter().map(|&c| u64::from(c)).sum(),
             makespan: costs.iter().copied().max().unwrap_or(0),
@@ -510,6 +515,7 @@ fn play_episode(
         jammed_at_end: (monitor.deadlocked() + monitor.livelocked()) as u32,
         stuck_at_end: monitor.stuck() as u32,
         rescues: controller.episode_notes().rescues,
+        overridden: controller.episode_notes().overridden,
         instance: None,
         soc: env.sum_of_costs(),
         makespan: env.makespan(),

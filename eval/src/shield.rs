@@ -83,6 +83,9 @@ pub struct ShieldController {
     one_way_lanes: bool,
     shield: Option<Shield>,
     prefs: Vec<ActionOrder>,
+    /// Agent-steps of this episode whose action was not the policy's
+    /// first choice.
+    overridden: u32,
 }
 
 impl ShieldController {
@@ -111,6 +114,7 @@ impl ShieldController {
             one_way_lanes: false,
             shield: None,
             prefs: Vec::with_capacity(agents),
+            overridden: 0,
         })
     }
 
@@ -185,6 +189,7 @@ impl Controller for ShieldController {
         let mut shield = self.new_shield(&env.map().grid);
         shield.begin_episode(env.agents(), ties);
         self.shield = Some(shield);
+        self.overridden = 0;
         Ok(())
     }
 
@@ -211,10 +216,23 @@ impl Controller for ShieldController {
             // The env's own state is always valid; stay rather than panic.
             actions.fill(0);
         }
+        self.overridden += self
+            .prefs
+            .iter()
+            .zip(actions.iter())
+            .filter(|(order, &a)| order[0] != a)
+            .count() as u32;
         self.policy.record_taken(actions);
     }
 
     fn after_step(&mut self, rewards: &[f32]) {
         self.policy.after_step(rewards);
+    }
+
+    fn episode_notes(&self) -> crate::PlanNotes {
+        crate::PlanNotes {
+            overridden: Some(self.overridden),
+            ..self.policy.episode_notes()
+        }
     }
 }

@@ -131,5 +131,14 @@ fn the_shield_unjams_the_trained_ppo_policy() {
             s.success && s.blocked_moves == 0,
             "shielded, episode {episode}: {s:?}"
         );
+        // The raw policy's moves are all its own; the shield changed some
+        // of them (where the raw run jammed), never more than every move.
+        assert_eq!(r.overridden, None);
+        let changed = s.overridden.expect("the shield counts its changes");
+        assert!(
+            changed > 0 && changed <= 4 * s.timesteps,
+            "episode {episode}: {changed} of {} agent-steps",
+            4 * s.timesteps
+        );
     }
 }
