@@ -4,7 +4,8 @@
 //! preferences never leave is resolved, with the progress fallback so is
 //! a standoff where the policy prefers to wait, with the dead-end order
 //! a dead-end aisle two agents would enter in the wrong order, and with the
-//! lane rule a one-lane corridor two agents would meet in head-on.
+//! lane rule a one-lane corridor two agents would meet in head-on or enter
+//! from one end in the wrong order.
 
 use std::sync::Arc;
 
@@ -407,6 +408,60 @@ fn the_lane_rule_keeps_agents_from_meeting_head_on() {
     }
     assert_eq!(met_without, 8, "without the rule both enter the lane");
     assert_eq!(met_with, 0, "with it, never two in the lane at once");
+}
+
+/// Two open columns joined by a one-lane row of eight cells, the only way
+/// between them. Agent 0 starts at the lane's left entrance, bound for its
+/// second cell; agent 1 starts below it, bound for its seventh: both enter
+/// from the left, and agent 0 must let agent 1 by first.
+fn same_end_lane() -> Arc<Map> {
+    let grid = Grid::from_rows(&[".@@@@@@@@.", "..........", ".@@@@@@@@."]).unwrap();
+    Arc::new(Map {
+        name: "same-end lane".into(),
+        grid,
+        scenario: Some(Scenario {
+            starts: vec![Cell::new(1, 0), Cell::new(2, 0)],
+            goals: vec![Cell::new(1, 2), Cell::new(1, 7)],
+        }),
+    })
+}
+
+#[test]
+fn the_lane_rule_lets_the_deeper_goal_in_first() {
+    let map = same_end_lane();
+    for tie_seed in 0..8 {
+        let mut one_way = Shield::new(&map.grid)
+            .with_progress_fallback(16)
+            .with_dead_end_order()
+            .with_one_way_lanes();
+        let mut order = Vec::new();
+        let length = goal_greedy_episode_watched(&map, &mut one_way, tie_seed, |pos| {
+            for (i, p) in pos.iter().enumerate() {
+                if p.row == 1 && (1..=8).contains(&p.col) && !order.contains(&i) {
+                    order.push(i);
+                }
+            }
+        });
+        // Agent 1 needs 1 + 7 = 8 steps (9 when it waits one step for
+        // agent 0 to step aside); agent 0 follows it in.
+        assert!(
+            length.is_some_and(|t| t <= 9),
+            "tie seed {tie_seed}: {length:?}"
+        );
+        assert_eq!(
+            order.first(),
+            Some(&1),
+            "tie seed {tie_seed}: agent 1 enters first"
+        );
+        let mut ordered = Shield::new(&map.grid)
+            .with_progress_fallback(16)
+            .with_dead_end_order();
+        assert_eq!(
+            goal_greedy_episode(&map, &mut ordered, tie_seed),
+            None,
+            "tie seed {tie_seed}: without the rule agent 0 parks first and agent 1 never gets by"
+        );
+    }
 }
 
 #[test]
