@@ -336,9 +336,10 @@ struct Entry {
 
 /// The lane rule of [`Shield::with_one_way_lanes`]: an agent whose most
 /// preferred move enters a lane yields (ranks every move into the lane
-/// last and takes the lowest priority) while an agent inside comes towards
-/// it along the part of the lane it needs, or while a higher-priority agent
-/// enters the same part from the other end.
+/// last and takes the lowest priority) while an agent inside heads out at
+/// its end, while an agent bound deeper into the same lane has yet to pass
+/// its goal, or while a higher-priority agent enters the part of the lane
+/// it needs from the other end.
 fn keep_lanes_one_way(
     lanes: &Lanes,
     topo: &Topology,
