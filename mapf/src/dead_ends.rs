@@ -50,15 +50,10 @@ impl DeadEnds {
     pub fn new(grid: &Grid) -> Self {
         let topo = Topology::new(grid);
         let n = topo.cells();
-        let neighbours = |v: u32| {
-            topo.moves(v)[1..]
-                .iter()
-                .copied()
-                .filter(|&u| u != NONE)
-                .collect::<Vec<_>>()
-        };
-        let open: Vec<bool> = (0..n as u32).map(|v| topo.moves(v)[0] != NONE).collect();
-        let mut degree: Vec<u32> = (0..n as u32).map(|v| neighbours(v).len() as u32).collect();
+        let open: Vec<bool> = (0..n as u32).map(|v| topo.is_free(v)).collect();
+        let mut degree: Vec<u32> = (0..n as u32)
+            .map(|v| topo.neighbours(v).count() as u32)
+            .collect();
         let mut removed = vec![false; n];
         let mut leaves: Vec<u32> = (0..n as u32)
             .filter(|&v| open[v as usize] && degree[v as usize] <= 1)
@@ -70,8 +65,8 @@ impl DeadEnds {
             if removed[vi] {
                 continue;
             }
-            let rest: Vec<u32> = neighbours(v)
-                .into_iter()
+            let rest: Vec<u32> = topo
+                .neighbours(v)
                 .filter(|&u| !removed[u as usize])
                 .collect();
             if rest.is_empty() {

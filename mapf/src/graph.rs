@@ -71,6 +71,20 @@ impl Topology {
     pub fn moves(&self, cell: u32) -> &[u32; 5] {
         &self.moves[cell as usize]
     }
+
+    /// Whether `cell` is free (not a wall).
+    #[inline]
+    pub fn is_free(&self, cell: u32) -> bool {
+        self.moves[cell as usize][0] != NONE
+    }
+
+    /// The free cells one move from `cell`, in action order.
+    pub fn neighbours(&self, cell: u32) -> impl Iterator<Item = u32> + '_ {
+        self.moves[cell as usize][1..]
+            .iter()
+            .copied()
+            .filter(|&u| u != NONE)
+    }
 }
 
 /// Per-cell Manhattan distances to `goal`.

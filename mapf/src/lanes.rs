@@ -54,14 +54,6 @@ impl Lanes {
     pub fn new(grid: &Grid) -> Self {
         let topo = Topology::new(grid);
         let n = topo.cells();
-        let free = |v: u32| topo.moves(v)[0] != NONE;
-        let neighbours = |v: u32| {
-            topo.moves(v)[1..]
-                .iter()
-                .copied()
-                .filter(|&u| u != NONE)
-                .collect::<Vec<_>>()
-        };
         let open = |r: i64, c: i64| {
             r >= 0
                 && c >= 0
@@ -77,21 +69,22 @@ impl Lanes {
                 .any(|&(dr, dc)| (0..2).all(|i| (0..2).all(|j| open(r + dr + i, c + dc + j))))
         };
         let is_lane_cell: Vec<bool> = (0..n as u32)
-            .map(|v| free(v) && neighbours(v).len() <= 2 && !in_open_square(v))
+            .map(|v| topo.is_free(v) && topo.neighbours(v).count() <= 2 && !in_open_square(v))
             .collect();
+        // Each lane cell once: a lane's or a ring's.
+        let mut seen = vec![false; n];
         let mut lane = vec![NONE; n];
         let mut place = vec![0; n];
         let mut entrances = Vec::new();
         let mut len = Vec::new();
         for start in 0..n as u32 {
-            if !is_lane_cell[start as usize] || lane[start as usize] != NONE {
+            if !is_lane_cell[start as usize] || seen[start as usize] {
                 continue;
             }
             // Walk to one end, then collect the chain from that end to the
             // other; a walk that comes back to `start` is a ring.
             let step = |from: u32, at: u32| {
-                neighbours(at)
-                    .into_iter()
+                topo.neighbours(at)
                     .find(|&u| u != from && is_lane_cell[u as usize])
             };
             let (mut prev, mut at, mut ring) = (NONE, start, false);
@@ -106,7 +99,7 @@ impl Lanes {
                 // Mark the ring's cells so the scan skips them; no lane.
                 let (mut prev, mut at) = (NONE, start);
                 loop {
-                    lane[at as usize] = u32::MAX - 1;
+                    seen[at as usize] = true;
                     match step(prev, at) {
                         Some(next) if next != start => (prev, at) = (at, next),
                         _ => break,
@@ -122,35 +115,21 @@ impl Lanes {
                 chain.push(next);
                 (prev, at) = (at, next);
             }
-            let outside = |v: u32, inside: Option<u32>| {
-                neighbours(v)
-                    .into_iter()
-                    .find(|&u| !is_lane_cell[u as usize] && Some(u) != inside)
-                    .unwrap_or(NONE)
-            };
+            // The entrances: the cells off the lane beside its two ends (a
+            // one-cell lane has both beside its only cell).
+            let exits = |v: u32| topo.neighbours(v).filter(|&u| !is_lane_cell[u as usize]);
             let last = *chain.last().expect("a chain holds its first cell");
-            let head = outside(first, None);
-            // A one-cell lane has both entrances beside its only cell.
-            let tail = if chain.len() == 1 {
-                neighbours(first)
-                    .into_iter()
-                    .filter(|&u| !is_lane_cell[u as usize])
-                    .nth(1)
-                    .unwrap_or(NONE)
-            } else {
-                outside(last, None)
-            };
+            let head = exits(first).next().unwrap_or(NONE);
+            let tail = exits(last)
+                .nth(usize::from(chain.len() == 1))
+                .unwrap_or(NONE);
             for (k, &v) in chain.iter().enumerate() {
+                seen[v as usize] = true;
                 lane[v as usize] = id;
                 place[v as usize] = k as u32;
             }
             entrances.push([head, tail]);
             len.push(chain.len() as u32);
-        }
-        for l in &mut lane {
-            if *l == u32::MAX - 1 {
-                *l = NONE;
-            }
         }
         Self {
             topo,

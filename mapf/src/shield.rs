@@ -403,13 +403,12 @@ fn keep_lanes_one_way(
             return false;
         }
         let d = depth(lane, end, at);
-        let towards = topo.moves(at)[1..].iter().copied().find(|&u| {
-            u != NONE
-                && if d == 0 {
-                    u == lanes.entrance_indices(lane)[end]
-                } else {
-                    lanes.lane_index(u) == Some(lane) && depth(lane, end, u) + 1 == d
-                }
+        let towards = topo.neighbours(at).find(|&u| {
+            if d == 0 {
+                u == lanes.entrance_indices(lane)[end]
+            } else {
+                lanes.lane_index(u) == Some(lane) && depth(lane, end, u) + 1 == d
+            }
         });
         towards.is_some_and(|u| {
             wants[j] == u || (wants[j] == at && dist[j][u as usize] < dist[j][at as usize])
@@ -433,18 +432,21 @@ fn keep_lanes_one_way(
                 .any(|j| j != e.agent && (comes_towards(j, e.lane, e.end) || bound_deeper(j, e)))
         })
         .collect();
-    let before = priorities.to_vec();
-    for (k, e) in entries.iter().enumerate() {
-        let met_at_the_other_end = || {
+    // Decided on this step's priorities before any yielder drops its own.
+    let met_at_the_other_end: Vec<bool> = entries
+        .iter()
+        .map(|e| {
             entries.iter().zip(&met_inside).any(|(o, &o_waits)| {
                 !o_waits
                     && o.lane == e.lane
                     && o.end != e.end
                     && (lanes.len(e.lane) - 1 - o.reach) <= e.reach
-                    && before[o.agent] > before[e.agent]
+                    && priorities[o.agent] > priorities[e.agent]
             })
-        };
-        if !(met_inside[k] || met_at_the_other_end()) {
+        })
+        .collect();
+    for (k, e) in entries.iter().enumerate() {
+        if !(met_inside[k] || met_at_the_other_end[k]) {
             continue;
         }
         let moves = topo.moves(cur[e.agent]);

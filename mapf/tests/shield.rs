@@ -161,14 +161,23 @@ fn the_same_input_gives_the_same_joint_move() {
 /// starts at the left end and must reach the right end, agent 1 the other
 /// way round. Whichever of them gives way passes a pocket while backing off.
 fn two_pocket_corridor() -> Arc<Map> {
-    let grid = Grid::from_rows(&["@@.@@@@.@@", ".........."]).unwrap();
     let (left, right) = (Cell::new(1, 0), Cell::new(1, 9));
+    toy(
+        "two-pocket corridor",
+        &["@@.@@@@.@@", ".........."],
+        [left, right],
+        [right, left],
+    )
+}
+
+/// A small map from `rows` whose scenario is `starts` and `goals`.
+fn toy(name: &str, rows: &[&str], starts: [Cell; 2], goals: [Cell; 2]) -> Arc<Map> {
     Arc::new(Map {
-        name: "two-pocket corridor".into(),
-        grid,
+        name: name.into(),
+        grid: Grid::from_rows(rows).unwrap(),
         scenario: Some(Scenario {
-            starts: vec![left, right],
-            goals: vec![right, left],
+            starts: starts.to_vec(),
+            goals: goals.to_vec(),
         }),
     })
 }
@@ -292,15 +301,12 @@ fn the_progress_fallback_ends_standoffs_where_the_policy_waits() {
 /// second cell; agent 1 starts at the spine's far end, bound for the
 /// aisle's end: agent 0 must let agent 1 in first.
 fn wrong_order_aisle() -> Arc<Map> {
-    let grid = Grid::from_rows(&["..........", "..@@@@@@@@", "..@@@@@@@@", "..@@@@@@@@"]).unwrap();
-    Arc::new(Map {
-        name: "wrong-order aisle".into(),
-        grid,
-        scenario: Some(Scenario {
-            starts: vec![Cell::new(0, 1), Cell::new(3, 0)],
-            goals: vec![Cell::new(0, 3), Cell::new(0, 9)],
-        }),
-    })
+    toy(
+        "wrong-order aisle",
+        &["..........", "..@@@@@@@@", "..@@@@@@@@", "..@@@@@@@@"],
+        [Cell::new(0, 1), Cell::new(3, 0)],
+        [Cell::new(0, 3), Cell::new(0, 9)],
+    )
 }
 
 /// Plays `map`'s scenario with goal-greedy preferences through `shield`;
@@ -362,15 +368,12 @@ fn the_dead_end_order_lets_the_deeper_goal_in_first() {
 /// rows between the blocks, in small). Agent 0 starts top left, bound for
 /// the bottom right; agent 1 the other way round: both take the lane.
 fn crossing_lane() -> Arc<Map> {
-    let grid = Grid::from_rows(&[".@@@@@@@@@.", "...........", ".@@@@@@@@@."]).unwrap();
-    Arc::new(Map {
-        name: "crossing lane".into(),
-        grid,
-        scenario: Some(Scenario {
-            starts: vec![Cell::new(0, 0), Cell::new(0, 10)],
-            goals: vec![Cell::new(2, 10), Cell::new(2, 0)],
-        }),
-    })
+    toy(
+        "crossing lane",
+        &[".@@@@@@@@@.", "...........", ".@@@@@@@@@."],
+        [Cell::new(0, 0), Cell::new(0, 10)],
+        [Cell::new(2, 10), Cell::new(2, 0)],
+    )
 }
 
 #[test]
@@ -415,15 +418,12 @@ fn the_lane_rule_keeps_agents_from_meeting_head_on() {
 /// second cell; agent 1 starts below it, bound for its seventh: both enter
 /// from the left, and agent 0 must let agent 1 by first.
 fn same_end_lane() -> Arc<Map> {
-    let grid = Grid::from_rows(&[".@@@@@@@@.", "..........", ".@@@@@@@@."]).unwrap();
-    Arc::new(Map {
-        name: "same-end lane".into(),
-        grid,
-        scenario: Some(Scenario {
-            starts: vec![Cell::new(1, 0), Cell::new(2, 0)],
-            goals: vec![Cell::new(1, 2), Cell::new(1, 7)],
-        }),
-    })
+    toy(
+        "same-end lane",
+        &[".@@@@@@@@.", "..........", ".@@@@@@@@."],
+        [Cell::new(1, 0), Cell::new(2, 0)],
+        [Cell::new(1, 2), Cell::new(1, 7)],
+    )
 }
 
 #[test]
