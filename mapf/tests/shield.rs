@@ -182,6 +182,19 @@ fn toy(name: &str, rows: &[&str], starts: [Cell; 2], goals: [Cell; 2]) -> Arc<Ma
     })
 }
 
+/// The shield the recipe's `shield-ordered=16` controller runs: the
+/// progress fallback after 16 steps and dead-end aisles filled from the back.
+fn ordered_shield(grid: &Grid) -> Shield {
+    Shield::new(grid)
+        .with_progress_fallback(16)
+        .with_dead_end_order()
+}
+
+/// [`ordered_shield`] with one-lane corridors kept one-way (`shield-lanes=16`).
+fn lane_shield(grid: &Grid) -> Shield {
+    ordered_shield(grid).with_one_way_lanes()
+}
+
 fn fixed(agents: usize) -> EnvConfig {
     EnvConfig {
         agents,
@@ -352,9 +365,7 @@ fn the_dead_end_order_lets_the_deeper_goal_in_first() {
             None,
             "tie seed {tie_seed}: agent 0 parks in the aisle and agent 1 never gets by"
         );
-        let mut ordered = Shield::new(&map.grid)
-            .with_progress_fallback(16)
-            .with_dead_end_order();
+        let mut ordered = ordered_shield(&map.grid);
         let length = goal_greedy_episode(&map, &mut ordered, tie_seed);
         // Agent 1 needs 3 + 9 = 12 steps; agent 0 follows it in.
         assert!(
@@ -383,19 +394,14 @@ fn the_lane_rule_keeps_agents_from_meeting_head_on() {
     let (mut met_without, mut met_with) = (0, 0);
     for tie_seed in 0..8 {
         let mut both_inside = 0;
-        let mut ordered = Shield::new(&map.grid)
-            .with_progress_fallback(16)
-            .with_dead_end_order();
+        let mut ordered = ordered_shield(&map.grid);
         let plain = goal_greedy_episode_watched(&map, &mut ordered, tie_seed, |pos| {
             both_inside += usize::from(pos.iter().all(inside));
         });
         assert!(plain.is_some(), "tie seed {tie_seed}");
         met_without += usize::from(both_inside > 0);
         both_inside = 0;
-        let mut one_way = Shield::new(&map.grid)
-            .with_progress_fallback(16)
-            .with_dead_end_order()
-            .with_one_way_lanes();
+        let mut one_way = lane_shield(&map.grid);
         let length = goal_greedy_episode_watched(&map, &mut one_way, tie_seed, |pos| {
             both_inside += usize::from(pos.iter().all(inside));
         });
@@ -430,10 +436,7 @@ fn same_end_lane() -> Arc<Map> {
 fn the_lane_rule_lets_the_deeper_goal_in_first() {
     let map = same_end_lane();
     for tie_seed in 0..8 {
-        let mut one_way = Shield::new(&map.grid)
-            .with_progress_fallback(16)
-            .with_dead_end_order()
-            .with_one_way_lanes();
+        let mut one_way = lane_shield(&map.grid);
         let mut order = Vec::new();
         let length = goal_greedy_episode_watched(&map, &mut one_way, tie_seed, |pos| {
             for (i, p) in pos.iter().enumerate() {
@@ -453,9 +456,7 @@ fn the_lane_rule_lets_the_deeper_goal_in_first() {
             Some(&1),
             "tie seed {tie_seed}: agent 1 enters first"
         );
-        let mut ordered = Shield::new(&map.grid)
-            .with_progress_fallback(16)
-            .with_dead_end_order();
+        let mut ordered = ordered_shield(&map.grid);
         assert_eq!(
             goal_greedy_episode(&map, &mut ordered, tie_seed),
             None,
