@@ -55,20 +55,22 @@ export -f check
 export OUT BIN
 printf '%s\n' "${NAMES[@]}" | xargs -P "$PARALLEL" -I{} bash -c 'check "$@"' _ {}
 
-field() { python3 -c 'import json, sys; print(json.load(open(sys.argv[2]))[sys.argv[1]])' "$1" "$2"; }
-echo "config,dissertation,sampled,greedy,reached,train_seconds" >"$OUT/configs.csv"
-for name in "${NAMES[@]}"; do
-  run="$OUT/$name"
-  s=$(python3 -c "print(round(100 * $(field success_rate "$run/eval-sampled/summary.json"), 1))")
-  g=$(python3 -c "print(round(100 * $(field success_rate "$run/eval-greedy/summary.json"), 1))")
-  w=$(python3 -c "print(round($(field wall_seconds "$run/summary.json")))")
-  reached=$(python3 -c "print('yes' if $s >= ${FIGURE[$name]} else 'no')")
-  echo "$name,${FIGURE[$name]},$s,$g,$reached,$w" >>"$OUT/configs.csv"
-done
-python3 - "$OUT/configs.csv" <<'PY'
-import csv, sys
-rows = list(csv.reader(open(sys.argv[1])))
+# The table: one row per config, from the run's and evaluations' summaries.
+for name in "${NAMES[@]}"; do echo "$name ${FIGURE[$name]}"; done | python3 -c '
+import csv, json, sys
+out = sys.argv[1]
+def summary(path):
+    return json.load(open(f"{out}/{path}/summary.json"))
+rows = [["config", "dissertation", "sampled", "greedy", "reached", "train_seconds"]]
+for line in sys.stdin:
+    name, figure = line.split()
+    sampled = round(100 * summary(f"{name}/eval-sampled")["success_rate"], 1)
+    greedy = round(100 * summary(f"{name}/eval-greedy")["success_rate"], 1)
+    reached = "yes" if sampled >= int(figure) else "no"
+    rows.append([name, figure, sampled, greedy, reached, round(summary(name)["wall_seconds"])])
+rows = [[str(c) for c in r] for r in rows]
+csv.writer(open(f"{out}/configs.csv", "w", newline=""), lineterminator="\n").writerows(rows)
 widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
 for r in rows:
     print("  ".join(c.ljust(w) for c, w in zip(r, widths)))
-PY
+' "$OUT"
