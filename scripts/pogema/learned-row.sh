@@ -16,7 +16,8 @@
 #   ../shared/pogema), STEPS (default 1000000), AGENTS (default 16),
 #   CONFIG (a training config; default: none, i.e. the default recipe —
 #   the README's table was measured with the first recipe,
-#   learner/configs/recipe-impala-feedforward.toml).
+#   learner/configs/recipe-impala-feedforward.toml), MODES (the policy modes
+#   benched, default "learned learned-shield learned-fallback learned-sampled").
 set -eu
 out=${1:?usage: learned-row.sh OUT [TRAIN_SEEDS] [INSTANCE_SEEDS]}
 train_seeds=${2:-0 1 2 3 4 5 6 7 8 9}
@@ -26,6 +27,7 @@ shared=${SHARED:-../shared/pogema}
 steps=${STEPS:-1000000}
 agents=${AGENTS:-16}
 config=${CONFIG:-}
+modes=${MODES:-learned learned-shield learned-fallback learned-sampled}
 mkdir -p "$out/policies"
 for s in $train_seeds; do
   dir="$out/policies/seed-$s"
@@ -39,7 +41,7 @@ for s in $train_seeds; do
   echo "seed $s: trained in $(( $(date +%s) - start )) s" | tee -a "$out/train-walls.txt"
 done
 set -- --controller pibt
-for mode in learned learned-shield learned-fallback learned-sampled; do
+for mode in $modes; do
   for s in $train_seeds; do
     ckpt="checkpoint:$out/policies/seed-$s"
     case $mode in
@@ -47,6 +49,7 @@ for mode in learned learned-shield learned-fallback learned-sampled; do
       learned-shield) set -- "$@" --controller "learned-shield#$s=shield:$ckpt" ;;
       learned-fallback) set -- "$@" --controller "learned-fallback#$s=shield=16:$ckpt" ;;
       learned-sampled) set -- "$@" --controller "learned-sampled#$s=sampled:$ckpt" ;;
+      *) echo "unknown mode '$mode' (learned, learned-shield, learned-fallback, learned-sampled)" >&2; exit 2 ;;
     esac
   done
 done
