@@ -7,6 +7,7 @@
 #   cargo build --release -p buridan-cli -p buridan-actor
 #   scripts/transport-bench.sh                                   # IMPALA tuned rm-2.1, 2M steps, 3 pairs
 #   CONFIG=learner/configs/ppo-ctde-rm-2.1.toml STEPS=400000 scripts/transport-bench.sh
+#   ACTOR_ARGS=--raw-obs scripts/transport-bench.sh                # observations uncompressed
 # Writes OUT/runs.csv (arm, repeat, env_steps, wall_s, steps_per_s, success).
 set -euo pipefail
 BIN=${BIN:-target/release}
@@ -16,6 +17,8 @@ REPEATS=${REPEATS:-3}
 ACTORS=${ACTORS:-1}
 OUT=${OUT:-runs/transport-bench}
 PORT=${PORT:-50290}
+# Extra `actor` flags, split on spaces (e.g. --raw-obs).
+read -r -a actor_args <<< "${ACTOR_ARGS:-}"
 if [ -e "$OUT/runs.csv" ]; then
   echo "$OUT already holds a benchmark (runs.csv); choose another OUT" >&2
   exit 2
@@ -47,6 +50,7 @@ for r in $(seq 0 $((REPEATS - 1))); do
   for i in $(seq "$ACTORS"); do
     # Started at once: the actor retries until the learner listens.
     "$BIN/actor" --connect "http://127.0.0.1:$PORT" --name "a$i" --give-up-after 60 --backoff-max 0.1 \
+      ${actor_args[@]+"${actor_args[@]}"} \
       2>"$OUT/grpc-$r.actor-$i.log" &
     actors+=($!)
   done

@@ -29,11 +29,12 @@ use buridan_env::error::error_chain;
 use buridan_env::{BatchedEnv, EnvError, MapError, VecEnv};
 use buridan_policy::{ActMode, Inference, ModelSpec, Policy, PolicyError, Weights};
 use buridan_proto::convert::{
-    env_from_message, fragment_to_message, map_from_message, replay_from_message,
+    env_from_message, fragment_to_message_encoded, map_from_message, replay_from_message,
     weights_from_message, ConvertError, WireTag,
 };
 use buridan_proto::v1;
 use buridan_proto::v1::learner_client::LearnerClient;
+use buridan_proto::v1::ObsEncoding;
 use rand::Rng;
 use tokio::sync::watch;
 use tonic::metadata::MetadataValue;
@@ -264,6 +265,10 @@ pub struct ActorOptions {
     pub env: Option<String>,
     /// How to talk to the env server.
     pub env_options: RemoteEnvOptions,
+    /// Send observations LZ4-compressed when the learner accepts that
+    /// (`false`: always raw, `actor --raw-obs`). Compressing costs less CPU
+    /// than moving the raw bytes through HTTP/2 (docs/results/transport/).
+    pub compress_obs: bool,
 }
 
 impl Default for ActorOptions {
@@ -278,6 +283,7 @@ impl Default for ActorOptions {
             give_up_after: None,
             env: None,
             env_options: RemoteEnvOptions::default(),
+            compress_obs: true,
         }
     }
 }
@@ -448,7 +454,7 @@ async fn session(
     };
     // Env sessions opened on the env server in this learner session.
     let mut env_attempt = 0u64;
-    let mut submitter = Submitter::new(client, &join);
+    let mut submitter = Submitter::new(client, &join, opts.compress_obs);
     // On-policy: after a full batch, wait for a version newer than this.
     let mut wait_after: Option<u64> = None;
     loop {
@@ -582,19 +588,44 @@ async fn newest_weights(
 
 type SubmitResult = Result<tonic::Response<v1::SubmitReply>, Status>;
 
+/// The observation encoding to send with: LZ4 if wanted and the learner
+/// lists it, else raw (every learner reads raw, including those from
+/// before the field).
+///
+/// ```
+/// use buridan_actor::client::obs_encoding_for;
+/// use buridan_proto::v1::{JoinReply, ObsEncoding};
+/// let old = JoinReply::default();
+/// assert_eq!(obs_encoding_for(&old, true), ObsEncoding::Raw);
+/// let new = JoinReply { obs_encodings: vec![ObsEncoding::Lz4 as i32], ..Default::default() };
+/// assert_eq!(obs_encoding_for(&new, true), ObsEncoding::Lz4);
+/// assert_eq!(obs_encoding_for(&new, false), ObsEncoding::Raw);
+/// ```
+pub fn obs_encoding_for(join: &v1::JoinReply, compress: bool) -> ObsEncoding {
+    if compress && join.obs_encodings.contains(&(ObsEncoding::Lz4 as i32)) {
+        ObsEncoding::Lz4
+    } else {
+        ObsEncoding::Raw
+    }
+}
+
 /// Sends fragments, numbered per session. Off-policy runs keep one
 /// submission in flight while the next fragment is collected (as the
-/// in-process queue lets actors do); on-policy runs submit synchronously,
-/// since the reply may say "wait".
+/// in-process queue lets actors do), and encode it in that task too, beside
+/// the collection; on-policy runs submit synchronously, since the reply may
+/// say "wait".
 struct Submitter {
     client: Client,
     tag: WireTag,
     pipelined: bool,
+    encoding: ObsEncoding,
     in_flight: Option<(u64, tokio::task::JoinHandle<SubmitResult>)>,
 }
 
 impl Submitter {
-    fn new(client: Client, join: &v1::JoinReply) -> Self {
+    fn new(client: Client, join: &v1::JoinReply, compress: bool) -> Self {
+        let encoding = obs_encoding_for(join, compress);
+        tracing::debug!(?encoding, "observation encoding");
         Self {
             client,
             tag: WireTag {
@@ -603,6 +634,7 @@ impl Submitter {
                 seq: 0,
             },
             pipelined: !join.on_policy,
+            encoding,
             in_flight: None,
         }
     }
@@ -623,13 +655,17 @@ impl Submitter {
                 return Ok(Some(end));
             }
         }
-        let message = fragment_to_message(fragment, &self.tag);
+        let (tag, encoding) = (self.tag.clone(), self.encoding);
         if self.pipelined {
             let mut c = self.client.clone();
-            let submit = tokio::spawn(async move { c.submit_fragment(message).await });
+            let submit = tokio::spawn(async move {
+                let message = fragment_to_message_encoded(fragment, &tag, encoding);
+                c.submit_fragment(message).await
+            });
             self.in_flight = Some((version, submit));
             Ok(None)
         } else {
+            let message = fragment_to_message_encoded(fragment, &tag, encoding);
             let result = self.client.submit_fragment(message).await;
             on_reply(result, version, report, wait_after)
         }

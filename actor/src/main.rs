@@ -41,6 +41,10 @@ struct Args {
     /// Longest wait between reconnect attempts, in seconds.
     #[arg(long, default_value_t = 5.0)]
     backoff_max: f64,
+    /// Send observations uncompressed even to a learner that accepts LZ4
+    /// (to measure what compression saves).
+    #[arg(long)]
+    raw_obs: bool,
 }
 
 fn main() -> Result<()> {
@@ -73,6 +77,7 @@ fn main() -> Result<()> {
         env: args.env.clone(),
         give_up_after: args.give_up_after.map(Duration::from_secs_f64),
         backoff_max: Duration::from_secs_f64(args.backoff_max.max(0.1)),
+        compress_obs: !args.raw_obs,
         ..ActorOptions::default()
     };
     let connector = url_connector(&args.connect, args.tls_ca.as_deref())?;

@@ -1,6 +1,7 @@
 //! `learner serve` against clients that misbehave, over loopback TCP:
-//! implausible fragments and undecodable messages get `INVALID_ARGUMENT`
-//! (and the learner carries on), idle sessions expire while watching ones
+//! implausible fragments, undecodable messages and corrupt or oversized
+//! compressed observations get `INVALID_ARGUMENT` (and the learner carries
+//! on), idle sessions expire while watching ones
 //! stay, and joins beyond the session cap get `RESOURCE_EXHAUSTED` until a
 //! session leaves or expires.
 
@@ -10,7 +11,9 @@ use buridan_actor::client::build_collector;
 use buridan_actor::misbehave::RawCodec;
 use buridan_learner::serve::SessionLimits;
 use buridan_learner::train::TrainConfig;
-use buridan_proto::convert::{fragment_to_message, weights_from_message, WireTag};
+use buridan_proto::convert::{
+    fragment_to_message, fragment_to_message_encoded, weights_from_message, WireTag,
+};
 use buridan_proto::v1;
 use buridan_proto::v1::learner_client::LearnerClient;
 use prost::Message;
@@ -108,6 +111,86 @@ fn implausible_rewards_are_refused_naming_the_field_and_training_goes_on() {
             .expect("the same fragment with its real rewards is taken")
             .into_inner();
         assert!(reply.accepted, "{reply:?}");
+    });
+}
+
+#[test]
+fn bad_compressed_observations_are_refused_naming_the_field_and_training_goes_on() {
+    let learner = start(SessionLimits::default());
+    runtime().block_on(async {
+        let mut client = learner.client().await;
+        let joined = join(&mut client, "squeezer").await.unwrap();
+        assert_eq!(joined.obs_encodings, [v1::ObsEncoding::Lz4 as i32]);
+        let mut stream = watch(&mut client, &joined).await.unwrap();
+        let weights = stream.message().await.unwrap().expect("weights");
+        let mut collector = build_collector(&joined).unwrap();
+        collector
+            .load(&weights_from_message(weights).unwrap())
+            .unwrap();
+        let good = collector.collect().unwrap();
+        let tag = |seq| WireTag {
+            run_id: joined.run_id.clone(),
+            session: joined.session,
+            seq,
+        };
+        let lz4 = |seq| fragment_to_message_encoded(good.clone(), &tag(seq), v1::ObsEncoding::Lz4);
+        let refused = |m: v1::Fragment| {
+            let mut client = client.clone();
+            async move {
+                let status = client.submit_fragment(m).await.expect_err("refused");
+                assert_eq!(status.code(), Code::InvalidArgument, "{status:?}");
+                status.message().to_string()
+            }
+        };
+
+        // A corrupt block: its bytes cut short (it then fails to parse, or
+        // parses to less than the shape asks, depending on where the cut falls).
+        let values = format!("{} values", good.obs.len());
+        let mut m = lz4(1);
+        m.obs.truncate(m.obs.len() / 2);
+        let message = refused(m).await;
+        assert!(message.starts_with("malformed fragment: obs "), "{message}");
+        assert!(message.contains(&values), "{message}");
+        // ... and its bytes garbled.
+        let mut m = lz4(1);
+        m.obs
+            .iter_mut()
+            .for_each(|b| *b = b.wrapping_mul(7).wrapping_add(13));
+        let message = refused(m).await;
+        assert!(message.starts_with("malformed fragment: obs "), "{message}");
+        // A block that decodes to more than its shape asks: last_obs
+        // carrying all of obs.
+        let mut m = lz4(2);
+        m.last_obs = fragment_to_message_encoded(good.clone(), &tag(2), v1::ObsEncoding::Lz4).obs;
+        let message = refused(m).await;
+        assert!(
+            message.starts_with("malformed fragment: last_obs "),
+            "{message}"
+        );
+        // A shape far beyond the run's fragments: refused before decoding.
+        let mut m = lz4(3);
+        m.len = 1 << 20;
+        let message = refused(m).await;
+        assert!(
+            message.starts_with("malformed fragment: obs would decode to "),
+            "{message}"
+        );
+        assert!(message.contains("over the limit of"), "{message}");
+        // An encoding from the future.
+        let mut m = lz4(4);
+        m.obs_encoding = 9;
+        let message = refused(m).await;
+        assert_eq!(
+            message,
+            "malformed fragment: obs_encoding 9 is not a known encoding (0 raw, 1 LZ4)"
+        );
+
+        // The learner carries on: the same fragment, well compressed, and
+        // then raw, are taken.
+        for m in [lz4(5), fragment_to_message(good.clone(), &tag(6))] {
+            let reply = client.submit_fragment(m).await.expect("taken").into_inner();
+            assert!(reply.accepted, "{reply:?}");
+        }
     });
 }
 

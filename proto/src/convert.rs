@@ -1,6 +1,8 @@
 //! Messages ↔ crate types. Byte and integer buffers move between the two;
 //! float buffers that travel as bytes (observations, logits) are copied
-//! once, into bytes on the way out and into floats on the way in.
+//! once, into bytes on the way out and into floats on the way in —
+//! observations LZ4-compressed if the learner accepts that
+//! ([`fragment_to_message_encoded`], [`crate::obs_encoding`]).
 //! Everything arriving from the wire is checked: shapes, finite numbers,
 //! value ranges.
 //!
@@ -29,7 +31,9 @@ use buridan_env::replay::ReplayConfig;
 use buridan_env::{EnvConfig, EpisodeStats, MapSource, ObsFeatures, Shaping, Starts};
 use buridan_policy::{Fragment, NamedTensor, PolicyError, RecurrentState, Weights};
 
+use crate::obs_encoding::{self, ObsDecodeError, DEFAULT_MAX_DECODED_BYTES};
 use crate::v1;
+use crate::v1::ObsEncoding;
 
 /// What is wrong with a message received from the wire.
 #[derive(Debug, thiserror::Error)]
@@ -69,6 +73,10 @@ pub enum ConvertError {
         /// The number found.
         got: usize,
     },
+    /// An observation buffer does not decode (unknown encoding, corrupt
+    /// or oversized LZ4 block).
+    #[error(transparent)]
+    Obs(#[from] ObsDecodeError),
     /// Something else that makes the message unusable.
     #[error("{0}")]
     Invalid(String),
@@ -87,8 +95,41 @@ pub struct WireTag {
 }
 
 /// Wraps a fragment for the wire: masks, actions, flags and the small float
-/// buffers move; observations and logits are copied once into bytes.
+/// buffers move; observations and logits are copied once into raw bytes
+/// (the format every learner reads).
 pub fn fragment_to_message(f: Fragment, tag: &WireTag) -> v1::Fragment {
+    fragment_to_message_encoded(f, tag, ObsEncoding::Raw)
+}
+
+/// [`fragment_to_message`] with the observation buffers (obs, final_obs,
+/// last_obs) in `encoding`; send an encoding other than raw only to a
+/// learner whose join reply lists it.
+///
+/// ```
+/// use buridan_policy::Fragment;
+/// use buridan_proto::convert::{fragment_from_message, fragment_to_message_encoded, WireTag};
+/// use buridan_proto::v1::ObsEncoding;
+/// let mut f = Fragment::with_capacity(0, 3, 1, 1, 1, 4, 1, 5);
+/// f.len = 1;
+/// f.obs = vec![0.0, 1.0, 0.0, 0.0];
+/// f.masks = vec![1; 5];
+/// f.actions = vec![2];
+/// f.behaviour_logits = vec![0.0; 5];
+/// f.behaviour_logp = vec![-1.6];
+/// f.rewards = vec![-0.1];
+/// f.terminated = vec![0];
+/// f.truncated = vec![0];
+/// f.last_obs = vec![0.0, 0.0, 1.0, 0.0];
+/// f.env_steps = 1;
+/// let msg = fragment_to_message_encoded(f.clone(), &WireTag::default(), ObsEncoding::Lz4);
+/// assert_eq!(msg.obs_encoding, ObsEncoding::Lz4 as i32);
+/// assert_eq!(fragment_from_message(msg).unwrap().1, f);
+/// ```
+pub fn fragment_to_message_encoded(
+    f: Fragment,
+    tag: &WireTag,
+    encoding: ObsEncoding,
+) -> v1::Fragment {
     v1::Fragment {
         run_id: tag.run_id.clone(),
         session: tag.session,
@@ -100,7 +141,7 @@ pub fn fragment_to_message(f: Fragment, tag: &WireTag) -> v1::Fragment {
         obs_dim: f.obs_dim as u32,
         heads: f.heads as u32,
         actions_per_head: f.actions_per_head as u32,
-        obs: f32_to_le_bytes(&f.obs),
+        obs: obs_encoding::encode(&f.obs, encoding),
         masks: f.masks,
         actions: f.actions,
         behaviour_logits: f32_to_le_bytes(&f.behaviour_logits),
@@ -108,20 +149,67 @@ pub fn fragment_to_message(f: Fragment, tag: &WireTag) -> v1::Fragment {
         rewards: f.rewards,
         terminated: f.terminated,
         truncated: f.truncated,
-        final_obs: f32_to_le_bytes(&f.final_obs),
+        final_obs: obs_encoding::encode(&f.final_obs, encoding),
         final_obs_index: f.final_obs_index,
-        last_obs: f32_to_le_bytes(&f.last_obs),
+        last_obs: obs_encoding::encode(&f.last_obs, encoding),
         initial_state: f.initial_state.map(state_to_message),
         episodes: f.episodes.iter().map(episode_to_message).collect(),
         env_steps: f.env_steps,
+        obs_encoding: encoding as i32,
     }
 }
 
 /// Unwraps and checks a fragment from the wire: buffer lengths against the
 /// shape fields, finite floats, actions and flags in range, `env_steps`
 /// consistent with the shape. The actor id is left 0 (the learner knows it
-/// from the session).
+/// from the session). Compressed observations may decode to at most
+/// [`DEFAULT_MAX_DECODED_BYTES`] in all; [`fragment_from_message_within`]
+/// sets another bound.
 pub fn fragment_from_message(m: v1::Fragment) -> Result<(WireTag, Fragment), ConvertError> {
+    fragment_from_message_within(m, DEFAULT_MAX_DECODED_BYTES)
+}
+
+/// [`fragment_from_message`] with compressed observation buffers allowed to
+/// decode to at most `max_decoded_bytes` together. Each must decode to
+/// exactly the size its shape fields ask for (obs: len × rows × obs_dim
+/// values; last_obs: rows × obs_dim; final_obs: one obs_dim row per
+/// `final_obs_index`); the bound is checked before anything is allocated.
+///
+/// ```
+/// use buridan_proto::convert::{fragment_from_message_within, ConvertError};
+/// use buridan_proto::v1;
+/// let bomb = v1::Fragment {
+///     len: 1000, rows: 1000, rows_per_env: 1, obs_dim: 1000, heads: 1, actions_per_head: 5,
+///     obs: vec![0; 16], obs_encoding: v1::ObsEncoding::Lz4 as i32,
+///     ..Default::default()
+/// };
+/// let e = fragment_from_message_within(bomb, 1 << 20).unwrap_err();
+/// assert!(e.to_string().starts_with("obs would decode to 1000000000 values"));
+/// ```
+pub fn fragment_from_message_within(
+    m: v1::Fragment,
+    max_decoded_bytes: usize,
+) -> Result<(WireTag, Fragment), ConvertError> {
+    let encoding = obs_encoding::encoding_of(m.obs_encoding)?;
+    let obs_dim = m.obs_dim as usize;
+    let rows = m.rows as usize;
+    let sizes = [
+        (m.len as usize).checked_mul(rows),
+        Some(m.final_obs_index.len()),
+        Some(rows),
+    ]
+    .map(|n| n.and_then(|n| n.checked_mul(obs_dim)));
+    let mut budget = max_decoded_bytes;
+    let mut decode = |field: &'static str, bytes: &[u8], values: Option<usize>| {
+        let out = obs_encoding::decode(field, bytes, encoding, values, budget)?;
+        if encoding != ObsEncoding::Raw {
+            budget -= out.len() * 4;
+        }
+        Ok::<_, ConvertError>(out)
+    };
+    let obs = decode("obs", &m.obs, sizes[0])?;
+    let final_obs = decode("final_obs", &m.final_obs, sizes[1])?;
+    let last_obs = decode("last_obs", &m.last_obs, sizes[2])?;
     let tag = WireTag {
         run_id: m.run_id,
         session: m.session,
@@ -136,7 +224,7 @@ pub fn fragment_from_message(m: v1::Fragment) -> Result<(WireTag, Fragment), Con
         obs_dim: m.obs_dim as usize,
         heads: m.heads as usize,
         actions_per_head: m.actions_per_head as usize,
-        obs: le_bytes_to_f32("obs", &m.obs)?,
+        obs,
         masks: m.masks,
         actions: m.actions,
         behaviour_logits: le_bytes_to_f32("behaviour_logits", &m.behaviour_logits)?,
@@ -144,9 +232,9 @@ pub fn fragment_from_message(m: v1::Fragment) -> Result<(WireTag, Fragment), Con
         rewards: m.rewards,
         terminated: m.terminated,
         truncated: m.truncated,
-        final_obs: le_bytes_to_f32("final_obs", &m.final_obs)?,
+        final_obs,
         final_obs_index: m.final_obs_index,
-        last_obs: le_bytes_to_f32("last_obs", &m.last_obs)?,
+        last_obs,
         initial_state: m.initial_state.map(state_from_message).transpose()?,
         episodes: m.episodes.iter().map(episode_from_message).collect(),
         env_steps: m.env_steps,
@@ -224,25 +312,12 @@ pub fn check_fragment(f: &Fragment) -> Result<(), ConvertError> {
 
 /// Floats as little-endian bytes, 4 per value.
 pub fn f32_to_le_bytes(values: &[f32]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(values.len() * 4);
-    for v in values {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
-    out
+    obs_encoding::to_le_bytes(values)
 }
 
 /// Little-endian bytes as floats; the length must be a multiple of 4.
 pub fn le_bytes_to_f32(field: &'static str, bytes: &[u8]) -> Result<Vec<f32>, ConvertError> {
-    if !bytes.len().is_multiple_of(4) {
-        return Err(ConvertError::Invalid(format!(
-            "{field} holds {} bytes, not a whole number of f32 values",
-            bytes.len()
-        )));
-    }
-    Ok(bytes
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect())
+    Ok(obs_encoding::from_le_bytes(field, bytes)?)
 }
 
 pub(crate) fn check_finite(field: &'static str, buf: &[f32]) -> Result<(), ConvertError> {
@@ -547,6 +622,57 @@ mod tests {
         let (t, back) = fragment_from_message(fragment_to_message(f.clone(), &tag())).unwrap();
         assert_eq!(t, tag());
         assert_eq!(back, f);
+    }
+
+    #[test]
+    fn lz4_round_trip_is_bit_for_bit() {
+        let mut f = fragment();
+        f.obs[4] = -0.0;
+        f.obs[7] = f32::MIN_POSITIVE / 2.0;
+        f.final_obs[1] = 1.0;
+        f.last_obs[5] = 0.5;
+        let m = fragment_to_message_encoded(f.clone(), &tag(), ObsEncoding::Lz4);
+        assert_eq!(m.obs_encoding, ObsEncoding::Lz4 as i32);
+        let (t, back) = fragment_from_message(m).unwrap();
+        assert_eq!(t, tag());
+        for (a, b) in [
+            (&back.obs, &f.obs),
+            (&back.final_obs, &f.final_obs),
+            (&back.last_obs, &f.last_obs),
+        ] {
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(a), bits(b));
+        }
+        assert_eq!(back, f);
+    }
+
+    #[test]
+    fn a_bad_lz4_buffer_is_named() {
+        let good = fragment_to_message_encoded(fragment(), &tag(), ObsEncoding::Lz4);
+        // Corrupt: the last_obs block of another size.
+        let mut m = good.clone();
+        m.last_obs = obs_encoding::encode(&[0.0; 7], ObsEncoding::Lz4);
+        let err = fragment_from_message(m).unwrap_err();
+        assert!(err.to_string().starts_with("last_obs "), "{err}");
+        // Raw bytes labelled LZ4.
+        let mut m = good.clone();
+        m.obs = f32_to_le_bytes(&fragment().obs);
+        let err = fragment_from_message(m).unwrap_err();
+        assert!(err.to_string().starts_with("obs "), "{err}");
+        // Over the decode budget: obs (48 bytes) fits 50, final_obs then does not.
+        let err = fragment_from_message_within(good.clone(), 50).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "final_obs would decode to 6 values (24 bytes), over the limit of 2 bytes"
+        );
+        // An encoding from the future.
+        let mut m = good;
+        m.obs_encoding = 3;
+        let err = fragment_from_message(m).unwrap_err();
+        assert!(matches!(
+            err,
+            ConvertError::Obs(ObsDecodeError::UnknownEncoding(3))
+        ));
     }
 
     #[test]

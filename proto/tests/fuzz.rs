@@ -13,9 +13,11 @@ mod fuzz_support;
 use buridan_env::EpisodeStats;
 use buridan_policy::{Fragment, NamedTensor, RecurrentState, Weights};
 use buridan_proto::convert::{
-    env_from_message, env_to_message, fragment_from_message, fragment_to_message, map_from_message,
-    map_to_message, weights_from_message, weights_to_message, WireTag,
+    env_from_message, env_to_message, f32_to_le_bytes, fragment_from_message, fragment_to_message,
+    fragment_to_message_encoded, map_from_message, map_to_message, weights_from_message,
+    weights_to_message, WireTag,
 };
+use buridan_proto::obs_encoding;
 use buridan_proto::v1;
 use fuzz_support::{mutated_bytes, run};
 use proptest::prelude::*;
@@ -360,8 +362,27 @@ fn check_fragment(m: &v1::Fragment, tag: &WireTag, f: &Fragment) -> Result<(), T
             prop_assert!(v.iter().all(|x| x.is_finite()));
         }
     }
+    // Compressed observation buffers decode to the fragment's bit for bit;
+    // as raw bytes, the whole message is the one the fragment converts to.
+    let mut sent = m.clone();
+    let encoding = obs_encoding::encoding_of(m.obs_encoding).expect("accepted: a known encoding");
+    if encoding != v1::ObsEncoding::Raw {
+        for (bytes, values) in [
+            (&mut sent.obs, &f.obs),
+            (&mut sent.final_obs, &f.final_obs),
+            (&mut sent.last_obs, &f.last_obs),
+        ] {
+            let decoded =
+                obs_encoding::decode("obs", bytes, encoding, Some(values.len()), usize::MAX)
+                    .expect("accepted: decodes");
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            prop_assert_eq!(bits(&decoded), bits(values));
+            *bytes = f32_to_le_bytes(values);
+        }
+        sent.obs_encoding = v1::ObsEncoding::Raw as i32;
+    }
     let back = fragment_to_message(f.clone(), tag);
-    prop_assert_eq!(back.encode_to_vec(), m.encode_to_vec());
+    prop_assert_eq!(back.encode_to_vec(), sent.encode_to_vec());
     Ok(())
 }
 
@@ -632,6 +653,32 @@ fn fuzz_fragment() {
     );
     run("fragment", strategy, |(f, edits)| {
         let mut m = fragment_to_message(f, &tag);
+        for e in &edits {
+            apply_edit(&mut m, e);
+        }
+        convert_fragment(m)
+    });
+}
+
+/// The same with LZ4-compressed observations (`obs_encoding` 1): edits of
+/// the shape fields make a block's decoded size disagree with the shape,
+/// edits of its bytes corrupt it. No panic, no allocation past the decode
+/// bound; an accepted fragment decodes bit for bit.
+#[test]
+fn fuzz_fragment_lz4() {
+    let tag = WireTag {
+        run_id: "r".into(),
+        session: 1,
+        seq: 2,
+    };
+    let strategy = (
+        valid_fragment(),
+        prop::collection::vec(fragment_edit(), 0..6),
+        prop_oneof![4 => Just(1), 1 => any::<i32>()],
+    );
+    run("fragment_lz4", strategy, |(f, edits, encoding)| {
+        let mut m = fragment_to_message_encoded(f, &tag, v1::ObsEncoding::Lz4);
+        m.obs_encoding = encoding;
         for e in &edits {
             apply_edit(&mut m, e);
         }

@@ -32,6 +32,11 @@
 //!   ([`plausible`]);
 //! - a request whose bytes do not decode → `INVALID_ARGUMENT`, counted in
 //!   `buridan_undecodable_messages_total` ([`buridan_proto::codec`]);
+//! - observations LZ4-compressed (`obs_encoding`, offered in the join
+//!   reply) must decode to exactly the size the fragment's shape asks for,
+//!   within the run's largest fragment and `--max-message-bytes`; a corrupt
+//!   or oversized block → `INVALID_ARGUMENT` naming the field, `invalid`
+//!   ([`buridan_proto::obs_encoding`]);
 //! - sessions without a parameter stream expire when idle, and their number
 //!   is capped: a join beyond the cap gets `RESOURCE_EXHAUSTED`
 //!   ([`sessions`]).
@@ -404,9 +409,10 @@ where
             .tls_config(ServerTlsConfig::new().identity(Identity::from_pem(cert, key)))
             .map_err(ServeError::Tls)?;
     }
-    let service = LearnerServer::new(LearnerService::new(hub))
-        .max_decoding_message_size(opts.max_message_bytes)
-        .max_encoding_message_size(opts.max_message_bytes);
+    let service =
+        LearnerServer::new(LearnerService::new(hub).max_decoded_bytes(opts.max_message_bytes))
+            .max_decoding_message_size(opts.max_message_bytes)
+            .max_encoding_message_size(opts.max_message_bytes);
     if opts.token.as_deref() == Some("") {
         return Err(ServeError::EmptyToken);
     }

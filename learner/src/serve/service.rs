@@ -5,7 +5,8 @@ use std::pin::Pin;
 use std::sync::Arc;
 use std::task::{Context, Poll};
 
-use buridan_proto::convert::fragment_from_message;
+use buridan_proto::convert::fragment_from_message_within;
+use buridan_proto::obs_encoding::DEFAULT_MAX_DECODED_BYTES;
 use buridan_proto::v1;
 use buridan_proto::v1::learner_server::Learner;
 use tokio_stream::wrappers::WatchStream;
@@ -18,12 +19,28 @@ use super::hub::{refusal_outcome, Hub, Outcome};
 #[derive(Clone)]
 pub struct LearnerService {
     hub: Arc<Hub>,
+    /// Bound on the bytes a fragment's compressed observations decode to.
+    max_decoded_bytes: usize,
 }
 
 impl LearnerService {
-    /// A service for `hub`.
+    /// A service for `hub`; compressed observations may decode to at most
+    /// the run's largest fragment (see [`Self::max_decoded_bytes`]).
     pub fn new(hub: Arc<Hub>) -> Self {
-        Self { hub }
+        let max_decoded_bytes = fragment_obs_bytes(&hub.info).min(DEFAULT_MAX_DECODED_BYTES);
+        Self {
+            hub,
+            max_decoded_bytes,
+        }
+    }
+
+    /// Lets compressed observations decode to at most `limit` bytes (and
+    /// never more than the largest fragment the run can produce), so that
+    /// compression lets nothing larger in than a raw message of the size
+    /// limit could carry.
+    pub fn max_decoded_bytes(mut self, limit: usize) -> Self {
+        self.max_decoded_bytes = fragment_obs_bytes(&self.hub.info).min(limit);
+        self
     }
 
     fn check_run(&self, run_id: &str) -> Result<(), Status> {
@@ -61,6 +78,17 @@ impl LearnerService {
         tracing::warn!(code = ?status.code(), message = status.message(), "fragment refused");
         status
     }
+}
+
+/// Bytes of observations in the largest fragment of the run: obs and at most
+/// as many final observations (one per truncated step), plus last_obs, for
+/// an actor with the most envs allowed.
+fn fragment_obs_bytes(info: &super::RunInfo) -> usize {
+    let rows = u64::from(info.max_envs) * u64::from(info.rows_per_env);
+    let values = (2 * u64::from(info.fragment_len) + 1)
+        .saturating_mul(rows)
+        .saturating_mul(u64::from(info.obs_dim));
+    usize::try_from(values.saturating_mul(4)).unwrap_or(usize::MAX)
 }
 
 /// The learner's weights as a stream that tells the hub when it closes.
@@ -158,6 +186,7 @@ impl Learner for LearnerService {
             greedy_mix: info.greedy_mix,
             shield_rollouts: info.shield_rollouts,
             replay: info.replay,
+            obs_encodings: vec![v1::ObsEncoding::Lz4 as i32],
             run_finished: false,
         }))
     }
@@ -186,12 +215,14 @@ impl Learner for LearnerService {
         request: Request<v1::Fragment>,
     ) -> Result<Response<v1::SubmitReply>, Status> {
         let info = &self.hub.info;
-        let (tag, mut f) = fragment_from_message(request.into_inner()).map_err(|e| {
-            self.refuse(
-                Outcome::Invalid,
-                Status::invalid_argument(format!("malformed fragment: {e}")),
-            )
-        })?;
+        let message = request.into_inner();
+        let (tag, mut f) =
+            fragment_from_message_within(message, self.max_decoded_bytes).map_err(|e| {
+                self.refuse(
+                    Outcome::Invalid,
+                    Status::invalid_argument(format!("malformed fragment: {e}")),
+                )
+            })?;
         self.check_run(&tag.run_id)
             .map_err(|s| self.refuse(Outcome::Invalid, s))?;
         if self.hub.finished() {
