@@ -69,7 +69,9 @@ pub struct EvalArgs {
     /// dead-end aisles from the back (an agent bound nearer the mouth waits
     /// outside until those bound deeper have passed its goal),
     /// `shield-lanes[=K]:…` also keeps one-lane corridors one-way (an agent
-    /// waits outside a lane while another comes out towards it);
+    /// waits outside a lane while another comes out towards it),
+    /// `shield-settle=K:…` counts only an agent's first arrival on its goal
+    /// as progress (one that steps on and off its goal settles on it);
     /// `rescue:CONTROLLER` adds a planner as a safety net: it plans from the
     /// current state whenever an agent is stuck (within --time-limit), by
     /// default LaCAM then OD-A* (`lacam+od-astar`; beyond 8 agents

@@ -8,7 +8,9 @@
 //! agent that has not come closer to its goal for K steps follow its
 //! shortest path; `shield-ordered:…` and `shield-ordered=K:…` also fill
 //! dead-end aisles from the back; `shield-lanes:…` and `shield-lanes=K:…`
-//! also keep one-lane corridors one-way), or a rescue around any of
+//! also keep one-lane corridors one-way; `shield-settle=K:…` counts only
+//! an agent's first arrival on its goal as progress, so that one stepping
+//! on and off its goal settles on it), or a rescue around any of
 //! these: `rescue:INNER`, `rescue=PLANNER:INNER`, `lookahead:INNER`,
 //! `lookahead=PLANNER:INNER` (a planner takes over when an agent is stuck,
 //! or before it jams), `backstop:INNER`, `backstop=PLANNER:INNER` (a
@@ -99,7 +101,8 @@ pub enum ControllerNameError {
     ShieldNeedsPolicy {
         /// The name given.
         name: String,
-        /// `shield`, `shield-env`, `shield-ordered` or `shield-lanes`.
+        /// `shield`, `shield-env`, `shield-ordered`, `shield-lanes` or
+        /// `shield-settle`.
         prefix: &'static str,
     },
     /// `shield=K:` with a K that is no step count.
@@ -109,6 +112,13 @@ pub enum ControllerNameError {
         name: String,
         /// What stood for K.
         value: String,
+    },
+    /// `shield-settle:` without its patience: settling is a rule of the
+    /// progress fallback, which needs one.
+    #[error("'{name}': shield-settle needs the fallback's patience (shield-settle=K:checkpoint:DIR, e.g. K = 16)")]
+    SettleNeedsPatience {
+        /// The name given.
+        name: String,
     },
     /// A checkpoint that cannot drive these episodes.
     #[error(transparent)]
@@ -188,6 +198,10 @@ fn shield_parts<'a>(
 /// assert_eq!(ordered().name(), "ctde-policy+shield-ordered=16");
 /// let lanes = controller_factory(&format!("shield-lanes=16:checkpoint:{ckpt}"), 4, 42, Default::default(), g, t).unwrap();
 /// assert_eq!(lanes().name(), "ctde-policy+shield-lanes=16");
+/// let settled = controller_factory(&format!("shield-settle=16:checkpoint:{ckpt}"), 4, 42, Default::default(), g, t).unwrap();
+/// assert_eq!(settled().name(), "ctde-policy+shield-settle=16");
+/// let err = controller_factory(&format!("shield-settle:checkpoint:{ckpt}"), 4, 42, Default::default(), g, t).err().unwrap();
+/// assert!(err.to_string().contains("shield-settle needs the fallback's patience"), "{err}");
 /// let err = controller_factory(&format!("shield=soon:checkpoint:{ckpt}"), 4, 42, Default::default(), g, t).err().unwrap();
 /// assert!(err.to_string().contains("patience 'soon' is not a number of steps"), "{err}");
 /// let rescued = controller_factory("rescue:random", 4, 42, Default::default(), g, t).unwrap();
@@ -248,13 +262,19 @@ pub fn controller_factory(
             })
         }));
     }
-    for (prefix, ranking, ordered, lanes) in [
-        ("shield", Ranking::Walls, false, false),
-        ("shield-env", Ranking::Env, false, false),
-        ("shield-ordered", Ranking::Walls, true, false),
-        ("shield-lanes", Ranking::Walls, true, true),
+    for (prefix, ranking, ordered, lanes, settle) in [
+        ("shield", Ranking::Walls, false, false, false),
+        ("shield-env", Ranking::Env, false, false, false),
+        ("shield-ordered", Ranking::Walls, true, false, false),
+        ("shield-lanes", Ranking::Walls, true, true, false),
+        ("shield-settle", Ranking::Walls, false, false, true),
     ] {
         if let Some((patience, inner)) = shield_parts(name, prefix)? {
+            if settle && patience.is_none() {
+                return Err(ControllerNameError::SettleNeedsPatience {
+                    name: name.to_string(),
+                });
+            }
             let Some(dir) = inner.strip_prefix("checkpoint:") else {
                 return Err(ControllerNameError::ShieldNeedsPolicy {
                     name: name.to_string(),
@@ -264,8 +284,10 @@ pub fn controller_factory(
             let dir = PathBuf::from(dir);
             let load = move || {
                 let mut shield = ShieldController::load(&dir, agents, act_mode, seed, ranking)?;
-                if let Some(k) = patience {
-                    shield = shield.with_progress_fallback(k);
+                match patience {
+                    Some(k) if settle => shield = shield.with_goal_settling(k),
+                    Some(k) => shield = shield.with_progress_fallback(k),
+                    None => {}
                 }
                 if ordered {
                     shield = shield.with_dead_end_order();

@@ -79,6 +79,7 @@ pub struct ShieldController {
     ranking: Ranking,
     seed: u64,
     patience: Option<u32>,
+    goal_settling: bool,
     dead_end_order: bool,
     one_way_lanes: bool,
     shield: Option<Shield>,
@@ -110,6 +111,7 @@ impl ShieldController {
             ranking,
             seed,
             patience: None,
+            goal_settling: false,
             dead_end_order: false,
             one_way_lanes: false,
             shield: None,
@@ -123,6 +125,16 @@ impl ShieldController {
     /// ([`Shield::with_progress_fallback`]; `shield=K:checkpoint:DIR`).
     pub fn with_progress_fallback(mut self, patience: u32) -> Self {
         self.patience = Some(patience);
+        self
+    }
+
+    /// The same controller with the progress fallback that counts only the
+    /// first arrival on a goal as progress, so that an agent stepping on
+    /// and off its goal settles on it ([`Shield::with_goal_settling`];
+    /// `shield-settle=K:checkpoint:DIR`).
+    pub fn with_goal_settling(mut self, patience: u32) -> Self {
+        self.patience = Some(patience);
+        self.goal_settling = true;
         self
     }
 
@@ -145,8 +157,10 @@ impl ShieldController {
     /// The shield this controller plays through, for `grid`.
     fn new_shield(&self, grid: &buridan_env::Grid) -> Shield {
         let mut shield = Shield::new(grid);
-        if let Some(k) = self.patience {
-            shield = shield.with_progress_fallback(k);
+        match self.patience {
+            Some(k) if self.goal_settling => shield = shield.with_goal_settling(k),
+            Some(k) => shield = shield.with_progress_fallback(k),
+            None => {}
         }
         if self.dead_end_order {
             shield = shield.with_dead_end_order();
@@ -164,6 +178,8 @@ impl Controller for ShieldController {
             "shield-lanes"
         } else if self.dead_end_order {
             "shield-ordered"
+        } else if self.goal_settling {
+            "shield-settle"
         } else {
             "shield"
         };

@@ -227,6 +227,11 @@ struct ProgressFallback {
     waiting: Vec<u32>,
     /// Per agent: whether it follows its shortest path this step.
     stalled: Vec<bool>,
+    /// Whether only the first arrival on a goal counts as progress
+    /// ([`Shield::with_goal_settling`]).
+    settle: bool,
+    /// Per agent: whether it has stood on its current goal (with `settle`).
+    arrived: Vec<bool>,
 }
 
 impl ProgressFallback {
@@ -235,6 +240,14 @@ impl ProgressFallback {
         self.best.resize(n, u32::MAX);
         self.waiting.resize(n, 0);
         self.stalled.resize(n, false);
+        self.arrived.resize(n, false);
+    }
+
+    /// Forgets every agent's progress: a new episode.
+    fn restart(&mut self) {
+        self.best.iter_mut().for_each(|b| *b = u32::MAX);
+        self.waiting.iter_mut().for_each(|w| *w = 0);
+        self.arrived.iter_mut().for_each(|a| *a = false);
     }
 
     /// Updates agent `i`'s progress, `d` steps from its goal (`new_goal`:
@@ -244,8 +257,17 @@ impl ProgressFallback {
         if new_goal {
             self.best[i] = u32::MAX;
             self.waiting[i] = 0;
+            self.arrived[i] = false;
         }
-        if d == 0 {
+        if self.settle && self.arrived[i] {
+            // Back on the goal after leaving it is no progress, and resting
+            // there does not count as waiting: an agent that steps on and
+            // off its goal runs out of patience off it, then settles on it.
+            if d > 0 {
+                self.waiting[i] += 1;
+            }
+        } else if d == 0 {
+            self.arrived[i] = self.settle;
             // On the goal: nothing to wait for; leaving it starts afresh.
             self.best[i] = u32::MAX;
             self.waiting[i] = 0;
@@ -535,7 +557,47 @@ impl Shield {
             best: Vec::new(),
             waiting: Vec::new(),
             stalled: Vec::new(),
+            settle: false,
+            arrived: Vec::new(),
         });
+        self
+    }
+
+    /// The progress fallback of [`Shield::with_progress_fallback`] with
+    /// progress as the deadlock monitor counts it: reaching the goal is
+    /// progress the first time only. An agent that keeps stepping off its
+    /// goal and back on never stays "farther than before" for `patience`
+    /// steps, so the plain fallback never takes it over, and the episode
+    /// never ends with all agents on their goals at once; here its steps
+    /// off the goal add up, and once they reach `patience` it follows its
+    /// shortest path, which keeps it on the goal. Resting on the goal is
+    /// not waiting.
+    ///
+    /// ```
+    /// use buridan_env::{Cell, Grid};
+    /// use buridan_mapf::shield::Shield;
+    /// // One agent whose policy steps off its goal and back, over and over.
+    /// let grid = Grid::from_rows(&["..."]).unwrap();
+    /// let goal = [Cell::new(0, 1)];
+    /// let off_and_on = |at: Cell| if at == goal[0] { [4, 0, 1, 2, 3] } else { [2, 0, 1, 3, 4] };
+    /// let play = |mut shield: Shield| {
+    ///     let (mut at, mut on_goal) = (Cell::new(0, 0), 0);
+    ///     let mut action = [0];
+    ///     for _ in 0..40 {
+    ///         shield.step(&[at], &goal, &[off_and_on(at)], &mut action).unwrap();
+    ///         at = match action[0] { 2 => Cell::new(0, at.col + 1), 4 => Cell::new(0, at.col - 1), _ => at };
+    ///         on_goal = if at == goal[0] { on_goal + 1 } else { 0 };
+    ///     }
+    ///     on_goal // steps on the goal in a row at the end
+    /// };
+    /// assert!(play(Shield::new(&grid).with_progress_fallback(4)) <= 1);
+    /// assert!(play(Shield::new(&grid).with_goal_settling(4)) > 20);
+    /// ```
+    pub fn with_goal_settling(mut self, patience: u32) -> Self {
+        self = self.with_progress_fallback(patience);
+        if let Some(f) = &mut self.fallback {
+            f.settle = true;
+        }
         self
     }
 
@@ -612,8 +674,7 @@ impl Shield {
         self.tie_seed = tie_seed;
         self.steps = 0;
         if let Some(f) = &mut self.fallback {
-            f.best.iter_mut().for_each(|b| *b = u32::MAX);
-            f.waiting.iter_mut().for_each(|w| *w = 0);
+            f.restart();
         }
         let base = splitmix64(tie_seed);
         self.priorities = (0..agents as u64)

@@ -17,7 +17,8 @@
 #   CONFIG (a training config; default: none, i.e. the default recipe —
 #   the README's table was measured with the first recipe,
 #   learner/configs/recipe-impala-feedforward.toml), MODES (the policy modes
-#   benched, default "learned learned-shield learned-fallback learned-sampled").
+#   benched, default "learned learned-shield learned-fallback learned-sampled";
+#   also learned-settle: the fallback with goal settling, shield-settle=16).
 set -eu
 out=${1:?usage: learned-row.sh OUT [TRAIN_SEEDS] [INSTANCE_SEEDS]}
 train_seeds=${2:-0 1 2 3 4 5 6 7 8 9}
@@ -49,7 +50,8 @@ for mode in $modes; do
       learned-shield) set -- "$@" --controller "learned-shield#$s=shield:$ckpt" ;;
       learned-fallback) set -- "$@" --controller "learned-fallback#$s=shield=16:$ckpt" ;;
       learned-sampled) set -- "$@" --controller "learned-sampled#$s=sampled:$ckpt" ;;
-      *) echo "unknown mode '$mode' (learned, learned-shield, learned-fallback, learned-sampled)" >&2; exit 2 ;;
+      learned-settle) set -- "$@" --controller "learned-settle#$s=shield-settle=16:$ckpt" ;;
+      *) echo "unknown mode '$mode' (learned, learned-shield, learned-fallback, learned-settle, learned-sampled)" >&2; exit 2 ;;
     esac
   done
 done
