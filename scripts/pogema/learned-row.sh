@@ -4,8 +4,9 @@
 # warehouse), one policy per training seed, then `learner bench pogema` with
 # each policy raw (greedy), through the PIBT collision shield, through the
 # shield with its progress fallback (patience 16, the study action
-# `fallback`), and sampled, beside PIBT alone; the seeds pool into one row per mode (mean success and
-# its 95 % bootstrap interval).
+# `fallback`), through the fallback with goal settling, and sampled, beside
+# PIBT alone; the seeds pool into one row per mode (mean success and its
+# 95 % bootstrap interval).
 #
 # Usage: scripts/pogema/learned-row.sh OUT [TRAIN_SEEDS] [INSTANCE_SEEDS]
 #   OUT             output folder: policies/seed-K/, bench/ (resumable: a
@@ -17,8 +18,9 @@
 #   CONFIG (a training config; default: none, i.e. the default recipe —
 #   the README's table was measured with the first recipe,
 #   learner/configs/recipe-impala-feedforward.toml), MODES (the policy modes
-#   benched, default "learned learned-shield learned-fallback learned-sampled";
-#   also learned-settle: the fallback with goal settling, shield-settle=16).
+#   benched, default "learned learned-shield learned-fallback learned-settle
+#   learned-sampled"; learned-fallback is shield=16, learned-settle
+#   shield-settle=16: the fallback with goal settling).
 set -eu
 out=${1:?usage: learned-row.sh OUT [TRAIN_SEEDS] [INSTANCE_SEEDS]}
 train_seeds=${2:-0 1 2 3 4 5 6 7 8 9}
@@ -28,7 +30,7 @@ shared=${SHARED:-../shared/pogema}
 steps=${STEPS:-1000000}
 agents=${AGENTS:-16}
 config=${CONFIG:-}
-modes=${MODES:-learned learned-shield learned-fallback learned-sampled}
+modes=${MODES:-learned learned-shield learned-fallback learned-settle learned-sampled}
 mkdir -p "$out/policies"
 for s in $train_seeds; do
   dir="$out/policies/seed-$s"
