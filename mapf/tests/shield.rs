@@ -2,7 +2,8 @@
 //! executed exactly (no blocked move) from many random states, the same
 //! input gives the same joint move, a face-to-face deadlock that greedy
 //! preferences never leave is resolved, with the progress fallback so is
-//! a standoff where the policy prefers to wait, with the dead-end order
+//! a standoff where the policy prefers to wait (goal settling changes
+//! nothing before an agent leaves its goal), with the dead-end order
 //! a dead-end aisle two agents would enter in the wrong order, and with the
 //! lane rule a one-lane corridor two agents would meet in head-on or enter
 //! from one end in the wrong order.
@@ -155,6 +156,54 @@ fn the_same_input_gives_the_same_joint_move() {
         }
     }
     assert!(moved > 40, "the agents hardly moved: {moved}");
+}
+
+/// Goal settling changes the progress fallback only for agents that have
+/// reached their goal and left it again: until the first such step the two
+/// shields choose the same joint moves, from random preferences with 12
+/// agents on rm-2.1 (patience 3, so that the fallback acts often).
+#[test]
+fn goal_settling_equals_the_fallback_until_an_agent_leaves_its_goal() {
+    let map = Arc::new(Map::load("rm-2.1").unwrap());
+    let mut compared = 0;
+    for episode_seed in 0..20u64 {
+        let cfg = EnvConfig {
+            agents: 12,
+            seed: episode_seed,
+            ..EnvConfig::default()
+        };
+        let mut env = GridEnv::new(map.clone(), cfg).unwrap();
+        let mut plain = Shield::new(&map.grid).with_progress_fallback(3);
+        let mut settling = Shield::new(&map.grid).with_goal_settling(3);
+        plain.begin_episode(12, episode_seed);
+        settling.begin_episode(12, episode_seed);
+        let mut rng = StdRng::seed_from_u64(episode_seed);
+        let (mut acts_p, mut acts_s) = (vec![0u8; 12], vec![0u8; 12]);
+        let mut rewards = vec![0.0; 12];
+        let mut arrived = vec![false; 12];
+        for _ in 0..100 {
+            let (pos, goals) = (env.positions().to_vec(), env.goals());
+            if (0..12).any(|i| arrived[i] && pos[i] != goals[i]) {
+                break; // an agent left its goal: from here the rules differ
+            }
+            for i in 0..12 {
+                arrived[i] |= pos[i] == goals[i];
+            }
+            let prefs: Vec<ActionOrder> = pos
+                .iter()
+                .zip(&goals)
+                .map(|(&p, &g)| random_order(&mut rng, &map.grid, p, g))
+                .collect();
+            plain.step(&pos, &goals, &prefs, &mut acts_p).unwrap();
+            settling.step(&pos, &goals, &prefs, &mut acts_s).unwrap();
+            assert_eq!(acts_p, acts_s, "episode {episode_seed}");
+            compared += 1;
+            if env.step(&acts_p, &mut rewards).unwrap().done() {
+                break;
+            }
+        }
+    }
+    assert!(compared > 100, "only {compared} steps compared");
 }
 
 /// A corridor with a pocket above column 2 and one above column 7; agent 0
