@@ -180,14 +180,14 @@ fn goal_settling_equals_the_fallback_until_an_agent_leaves_its_goal() {
         let mut rng = StdRng::seed_from_u64(episode_seed);
         let (mut acts_p, mut acts_s) = (vec![0u8; 12], vec![0u8; 12]);
         let mut rewards = vec![0.0; 12];
-        let mut arrived = vec![false; 12];
+        let mut arrived = [false; 12];
         for _ in 0..100 {
             let (pos, goals) = (env.positions().to_vec(), env.goals());
             if (0..12).any(|i| arrived[i] && pos[i] != goals[i]) {
                 break; // an agent left its goal: from here the rules differ
             }
-            for i in 0..12 {
-                arrived[i] |= pos[i] == goals[i];
+            for ((arrived, p), g) in arrived.iter_mut().zip(&pos).zip(&goals) {
+                *arrived |= p == g;
             }
             let prefs: Vec<ActionOrder> = pos
                 .iter()
