@@ -201,6 +201,13 @@ pub enum Actions {
     /// shortest path, with PIBT's swap (`--controller
     /// shield=16:checkpoint:DIR`): deterministic, no planner search.
     Fallback,
+    /// The fallback with goal settling: reaching the goal counts as
+    /// progress only the first time, so an agent that steps on and off its
+    /// goal runs out of patience and settles on it (`--controller
+    /// shield-settle=16:checkpoint:DIR`,
+    /// [`buridan_mapf::shield::Shield::with_goal_settling`]):
+    /// deterministic, no planner search.
+    Settle,
     /// The fallback, and the shield fills dead-end aisles from the back:
     /// an agent bound nearer an aisle's mouth waits outside until those
     /// bound deeper have passed its goal (`--controller
@@ -240,13 +247,14 @@ impl Actions {
     /// ```
     /// use buridan_cli::experiment::Actions;
     /// let names: Vec<_> = Actions::ALL.iter().map(|a| a.name()).collect();
-    /// assert_eq!(names, ["sampled", "greedy", "shielded", "fallback", "ordered", "lanes", "rescued", "lookahead", "backstop", "pace"]);
+    /// assert_eq!(names, ["sampled", "greedy", "shielded", "fallback", "settle", "ordered", "lanes", "rescued", "lookahead", "backstop", "pace"]);
     /// ```
-    pub const ALL: [Actions; 10] = [
+    pub const ALL: [Actions; 11] = [
         Actions::Sampled,
         Actions::Greedy,
         Actions::Shielded,
         Actions::Fallback,
+        Actions::Settle,
         Actions::Ordered,
         Actions::Lanes,
         Actions::Rescued,
@@ -255,14 +263,15 @@ impl Actions {
         Actions::Pace,
     ];
 
-    /// `sampled`, `greedy`, `shielded`, `fallback`, `ordered`, `lanes`,
-    /// `rescued`, `lookahead`, `backstop` or `pace`.
+    /// `sampled`, `greedy`, `shielded`, `fallback`, `settle`, `ordered`,
+    /// `lanes`, `rescued`, `lookahead`, `backstop` or `pace`.
     pub fn name(&self) -> &'static str {
         match self {
             Actions::Sampled => "sampled",
             Actions::Greedy => "greedy",
             Actions::Shielded => "shielded",
             Actions::Fallback => "fallback",
+            Actions::Settle => "settle",
             Actions::Ordered => "ordered",
             Actions::Lanes => "lanes",
             Actions::Rescued => "rescued",
@@ -783,6 +792,7 @@ impl Experiment {
                 let shield = match (actions, &self.eval.rescue_planner) {
                     (Actions::Shielded, _) => "shield:".to_string(),
                     (Actions::Fallback, _) => format!("shield={DEFAULT_PATIENCE}:"),
+                    (Actions::Settle, _) => format!("shield-settle={DEFAULT_PATIENCE}:"),
                     (Actions::Ordered, _) => format!("shield-ordered={DEFAULT_PATIENCE}:"),
                     (Actions::Lanes, _) => format!("shield-lanes={DEFAULT_PATIENCE}:"),
                     (Actions::Rescued, None) => "rescue:shield:".to_string(),
@@ -849,6 +859,7 @@ impl Experiment {
                 Actions::Greedy
                 | Actions::Shielded
                 | Actions::Fallback
+                | Actions::Settle
                 | Actions::Ordered
                 | Actions::Lanes => {}
             },
