@@ -63,6 +63,37 @@ async fn watch(
         .map(|r| r.into_inner())
 }
 
+/// Joins as `name`, loads the first weights and collects one honest
+/// fragment; the join reply comes back for tagging submissions, and the
+/// parameter stream to be held open (closing it ends the session).
+async fn join_and_collect(
+    client: &mut LearnerClient<Channel>,
+    name: &str,
+) -> (
+    v1::JoinReply,
+    tonic::Streaming<v1::Parameters>,
+    buridan_policy::Fragment,
+) {
+    let joined = join(client, name).await.unwrap();
+    let mut stream = watch(client, &joined).await.unwrap();
+    let weights = stream.message().await.unwrap().expect("weights");
+    let mut collector = build_collector(&joined).unwrap();
+    collector
+        .load(&weights_from_message(weights).unwrap())
+        .unwrap();
+    let good = collector.collect().unwrap();
+    (joined, stream, good)
+}
+
+/// The wire tag of this session's `seq`-th submission.
+fn wire_tag(joined: &v1::JoinReply, seq: u64) -> WireTag {
+    WireTag {
+        run_id: joined.run_id.clone(),
+        session: joined.session,
+        seq,
+    }
+}
+
 fn runtime() -> tokio::runtime::Runtime {
     tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)
@@ -76,19 +107,8 @@ fn implausible_rewards_are_refused_naming_the_field_and_training_goes_on() {
     let learner = start(SessionLimits::default());
     runtime().block_on(async {
         let mut client = learner.client().await;
-        let joined = join(&mut client, "liar").await.unwrap();
-        let mut stream = watch(&mut client, &joined).await.unwrap();
-        let weights = stream.message().await.unwrap().expect("weights");
-        let mut collector = build_collector(&joined).unwrap();
-        collector
-            .load(&weights_from_message(weights).unwrap())
-            .unwrap();
-        let good = collector.collect().unwrap();
-        let tag = |seq| WireTag {
-            run_id: joined.run_id.clone(),
-            session: joined.session,
-            seq,
-        };
+        let (joined, _stream, good) = join_and_collect(&mut client, "liar").await;
+        let tag = |seq| wire_tag(&joined, seq);
 
         let mut bad = good.clone();
         bad.rewards[17] = 1e30;
@@ -119,20 +139,9 @@ fn bad_compressed_observations_are_refused_naming_the_field_and_training_goes_on
     let learner = start(SessionLimits::default());
     runtime().block_on(async {
         let mut client = learner.client().await;
-        let joined = join(&mut client, "squeezer").await.unwrap();
+        let (joined, _stream, good) = join_and_collect(&mut client, "squeezer").await;
         assert_eq!(joined.obs_encodings, [v1::ObsEncoding::Lz4 as i32]);
-        let mut stream = watch(&mut client, &joined).await.unwrap();
-        let weights = stream.message().await.unwrap().expect("weights");
-        let mut collector = build_collector(&joined).unwrap();
-        collector
-            .load(&weights_from_message(weights).unwrap())
-            .unwrap();
-        let good = collector.collect().unwrap();
-        let tag = |seq| WireTag {
-            run_id: joined.run_id.clone(),
-            session: joined.session,
-            seq,
-        };
+        let tag = |seq| wire_tag(&joined, seq);
         let lz4 = |seq| fragment_to_message_encoded(good.clone(), &tag(seq), v1::ObsEncoding::Lz4);
         let refused = |m: v1::Fragment| {
             let mut client = client.clone();
@@ -263,13 +272,11 @@ fn idle_sessions_expire_while_watching_ones_stay() {
         collector
             .load(&weights_from_message(weights).unwrap())
             .unwrap();
-        let tag = WireTag {
-            run_id: idle.run_id.clone(),
-            session: idle.session,
-            seq: 1,
-        };
         let status = client
-            .submit_fragment(fragment_to_message(collector.collect().unwrap(), &tag))
+            .submit_fragment(fragment_to_message(
+                collector.collect().unwrap(),
+                &wire_tag(&idle, 1),
+            ))
             .await
             .expect_err("the idle session expired");
         assert_eq!(status.code(), Code::NotFound, "{status:?}");

@@ -30,15 +30,21 @@ fn goal_greedy(grid: &Grid, pos: Cell, goal: Cell) -> ActionOrder {
     order
 }
 
-/// A random preference order: goal-greedy or a uniform permutation.
-fn random_order(rng: &mut StdRng, grid: &Grid, pos: Cell, goal: Cell) -> ActionOrder {
-    if rng.random_bool(0.5) {
-        goal_greedy(grid, pos, goal)
-    } else {
-        let mut order: ActionOrder = [0, 1, 2, 3, 4];
-        order.shuffle(rng);
-        order
-    }
+/// A random preference order per agent: goal-greedy or a uniform
+/// permutation.
+fn random_orders(rng: &mut StdRng, grid: &Grid, pos: &[Cell], goals: &[Cell]) -> Vec<ActionOrder> {
+    pos.iter()
+        .zip(goals)
+        .map(|(&p, &g)| {
+            if rng.random_bool(0.5) {
+                goal_greedy(grid, p, g)
+            } else {
+                let mut order: ActionOrder = [0, 1, 2, 3, 4];
+                order.shuffle(rng);
+                order
+            }
+        })
+        .collect()
 }
 
 fn target(grid: &Grid, pos: Cell, action: u8) -> Cell {
@@ -95,11 +101,7 @@ fn shielded_moves_never_fail_in_the_env() {
             let mut actions = vec![0u8; agents];
             loop {
                 let (pos, goals) = (env.positions(), env.goals());
-                let prefs: Vec<ActionOrder> = pos
-                    .iter()
-                    .zip(&goals)
-                    .map(|(&p, &g)| random_order(&mut rng, &map.grid, p, g))
-                    .collect();
+                let prefs = random_orders(&mut rng, &map.grid, &pos, &goals);
                 shield.step(&pos, &goals, &prefs, &mut actions).unwrap();
                 let planned: Vec<Cell> = pos
                     .iter()
@@ -141,11 +143,7 @@ fn the_same_input_gives_the_same_joint_move() {
     let mut moved = 0;
     for _ in 0..40 {
         let (pos, goals) = (env.positions(), env.goals());
-        let prefs: Vec<ActionOrder> = pos
-            .iter()
-            .zip(&goals)
-            .map(|(&p, &g)| random_order(&mut rng, &map.grid, p, g))
-            .collect();
+        let prefs = random_orders(&mut rng, &map.grid, &pos, &goals);
         a.step(&pos, &goals, &prefs, &mut acts_a).unwrap();
         b.step(&pos, &goals, &prefs, &mut acts_b).unwrap();
         assert_eq!(acts_a, acts_b);
@@ -189,11 +187,7 @@ fn goal_settling_equals_the_fallback_until_an_agent_leaves_its_goal() {
             for ((arrived, p), g) in arrived.iter_mut().zip(&pos).zip(&goals) {
                 *arrived |= p == g;
             }
-            let prefs: Vec<ActionOrder> = pos
-                .iter()
-                .zip(&goals)
-                .map(|(&p, &g)| random_order(&mut rng, &map.grid, p, g))
-                .collect();
+            let prefs = random_orders(&mut rng, &map.grid, &pos, &goals);
             plain.step(&pos, &goals, &prefs, &mut acts_p).unwrap();
             settling.step(&pos, &goals, &prefs, &mut acts_s).unwrap();
             assert_eq!(acts_p, acts_s, "episode {episode_seed}");

@@ -637,16 +637,21 @@ fn fuzz_decode() {
     });
 }
 
+/// The tag every fuzzed fragment travels under.
+fn fuzz_tag() -> WireTag {
+    WireTag {
+        run_id: "r".into(),
+        session: 1,
+        seq: 2,
+    }
+}
+
 /// Valid fragments with 0–5 nonsensical edits → `fragment_from_message`:
 /// no panic; an accepted fragment satisfies every invariant and converts
 /// back to the message it came from.
 #[test]
 fn fuzz_fragment() {
-    let tag = WireTag {
-        run_id: "r".into(),
-        session: 1,
-        seq: 2,
-    };
+    let tag = fuzz_tag();
     let strategy = (
         valid_fragment(),
         prop::collection::vec(fragment_edit(), 0..6),
@@ -666,11 +671,7 @@ fn fuzz_fragment() {
 /// bound; an accepted fragment decodes bit for bit.
 #[test]
 fn fuzz_fragment_lz4() {
-    let tag = WireTag {
-        run_id: "r".into(),
-        session: 1,
-        seq: 2,
-    };
+    let tag = fuzz_tag();
     let strategy = (
         valid_fragment(),
         prop::collection::vec(fragment_edit(), 0..6),
