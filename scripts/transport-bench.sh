@@ -8,6 +8,7 @@
 #   scripts/transport-bench.sh                                   # IMPALA tuned rm-2.1, 2M steps, 3 pairs
 #   CONFIG=learner/configs/ppo-ctde-rm-2.1.toml STEPS=400000 scripts/transport-bench.sh
 #   ACTOR_ARGS=--raw-obs scripts/transport-bench.sh                # observations uncompressed
+#   ACTOR_NICE=10 scripts/transport-bench.sh                       # actors yield the CPU to the learner
 # Writes OUT/runs.csv (arm, repeat, env_steps, wall_s, steps_per_s, success).
 set -euo pipefail
 BIN=${BIN:-target/release}
@@ -17,6 +18,11 @@ REPEATS=${REPEATS:-3}
 ACTORS=${ACTORS:-1}
 OUT=${OUT:-runs/transport-bench}
 PORT=${PORT:-50290}
+# Niceness of the actors in both arms (`actor --nice`, and the embedded
+# run's actor threads, `actor_nice`; 0: the learner's priority): on a
+# machine they share with the learner, niced actors yield the cores to the
+# learner's update thread, the run's bottleneck.
+ACTOR_NICE=${ACTOR_NICE:-0}
 # Extra `actor` flags, split on spaces (e.g. --raw-obs).
 read -r -a actor_args <<< "${ACTOR_ARGS:-}"
 if [ -e "$OUT/runs.csv" ]; then
@@ -39,6 +45,7 @@ record() { # ARM REPEAT DIR
 for r in $(seq 0 $((REPEATS - 1))); do
   dir="$OUT/embedded-$r"
   "$BIN/learner" train --config "$CONFIG" --steps "$STEPS" --seed "$r" --out "$dir" --quiet \
+    --set "actor_nice=$ACTOR_NICE" \
     2>"$OUT/embedded-$r.log"
   record embedded "$r" "$dir"
 
@@ -50,6 +57,7 @@ for r in $(seq 0 $((REPEATS - 1))); do
   for i in $(seq "$ACTORS"); do
     # Started at once: the actor retries until the learner listens.
     "$BIN/actor" --connect "http://127.0.0.1:$PORT" --name "a$i" --give-up-after 60 --backoff-max 0.1 \
+      --nice "$ACTOR_NICE" \
       ${actor_args[@]+"${actor_args[@]}"} \
       2>"$OUT/grpc-$r.actor-$i.log" &
     actors+=($!)

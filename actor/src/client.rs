@@ -265,10 +265,12 @@ pub struct ActorOptions {
     pub env: Option<String>,
     /// How to talk to the env server.
     pub env_options: RemoteEnvOptions,
-    /// Send observations LZ4-compressed when the learner accepts that
-    /// (`false`: always raw, `actor --raw-obs`). Compressing costs less CPU
-    /// than moving the raw bytes through HTTP/2 (docs/results/transport/).
-    pub compress_obs: bool,
+    /// How to send observations when the learner accepts it
+    /// (`actor --obs-encoding`); [`obs_encoding_for`] falls back to what
+    /// the learner lists. Packing costs less CPU than moving the raw bytes
+    /// through HTTP/2, and 2-bit codes less than LZ4
+    /// (docs/results/transport/).
+    pub obs_encoding: ObsEncoding,
 }
 
 impl Default for ActorOptions {
@@ -283,7 +285,7 @@ impl Default for ActorOptions {
             give_up_after: None,
             env: None,
             env_options: RemoteEnvOptions::default(),
-            compress_obs: true,
+            obs_encoding: ObsEncoding::Codes,
         }
     }
 }
@@ -454,7 +456,7 @@ async fn session(
     };
     // Env sessions opened on the env server in this learner session.
     let mut env_attempt = 0u64;
-    let mut submitter = Submitter::new(client, &join, opts.compress_obs);
+    let mut submitter = Submitter::new(client, &join, opts.obs_encoding);
     // On-policy: after a full batch, wait for a version newer than this.
     let mut wait_after: Option<u64> = None;
     loop {
@@ -588,25 +590,35 @@ async fn newest_weights(
 
 type SubmitResult = Result<tonic::Response<v1::SubmitReply>, Status>;
 
-/// The observation encoding to send with: LZ4 if wanted and the learner
-/// lists it, else raw (every learner reads raw, including those from
-/// before the field).
+/// The observation encoding to send with: the one wanted if the learner
+/// lists it, else the cheaper packing it lists (codes, then LZ4), else raw
+/// (every learner reads raw, including those from before the field).
+/// Wanting raw always gets raw.
 ///
 /// ```
 /// use buridan_actor::client::obs_encoding_for;
 /// use buridan_proto::v1::{JoinReply, ObsEncoding};
 /// let old = JoinReply::default();
-/// assert_eq!(obs_encoding_for(&old, true), ObsEncoding::Raw);
-/// let new = JoinReply { obs_encodings: vec![ObsEncoding::Lz4 as i32], ..Default::default() };
-/// assert_eq!(obs_encoding_for(&new, true), ObsEncoding::Lz4);
-/// assert_eq!(obs_encoding_for(&new, false), ObsEncoding::Raw);
+/// assert_eq!(obs_encoding_for(&old, ObsEncoding::Codes), ObsEncoding::Raw);
+/// let lz4_only = JoinReply { obs_encodings: vec![ObsEncoding::Lz4 as i32], ..Default::default() };
+/// assert_eq!(obs_encoding_for(&lz4_only, ObsEncoding::Codes), ObsEncoding::Lz4);
+/// let both = JoinReply {
+///     obs_encodings: vec![ObsEncoding::Codes as i32, ObsEncoding::Lz4 as i32],
+///     ..Default::default()
+/// };
+/// assert_eq!(obs_encoding_for(&both, ObsEncoding::Lz4), ObsEncoding::Lz4);
+/// assert_eq!(obs_encoding_for(&both, ObsEncoding::Codes), ObsEncoding::Codes);
+/// assert_eq!(obs_encoding_for(&both, ObsEncoding::Raw), ObsEncoding::Raw);
 /// ```
-pub fn obs_encoding_for(join: &v1::JoinReply, compress: bool) -> ObsEncoding {
-    if compress && join.obs_encodings.contains(&(ObsEncoding::Lz4 as i32)) {
-        ObsEncoding::Lz4
-    } else {
-        ObsEncoding::Raw
+pub fn obs_encoding_for(join: &v1::JoinReply, wanted: ObsEncoding) -> ObsEncoding {
+    if wanted == ObsEncoding::Raw {
+        return ObsEncoding::Raw;
     }
+    let listed = |e: ObsEncoding| join.obs_encodings.contains(&(e as i32));
+    [wanted, ObsEncoding::Codes, ObsEncoding::Lz4]
+        .into_iter()
+        .find(|&e| listed(e))
+        .unwrap_or(ObsEncoding::Raw)
 }
 
 /// Sends fragments, numbered per session. Off-policy runs keep one
@@ -623,8 +635,8 @@ struct Submitter {
 }
 
 impl Submitter {
-    fn new(client: Client, join: &v1::JoinReply, compress: bool) -> Self {
-        let encoding = obs_encoding_for(join, compress);
+    fn new(client: Client, join: &v1::JoinReply, wanted: ObsEncoding) -> Self {
+        let encoding = obs_encoding_for(join, wanted);
         tracing::debug!(?encoding, "observation encoding");
         Self {
             client,

@@ -3,8 +3,9 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use buridan_actor::client::{run, url_connector, ActorOptions};
+use buridan_proto::v1::ObsEncoding;
 use clap::Parser;
 
 /// Runs env instances with the learner's policy and streams trajectory
@@ -41,10 +42,34 @@ struct Args {
     /// Longest wait between reconnect attempts, in seconds.
     #[arg(long, default_value_t = 5.0)]
     backoff_max: f64,
-    /// Send observations uncompressed even to a learner that accepts LZ4
-    /// (to measure what compression saves).
-    #[arg(long)]
+    /// How observations travel when the learner accepts it: `codes` (2-bit
+    /// codes), `lz4` or `raw`; a learner that lacks it gets the cheapest
+    /// packing it lists, else raw.
+    #[arg(long, default_value = "codes", value_parser = parse_obs_encoding)]
+    obs_encoding: ObsEncoding,
+    /// Niceness of the actor's threads (0–19): on a machine the actor
+    /// shares with the learner, 10 lets the learner's update thread, the
+    /// run's bottleneck, keep its core (IMPALA over gRPC: 0.96 of the
+    /// embedded run's speed instead of 0.84, README "Measured on this
+    /// 2-core machine"). 0: the learner's priority.
+    #[arg(long, default_value_t = 0, env = "BURIDAN_ACTOR_NICE", value_parser = clap::value_parser!(u8).range(0..=19))]
+    nice: u8,
+    /// Send observations uncompressed (`--obs-encoding raw`; to measure what
+    /// packing saves).
+    #[arg(long, conflicts_with = "obs_encoding")]
     raw_obs: bool,
+}
+
+/// `--obs-encoding`'s names.
+fn parse_obs_encoding(name: &str) -> Result<ObsEncoding, String> {
+    match name {
+        "codes" => Ok(ObsEncoding::Codes),
+        "lz4" => Ok(ObsEncoding::Lz4),
+        "raw" => Ok(ObsEncoding::Raw),
+        other => Err(format!(
+            "unknown observation encoding '{other}': expected codes, lz4 or raw"
+        )),
+    }
 }
 
 fn main() -> Result<()> {
@@ -56,9 +81,14 @@ fn main() -> Result<()> {
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
+    let args = Args::parse();
+    // Before any thread exists, so that every thread inherits it.
+    if args.nice > 0 {
+        buridan_policy::threads::lower_priority(args.nice)
+            .with_context(|| format!("lowering the actor's priority to nice {}", args.nice))?;
+    }
     // One candle thread: the actor's batches are small (see README).
     buridan_policy::threads::pin_threads(1);
-    let args = Args::parse();
     let name = args.name.clone().unwrap_or_else(|| {
         std::env::var("HOSTNAME")
             .ok()
@@ -77,7 +107,11 @@ fn main() -> Result<()> {
         env: args.env.clone(),
         give_up_after: args.give_up_after.map(Duration::from_secs_f64),
         backoff_max: Duration::from_secs_f64(args.backoff_max.max(0.1)),
-        compress_obs: !args.raw_obs,
+        obs_encoding: if args.raw_obs {
+            ObsEncoding::Raw
+        } else {
+            args.obs_encoding
+        },
         ..ActorOptions::default()
     };
     let connector = url_connector(&args.connect, args.tls_ca.as_deref())?;

@@ -396,8 +396,13 @@ pub fn train_interruptible(
     for i in 0..cfg.num_actors as u32 {
         collectors.push(run.collector(i)?);
     }
-    let mut exchange = InProcess::spawn(collectors, cfg.queue_capacity(), cfg.staleness())
-        .map_err(|e| Box::new(e.into()))?;
+    let mut exchange = InProcess::spawn(
+        collectors,
+        cfg.queue_capacity(),
+        cfg.staleness(),
+        cfg.actor_nice,
+    )
+    .map_err(|e| Box::new(e.into()))?;
     run.interrupt_on(interrupt);
     Ok(run.learn(&mut exchange, progress)?)
 }

@@ -87,7 +87,7 @@ fn the_learner_names_the_failing_actors_cause() {
         shield: None,
     };
     let mut exchange =
-        InProcess::spawn(vec![broken], cfg.queue_capacity(), cfg.staleness()).unwrap();
+        InProcess::spawn(vec![broken], cfg.queue_capacity(), cfg.staleness(), 0).unwrap();
     let err = run.learn(&mut exchange, &mut NoProgress).unwrap_err();
     // Matched as data, no downcast:
     match &err {

@@ -140,9 +140,12 @@ fn bad_compressed_observations_are_refused_naming_the_field_and_training_goes_on
     runtime().block_on(async {
         let mut client = learner.client().await;
         let (joined, _stream, good) = join_and_collect(&mut client, "squeezer").await;
-        assert_eq!(joined.obs_encodings, [v1::ObsEncoding::Lz4 as i32]);
+        assert_eq!(
+            joined.obs_encodings,
+            [v1::ObsEncoding::Codes as i32, v1::ObsEncoding::Lz4 as i32]
+        );
         let tag = |seq| wire_tag(&joined, seq);
-        let lz4 = |seq| fragment_to_message_encoded(good.clone(), &tag(seq), v1::ObsEncoding::Lz4);
+        let packed = |seq, encoding| fragment_to_message_encoded(good.clone(), &tag(seq), encoding);
         let refused = |m: v1::Fragment| {
             let mut client = client.clone();
             async move {
@@ -152,51 +155,58 @@ fn bad_compressed_observations_are_refused_naming_the_field_and_training_goes_on
             }
         };
 
-        // A corrupt block: its bytes cut short (it then fails to parse, or
-        // parses to less than the shape asks, depending on where the cut falls).
-        let values = format!("{} values", good.obs.len());
-        let mut m = lz4(1);
-        m.obs.truncate(m.obs.len() / 2);
-        let message = refused(m).await;
-        assert!(message.starts_with("malformed fragment: obs "), "{message}");
-        assert!(message.contains(&values), "{message}");
-        // ... and its bytes garbled.
-        let mut m = lz4(1);
-        m.obs
-            .iter_mut()
-            .for_each(|b| *b = b.wrapping_mul(7).wrapping_add(13));
-        let message = refused(m).await;
-        assert!(message.starts_with("malformed fragment: obs "), "{message}");
-        // A block that decodes to more than its shape asks: last_obs
-        // carrying all of obs.
-        let mut m = lz4(2);
-        m.last_obs = fragment_to_message_encoded(good.clone(), &tag(2), v1::ObsEncoding::Lz4).obs;
-        let message = refused(m).await;
-        assert!(
-            message.starts_with("malformed fragment: last_obs "),
-            "{message}"
-        );
-        // A shape far beyond the run's fragments: refused before decoding.
-        let mut m = lz4(3);
-        m.len = 1 << 20;
-        let message = refused(m).await;
-        assert!(
-            message.starts_with("malformed fragment: obs would decode to "),
-            "{message}"
-        );
-        assert!(message.contains("over the limit of"), "{message}");
+        for encoding in [v1::ObsEncoding::Lz4, v1::ObsEncoding::Codes] {
+            // A corrupt buffer: its bytes cut short (it then fails to parse,
+            // or parses to less than the shape asks, depending on where the
+            // cut falls).
+            let values = format!("{} values", good.obs.len());
+            let mut m = packed(1, encoding);
+            m.obs.truncate(m.obs.len() / 2);
+            let message = refused(m).await;
+            assert!(message.starts_with("malformed fragment: obs "), "{message}");
+            assert!(message.contains(&values), "{message}");
+            // ... and its bytes garbled.
+            let mut m = packed(1, encoding);
+            m.obs
+                .iter_mut()
+                .for_each(|b| *b = b.wrapping_mul(7).wrapping_add(13));
+            let message = refused(m).await;
+            assert!(message.starts_with("malformed fragment: obs "), "{message}");
+            // A buffer that decodes to more than its shape asks: last_obs
+            // carrying all of obs.
+            let mut m = packed(2, encoding);
+            m.last_obs = packed(2, encoding).obs;
+            let message = refused(m).await;
+            assert!(
+                message.starts_with("malformed fragment: last_obs "),
+                "{message}"
+            );
+            // A shape far beyond the run's fragments: refused before decoding.
+            let mut m = packed(3, encoding);
+            m.len = 1 << 20;
+            let message = refused(m).await;
+            assert!(
+                message.starts_with("malformed fragment: obs would decode to "),
+                "{message}"
+            );
+            assert!(message.contains("over the limit of"), "{message}");
+        }
         // An encoding from the future.
-        let mut m = lz4(4);
+        let mut m = packed(4, v1::ObsEncoding::Codes);
         m.obs_encoding = 9;
         let message = refused(m).await;
         assert_eq!(
             message,
-            "malformed fragment: obs_encoding 9 is not a known encoding (0 raw, 1 LZ4)"
+            "malformed fragment: obs_encoding 9 is not a known encoding (0 raw, 1 LZ4, 2 codes)"
         );
 
-        // The learner carries on: the same fragment, well compressed, and
-        // then raw, are taken.
-        for m in [lz4(5), fragment_to_message(good.clone(), &tag(6))] {
+        // The learner carries on: the same fragment, well packed either way,
+        // and then raw, are taken.
+        for m in [
+            packed(5, v1::ObsEncoding::Lz4),
+            packed(6, v1::ObsEncoding::Codes),
+            fragment_to_message(good.clone(), &tag(7)),
+        ] {
             let reply = client.submit_fragment(m).await.expect("taken").into_inner();
             assert!(reply.accepted, "{reply:?}");
         }

@@ -53,3 +53,44 @@ pub fn tune_allocator() {
         libc::mallopt(libc::M_TRIM_THRESHOLD, 256 << 20);
     }
 }
+
+/// Lowers the calling thread's scheduling priority to niceness `nice`
+/// (0–19; threads it starts afterwards inherit it), so that on a machine
+/// it shares with the learner an actor process yields the cores to the
+/// learner's update thread, the run's bottleneck
+/// (`docs/results/transport/RUNS.md`). Call it at the start of `main`,
+/// before any other thread exists. Lowering needs no privileges; nothing
+/// here raises a priority. Linux only: elsewhere an `Unsupported` error.
+///
+/// ```
+/// # #[cfg(target_os = "linux")]
+/// std::thread::spawn(|| buridan_policy::threads::lower_priority(1).unwrap()).join().unwrap();
+/// assert!(buridan_policy::threads::lower_priority(20).is_err());
+/// ```
+pub fn lower_priority(nice: u8) -> std::io::Result<()> {
+    if nice > 19 {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("niceness {nice} is outside 0..=19"),
+        ));
+    }
+    #[cfg(target_os = "linux")]
+    {
+        // SAFETY: setpriority only changes the scheduling attributes of the
+        // calling thread (Linux applies PRIO_PROCESS with who = 0 to the
+        // calling thread); it touches no memory of ours.
+        let rc = unsafe { libc::setpriority(libc::PRIO_PROCESS, 0, libc::c_int::from(nice)) };
+        if rc == 0 {
+            Ok(())
+        } else {
+            Err(std::io::Error::last_os_error())
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        Err(std::io::Error::new(
+            std::io::ErrorKind::Unsupported,
+            "lowering a thread's priority is implemented for Linux only",
+        ))
+    }
+}

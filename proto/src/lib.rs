@@ -12,6 +12,7 @@
 pub mod codec;
 pub mod convert;
 pub mod env_convert;
+pub mod obs_codes;
 pub mod obs_encoding;
 
 /// Generated messages, the `Learner` client and server, and the

@@ -1,24 +1,28 @@
 //! Observation buffers on the wire ([`v1::ObsEncoding`]): raw little-endian
-//! f32 bytes, or one LZ4 block of those bytes.
+//! f32 bytes, one LZ4 block of those bytes, or 2-bit codes
+//! ([`crate::obs_codes`]).
 //!
 //! Observations are mostly one-hot zeros and ones, so a fragment's megabyte
-//! of them packs into about a tenth with LZ4 — and compressing costs the
-//! actor less CPU than HTTP/2 and the kernel spend moving the raw bytes
-//! (`docs/results/transport/RUNS.md`). Decoding is bounded: the caller
-//! names the number of values the shape asks for, a block must decode to
-//! exactly that, and the output is never larger than the caller's byte
-//! limit, so a small malicious block cannot make the learner allocate more
-//! than a raw message of the size limit could.
+//! of them packs into about a tenth with LZ4 or with codes — and packing
+//! costs the actor less CPU than HTTP/2 and the kernel spend moving the raw
+//! bytes (`docs/results/transport/RUNS.md`); codes cost a fraction of
+//! LZ4's CPU on both ends. Decoding is bounded: the caller names the number
+//! of values the shape asks for, a buffer must decode to exactly that, and
+//! the output is never larger than the caller's byte limit, so a small
+//! malicious buffer cannot make the learner allocate more than a raw
+//! message of the size limit could.
 //!
 //! ```
 //! use buridan_proto::obs_encoding::{decode, encode};
 //! use buridan_proto::v1::ObsEncoding;
 //! let obs = [0.0f32, 1.0, 0.0, 0.0, 0.25, 0.0];
-//! let wire = encode(&obs, ObsEncoding::Lz4);
-//! let back = decode("obs", &wire, ObsEncoding::Lz4, Some(obs.len()), 1 << 20).unwrap();
-//! assert_eq!(back, obs);
-//! // A block that does not decode to the shape's size is refused.
-//! assert!(decode("obs", &wire, ObsEncoding::Lz4, Some(7), 1 << 20).is_err());
+//! for encoding in [ObsEncoding::Lz4, ObsEncoding::Codes] {
+//!     let wire = encode(&obs, encoding);
+//!     let back = decode("obs", &wire, encoding, Some(obs.len()), 1 << 20).unwrap();
+//!     assert_eq!(back, obs);
+//!     // A buffer that does not decode to the shape's size is refused.
+//!     assert!(decode("obs", &wire, encoding, Some(7), 1 << 20).is_err());
+//! }
 //! ```
 
 use std::borrow::Cow;
@@ -34,7 +38,7 @@ pub const DEFAULT_MAX_DECODED_BYTES: usize = 64 * 1024 * 1024;
 #[derive(Debug, thiserror::Error)]
 pub enum ObsDecodeError {
     /// `obs_encoding` holds a value this version does not know.
-    #[error("obs_encoding {0} is not a known encoding (0 raw, 1 LZ4)")]
+    #[error("obs_encoding {0} is not a known encoding (0 raw, 1 LZ4, 2 codes)")]
     UnknownEncoding(i32),
     /// The shape asks for more decoded bytes than the limit allows (or
     /// more than a `usize` holds).
@@ -60,6 +64,17 @@ pub enum ObsDecodeError {
         expected: usize,
         /// lz4_flex's reason.
         source: lz4_flex::block::DecompressError,
+    },
+    /// The buffer is not the 2-bit codes of as many values as the shape
+    /// asks for ([`crate::obs_codes`]).
+    #[error("{field} is not the 2-bit codes of {expected} values: it {source}")]
+    BadCodes {
+        /// The message field.
+        field: &'static str,
+        /// Values the shape asks for.
+        expected: usize,
+        /// What is wrong with it.
+        source: crate::obs_codes::CodesError,
     },
     /// The block decodes to fewer bytes than the shape asks.
     #[error("{field} decodes to {got} bytes, the shape asks for {expected} values ({} bytes)", expected * 4)]
@@ -104,13 +119,14 @@ pub fn encode(values: &[f32], encoding: ObsEncoding) -> Vec<u8> {
     match encoding {
         ObsEncoding::Raw => le_bytes(values).into_owned(),
         ObsEncoding::Lz4 => lz4_flex::block::compress(&le_bytes(values)),
+        ObsEncoding::Codes => crate::obs_codes::encode(values),
     }
 }
 
 /// A buffer from the wire as floats. Raw bytes need no `expected` count
-/// (the shape checks judge their length); an LZ4 block must decode to
-/// exactly `expected` values, in at most `limit` bytes, else it is refused
-/// before anything larger than `limit` is allocated.
+/// (the shape checks judge their length); an LZ4 block or a code buffer
+/// must decode to exactly `expected` values, in at most `limit` bytes, else
+/// it is refused before anything larger than `limit` is allocated.
 ///
 /// ```
 /// use buridan_proto::obs_encoding::{decode, encode};
@@ -127,21 +143,31 @@ pub fn decode(
     expected: Option<usize>,
     limit: usize,
 ) -> Result<Vec<f32>, ObsDecodeError> {
+    let bounded = || {
+        let values = expected.unwrap_or(usize::MAX);
+        values
+            .checked_mul(4)
+            .filter(|&b| b <= limit && b <= isize::MAX as usize)
+            .map(|decoded| (values, decoded))
+            .ok_or(ObsDecodeError::TooLarge {
+                field,
+                values,
+                bytes: values.saturating_mul(4),
+                limit,
+            })
+    };
     match encoding {
         ObsEncoding::Raw => raw_to_f32(field, bytes),
+        ObsEncoding::Codes => {
+            let (values, _) = bounded()?;
+            crate::obs_codes::decode(bytes, values).map_err(|source| ObsDecodeError::BadCodes {
+                field,
+                expected: values,
+                source,
+            })
+        }
         ObsEncoding::Lz4 => {
-            let values = expected.unwrap_or(usize::MAX);
-            let decoded = values
-                .checked_mul(4)
-                .filter(|&b| b <= limit && b <= isize::MAX as usize);
-            let Some(decoded) = decoded else {
-                return Err(ObsDecodeError::TooLarge {
-                    field,
-                    values,
-                    bytes: values.saturating_mul(4),
-                    limit,
-                });
-            };
+            let (values, decoded) = bounded()?;
             let mut out = vec![0f32; values];
             let got = lz4_flex::block::decompress_into(bytes, bytemuck::cast_slice_mut(&mut out))
                 .map_err(|source| ObsDecodeError::Corrupt {
@@ -246,7 +272,7 @@ mod tests {
     #[test]
     fn both_encodings_round_trip_bit_for_bit() {
         let v = awkward();
-        for encoding in [ObsEncoding::Raw, ObsEncoding::Lz4] {
+        for encoding in [ObsEncoding::Raw, ObsEncoding::Lz4, ObsEncoding::Codes] {
             let wire = encode(&v, encoding);
             let back = decode("obs", &wire, encoding, Some(v.len()), usize::MAX).unwrap();
             assert_eq!(bits(&back), bits(&v), "{encoding:?}");
@@ -318,6 +344,37 @@ mod tests {
     }
 
     #[test]
+    fn code_buffers_of_the_wrong_size_are_refused_naming_the_field() {
+        let v = awkward();
+        let wire = encode(&v, ObsEncoding::Codes);
+        // About as small as LZ4 on one-hot values.
+        assert!(wire.len() * 8 < v.len() * 4);
+        let e = decode(
+            "last_obs",
+            &wire,
+            ObsEncoding::Codes,
+            Some(v.len() + 4),
+            usize::MAX,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                e,
+                ObsDecodeError::BadCodes {
+                    field: "last_obs",
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        assert!(
+            e.to_string()
+                .starts_with("last_obs is not the 2-bit codes of"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn garbage_is_refused_naming_the_field() {
         let v = awkward();
         let mut wire = encode(&v, ObsEncoding::Lz4);
@@ -356,13 +413,19 @@ mod tests {
         );
         let e = decode("obs", &[0u8; 20], ObsEncoding::Lz4, None, usize::MAX).unwrap_err();
         assert!(matches!(e, ObsDecodeError::TooLarge { .. }), "{e:?}");
+        // Codes are bounded the same way.
+        let e = decode("obs", &[0u8; 20], ObsEncoding::Codes, Some(claim), 64 << 20).unwrap_err();
+        assert!(
+            matches!(e, ObsDecodeError::TooLarge { field: "obs", .. }),
+            "{e:?}"
+        );
     }
 
     #[test]
     fn unknown_encodings_are_named() {
         assert_eq!(
             encoding_of(7).unwrap_err().to_string(),
-            "obs_encoding 7 is not a known encoding (0 raw, 1 LZ4)"
+            "obs_encoding 7 is not a known encoding (0 raw, 1 LZ4, 2 codes)"
         );
         assert_eq!(encoding_of(0).unwrap(), ObsEncoding::Raw);
     }

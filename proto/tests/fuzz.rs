@@ -671,15 +671,27 @@ fn fuzz_fragment() {
 /// bound; an accepted fragment decodes bit for bit.
 #[test]
 fn fuzz_fragment_lz4() {
+    fuzz_packed("fragment_lz4", v1::ObsEncoding::Lz4);
+}
+
+/// The same with observations as 2-bit codes (`obs_encoding` 2).
+#[test]
+fn fuzz_fragment_codes() {
+    fuzz_packed("fragment_codes", v1::ObsEncoding::Codes);
+}
+
+/// Valid fragments packed with `encoding`, then edited, and sometimes
+/// labelled with another encoding → `fragment_from_message`.
+fn fuzz_packed(name: &'static str, encoding: v1::ObsEncoding) {
     let tag = fuzz_tag();
     let strategy = (
         valid_fragment(),
         prop::collection::vec(fragment_edit(), 0..6),
-        prop_oneof![4 => Just(1), 1 => any::<i32>()],
+        prop_oneof![4 => Just(encoding as i32), 1 => any::<i32>()],
     );
-    run("fragment_lz4", strategy, |(f, edits, encoding)| {
-        let mut m = fragment_to_message_encoded(f, &tag, v1::ObsEncoding::Lz4);
-        m.obs_encoding = encoding;
+    run(name, strategy, |(f, edits, label)| {
+        let mut m = fragment_to_message_encoded(f, &tag, encoding);
+        m.obs_encoding = label;
         for e in &edits {
             apply_edit(&mut m, e);
         }

@@ -32,10 +32,11 @@
 //!   ([`plausible`]);
 //! - a request whose bytes do not decode → `INVALID_ARGUMENT`, counted in
 //!   `buridan_undecodable_messages_total` ([`buridan_proto::codec`]);
-//! - observations LZ4-compressed (`obs_encoding`, offered in the join
-//!   reply) must decode to exactly the size the fragment's shape asks for,
-//!   within the run's largest fragment and `--max-message-bytes`; a corrupt
-//!   or oversized block → `INVALID_ARGUMENT` naming the field, `invalid`
+//! - observations packed as 2-bit codes or LZ4 (`obs_encoding`, both
+//!   offered in the join reply) must decode to exactly the size the
+//!   fragment's shape asks for, within the run's largest fragment and
+//!   `--max-message-bytes`; a corrupt or oversized buffer →
+//!   `INVALID_ARGUMENT` naming the field, `invalid`
 //!   ([`buridan_proto::obs_encoding`]);
 //! - sessions without a parameter stream expire when idle, and their number
 //!   is capped: a join beyond the cap gets `RESOURCE_EXHAUSTED`

@@ -186,7 +186,7 @@ impl Learner for LearnerService {
             greedy_mix: info.greedy_mix,
             shield_rollouts: info.shield_rollouts,
             replay: info.replay,
-            obs_encodings: vec![v1::ObsEncoding::Lz4 as i32],
+            obs_encodings: vec![v1::ObsEncoding::Codes as i32, v1::ObsEncoding::Lz4 as i32],
             run_finished: false,
         }))
     }

@@ -156,6 +156,10 @@ fn load_plant_file(name: &str) -> Result<Plant, ConfigError> {
 }
 
 /// Whether failure replay is off (then `[replay]` is left out of a saved config).
+fn is_zero(n: &u8) -> bool {
+    *n == 0
+}
+
 fn replay_off(replay: &ReplayConfig) -> bool {
     *replay == ReplayConfig::default()
 }
@@ -483,6 +487,12 @@ pub struct TrainConfig {
     pub num_actors: usize,
     /// Envs per actor (one VecEnv each).
     pub envs_per_actor: usize,
+    /// Niceness of the embedded actor threads (0–19; 0: the learner's
+    /// priority): with 10 they yield the cores to the learner's update
+    /// thread, an IMPALA run's bottleneck (README, "Measured on this 2-core
+    /// machine"). Remote actors take `actor --nice` instead.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub actor_nice: u8,
     /// Rollout fragment length T (50).
     pub fragment_len: usize,
     /// Rollouts through the PIBT collision shield, as a shielded policy is
@@ -558,6 +568,7 @@ impl Default for TrainConfig {
             steps: 2_000_000,
             num_actors: 1,
             envs_per_actor: 16,
+            actor_nice: 0,
             fragment_len: 50,
             shield_rollouts: false,
             replay: ReplayConfig::default(),
@@ -899,6 +910,7 @@ impl TrainConfig {
             self.envs_per_actor >= 1,
             "envs_per_actor must be at least 1",
         )?;
+        ensure(self.actor_nice <= 19, "actor_nice must be at most 19")?;
         ensure(self.fragment_len >= 1, "fragment_len must be at least 1")?;
         ensure(
             !self.hidden.is_empty() && !self.hidden.contains(&0),

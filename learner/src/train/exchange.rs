@@ -125,12 +125,15 @@ pub struct InProcess {
 }
 
 impl InProcess {
-    /// Starts one thread per collector; the queue holds `capacity`
-    /// fragments. Actors start collecting at the first [`Exchange::publish`].
+    /// Starts one thread per collector, at niceness `nice` (0: the
+    /// learner's priority; `TrainConfig::actor_nice`); the queue holds
+    /// `capacity` fragments. Actors start collecting at the first
+    /// [`Exchange::publish`].
     pub fn spawn<E: BatchedEnv + Send + 'static>(
         collectors: Vec<Collector<E>>,
         capacity: usize,
         staleness: Staleness,
+        nice: u8,
     ) -> Result<Self, ExchangeError> {
         if collectors.is_empty() {
             return Err(ExchangeError::NoActors);
@@ -145,6 +148,15 @@ impl InProcess {
             let handle = std::thread::Builder::new()
                 .name(format!("actor-{id}"))
                 .spawn(move || -> Result<(), CollectError> {
+                    if nice > 0 {
+                        if let Err(e) = buridan_policy::threads::lower_priority(nice) {
+                            tracing::warn!(
+                                actor = id,
+                                nice,
+                                "actor thread keeps its priority: {e}"
+                            );
+                        }
+                    }
                     let env_steps = collector.fragment_env_steps();
                     while let Ticket::Collect(_) = shared.ticket(env_steps) {
                         collector.load(&shared.latest())?;

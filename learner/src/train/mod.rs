@@ -357,7 +357,12 @@ pub fn train(
     let collectors = (0..cfg.num_actors as u32)
         .map(|i| run.collector(i))
         .collect::<Result<Vec<_>, _>>()?;
-    let mut exchange = InProcess::spawn(collectors, cfg.queue_capacity(), cfg.staleness())?;
+    let mut exchange = InProcess::spawn(
+        collectors,
+        cfg.queue_capacity(),
+        cfg.staleness(),
+        cfg.actor_nice,
+    )?;
     run.learn(&mut exchange, progress)
 }
 
