@@ -49,9 +49,9 @@ struct Args {
     obs_encoding: ObsEncoding,
     /// Niceness of the actor's threads (0–19): on a machine the actor
     /// shares with the learner, 10 lets the learner's update thread, the
-    /// run's bottleneck, keep its core (IMPALA over gRPC: 0.96 of the
-    /// embedded run's speed instead of 0.84, README "Measured on this
-    /// 2-core machine"). 0: the learner's priority.
+    /// run's bottleneck, keep its core (IMPALA over gRPC on 2 cores: 0.89
+    /// of the embedded run's speed instead of 0.85, README "Measured on
+    /// this 2-core machine"). 0: the learner's priority.
     #[arg(long, default_value_t = 0, env = "BURIDAN_ACTOR_NICE", value_parser = clap::value_parser!(u8).range(0..=19))]
     nice: u8,
     /// Send observations uncompressed (`--obs-encoding raw`; to measure what

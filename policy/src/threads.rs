@@ -1,4 +1,5 @@
-//! Thread count of candle's CPU backend.
+//! Threads: candle's CPU backend's thread count, the allocator's tuning,
+//! and a thread's scheduling priority.
 //!
 //! candle 0.11 reads `RAYON_NUM_THREADS` on every matrix multiplication
 //! ([`candle_core::utils::get_num_threads`]; more than one thread means gemm

@@ -488,9 +488,11 @@ pub struct TrainConfig {
     /// Envs per actor (one VecEnv each).
     pub envs_per_actor: usize,
     /// Niceness of the embedded actor threads (0–19; 0: the learner's
-    /// priority): with 10 they yield the cores to the learner's update
-    /// thread, an IMPALA run's bottleneck (README, "Measured on this 2-core
-    /// machine"). Remote actors take `actor --nice` instead.
+    /// priority), as `actor --nice` sets it for an actor process. Measured
+    /// on 2 cores it leaves an embedded IMPALA run's speed unchanged (0.99)
+    /// while it speeds up an actor process beside the learner; the
+    /// transport bench sets both alike (README, "Measured on this 2-core
+    /// machine").
     #[serde(skip_serializing_if = "is_zero")]
     pub actor_nice: u8,
     /// Rollout fragment length T (50).
