@@ -74,11 +74,11 @@ const EXPAND: [[f32; 4]; 256] = {
     table
 };
 
-/// Whether a code byte holds at least one literal code.
+/// The low bit of every literal code in a code byte, others cleared: a
+/// code is 3 where both of its bits are set.
 #[inline(always)]
-fn has_literal(byte: u8) -> bool {
-    // A code is 3 where both of its bits are set.
-    (byte & (byte >> 1) & 0x55) != 0
+fn literal_bits(byte: u8) -> u8 {
+    byte & (byte >> 1) & 0x55
 }
 
 /// Bytes of the value count before the codes.
@@ -198,7 +198,7 @@ pub fn decode(bytes: &[u8], n: usize) -> Result<Vec<f32>, CodesError> {
     }
     let named = codes
         .iter()
-        .map(|&b| ((b & (b >> 1) & 0x55).count_ones()) as usize)
+        .map(|&b| literal_bits(b).count_ones() as usize)
         .sum::<usize>();
     if literals.len() != named * 4 {
         return Err(CodesError::Literals {
@@ -209,7 +209,7 @@ pub fn decode(bytes: &[u8], n: usize) -> Result<Vec<f32>, CodesError> {
     let mut out: Vec<f32> = Vec::with_capacity(need * 4);
     let mut next = literals.chunks_exact(4);
     for &b in codes {
-        if has_literal(b) {
+        if literal_bits(b) != 0 {
             for k in 0..4 {
                 let code = (b >> (2 * k)) & 3;
                 let bits = if code == LITERAL {
