@@ -46,8 +46,8 @@ pub use map::{Cell, Grid, Map, MapSource, Scenario, REFERENCE_MODELS};
 pub use mixture::{LayoutMixture, WeightedLayout};
 pub use obs::{central_obs_dim, local_obs_dim, ObsKind};
 pub use recipe::{
-    intent_feature_dim, priority_feature_dim, ObsFeatures, Shaping, UnknownFeature,
-    PATH_FEATURE_DIM, PRESSURE_FEATURE_DIM,
+    intent_feature_dim, order_feature_dim, priority_feature_dim, ObsFeatures, Shaping,
+    UnknownFeature, PATH_FEATURE_DIM, PRESSURE_FEATURE_DIM,
 };
 pub use reward::RewardRange;
 pub use rules::{Rules, UnknownRules, POGEMA_T_MAX, THESIS_T_MAX};

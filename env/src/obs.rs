@@ -237,7 +237,13 @@ impl GridEnv {
             features = rest;
         }
         if features_on.intent {
-            self.write_intent_feature(agent, features);
+            let (intent, rest) =
+                features.split_at_mut(crate::intent_feature_dim(self.config().sensor_range));
+            self.write_intent_feature(agent, intent);
+            features = rest;
+        }
+        if features_on.order {
+            self.write_order_feature(agent, features);
         }
         Ok(())
     }
@@ -296,6 +302,44 @@ impl GridEnv {
                 k => self.write_path_feature(k - 1, slot),
             }
         }
+    }
+
+    /// The order feature ([`crate::recipe`]): for every other agent in the
+    /// window, whether its goal lies on the observer's way and whether the
+    /// observer's goal lies on its way.
+    fn write_order_feature(&self, agent: usize, out: &mut [f32]) {
+        let raw = self.raw();
+        let r = self.config().sensor_range;
+        let cells = raw
+            .window_rows(agent, r)
+            .flat_map(|row| raw.occupant[row].iter());
+        for (slot, &who) in out.chunks_exact_mut(2).zip(cells) {
+            match usize::from(who) {
+                0 => slot.fill(0.0),
+                k if k - 1 == agent => slot.fill(0.0),
+                k => {
+                    let other = k - 1;
+                    slot[0] = f32::from(u8::from(self.goal_on_way(agent, other)));
+                    slot[1] = f32::from(u8::from(self.goal_on_way(other, agent)));
+                }
+            }
+        }
+    }
+
+    /// True if agent `b`'s goal lies on a shortest path from agent `a` to
+    /// `a`'s own goal (and is not that goal): `a` must pass `b`'s goal, so
+    /// `a`'s goal is the deeper one.
+    fn goal_on_way(&self, a: usize, b: usize) -> bool {
+        let (goal_a, goal_b) = (self.goal(a), self.goal(b));
+        let way = self.goal_distance(a);
+        if goal_a == goal_b || way == crate::map::UNREACHABLE {
+            return false;
+        }
+        let to_b = self.goal_distance_at(b, self.position(a));
+        let b_to_goal = self.goal_distance_at(a, goal_b);
+        to_b != crate::map::UNREACHABLE
+            && b_to_goal != crate::map::UNREACHABLE
+            && u32::from(to_b) + u32::from(b_to_goal) == u32::from(way)
     }
 
     /// The path feature ([`crate::recipe`]): which moves lead one step

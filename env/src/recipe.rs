@@ -63,8 +63,27 @@
 //! The observer's own directions are the path feature's; its centre cell
 //! stays zero.
 //!
+//! # The order feature
+//!
+//! Intent shows each neighbour's cost-to-go, which mixes where it stands
+//! with where it goes. Which of two agents bound for one dead-end aisle
+//! must enter first is a fact about their goals alone: the one whose goal
+//! the other passes on its way. With [`ObsFeatures::order`] each window
+//! cell holding another agent `j` carries two flags, so the observation
+//! ends with [`order_feature_dim`]`(R)` floats:
+//!
+//! | offset | content |
+//! |---|---|
+//! | `2k` | window cell `k`: 1 if `j`'s goal lies on a shortest path from the observer to its own goal (the observer's goal is the deeper one: it goes first), else 0 |
+//! | `2k + 1` | 1 if the observer's goal lies on a shortest path from `j` to `j`'s goal (`j` goes first), else 0 |
+//!
+//! "On a shortest path" is `d(a, g) + d(g, b) = d(a, b)` on the map's
+//! cached distance tables, so a flag costs three lookups. Two agents with
+//! one goal cell flag nothing; an agent on its goal flags nothing as the
+//! observer (its way is empty) but is still flagged by others.
+//!
 //! The features follow one another in this order: path, priority,
-//! pressure, intent.
+//! pressure, intent, order.
 //!
 //! # Shaping
 //!
@@ -105,6 +124,17 @@ pub const fn intent_feature_dim(sensor_range: usize) -> usize {
     side * side * PATH_FEATURE_DIM
 }
 
+/// Floats the order feature appends to a local observation with sensor
+/// range `r`: two flags per window cell.
+///
+/// ```
+/// assert_eq!(buridan_env::order_feature_dim(2), 50);
+/// ```
+pub const fn order_feature_dim(sensor_range: usize) -> usize {
+    let side = 2 * sensor_range + 1;
+    side * side * 2
+}
+
 /// Optional local-observation features (none by default: the dissertation's
 /// observation).
 ///
@@ -113,8 +143,8 @@ pub const fn intent_feature_dim(sensor_range: usize) -> usize {
 /// assert_eq!(ObsFeatures::default().extra_dim(2), 0);
 /// let path = ObsFeatures { path: true, ..ObsFeatures::default() };
 /// assert_eq!(path.extra_dim(2), 5);
-/// let all = ObsFeatures { path: true, priority: true, pressure: true, intent: true };
-/// assert_eq!(all.extra_dim(2), 5 + 26 + 4 + 125);
+/// let all = ObsFeatures { path: true, priority: true, pressure: true, intent: true, order: true };
+/// assert_eq!(all.extra_dim(2), 5 + 26 + 4 + 125 + 50);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -127,6 +157,9 @@ pub struct ObsFeatures {
     pub pressure: bool,
     /// Where the agents in the window are headed (module docs).
     pub intent: bool,
+    /// Whose goal lies on whose way, for the agents in the window (module
+    /// docs).
+    pub order: bool,
 }
 
 impl ObsFeatures {
@@ -146,17 +179,20 @@ impl ObsFeatures {
         if self.intent {
             dim += intent_feature_dim(sensor_range);
         }
+        if self.order {
+            dim += order_feature_dim(sensor_range);
+        }
         dim
     }
 
     /// True if no feature is on.
     pub const fn is_none(&self) -> bool {
-        !(self.path || self.priority || self.pressure || self.intent)
+        !(self.path || self.priority || self.pressure || self.intent || self.order)
     }
 
     /// Every feature's name, in observation order: the names a Python user
     /// passes and [`Self::names`] returns.
-    pub const NAMES: [&'static str; 4] = ["path", "priority", "pressure", "intent"];
+    pub const NAMES: [&'static str; 5] = ["path", "priority", "pressure", "intent", "order"];
 
     /// The features named (any order, repeats allowed).
     ///
@@ -178,6 +214,7 @@ impl ObsFeatures {
                 "priority" => &mut f.priority,
                 "pressure" => &mut f.pressure,
                 "intent" => &mut f.intent,
+                "order" => &mut f.order,
                 _ => return Err(UnknownFeature(name.to_string())),
             };
             *flag = true;
@@ -188,7 +225,13 @@ impl ObsFeatures {
     /// The names of the features that are on, in observation order (the
     /// inverse of [`Self::from_names`]).
     pub fn names(&self) -> Vec<&'static str> {
-        let on = [self.path, self.priority, self.pressure, self.intent];
+        let on = [
+            self.path,
+            self.priority,
+            self.pressure,
+            self.intent,
+            self.order,
+        ];
         Self::NAMES
             .into_iter()
             .zip(on)
@@ -199,7 +242,7 @@ impl ObsFeatures {
 
 /// An observation feature name that is none of [`ObsFeatures::NAMES`].
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown observation feature '{0}' (expected path, priority, pressure or intent)")]
+#[error("unknown observation feature '{0}' (expected path, priority, pressure, intent or order)")]
 pub struct UnknownFeature(pub String);
 
 /// Potential-based reward shaping on the goal distance (module docs).

@@ -5,8 +5,8 @@
 mod common;
 
 use buridan_env::{
-    intent_feature_dim, local_obs_dim, priority_feature_dim, EnvConfig, GridEnv, ObsFeatures,
-    Shaping, PATH_FEATURE_DIM, PRESSURE_FEATURE_DIM,
+    intent_feature_dim, local_obs_dim, order_feature_dim, priority_feature_dim, EnvConfig, GridEnv,
+    ObsFeatures, Shaping, PATH_FEATURE_DIM, PRESSURE_FEATURE_DIM,
 };
 use common::{fixed_cfg, map_from_rows, step};
 
@@ -15,6 +15,7 @@ const SYMMETRY: ObsFeatures = ObsFeatures {
     priority: true,
     pressure: true,
     intent: false,
+    order: false,
 };
 
 /// A U-shaped corridor: the goal at (0, 2) lies two columns right of the
@@ -297,6 +298,7 @@ fn intent_follows_the_other_features_and_moves_with_the_agents() {
         priority: true,
         pressure: true,
         intent: true,
+        order: false,
     };
     let mut env = aisle(all);
     assert_eq!(
@@ -318,4 +320,103 @@ fn intent_follows_the_other_features_and_moves_with_the_agents() {
     // Agent 2 sees agent 1 below it, two steps (left, left) from (1, 0).
     let seen = intent_window(&env, 2);
     assert_eq!(seen[7], vec![0.0, 0.0, 0.0, 1.0, 2.0 / 7.0]);
+}
+
+/// A dead-end aisle below a corridor: agent 0's goal is at the aisle's
+/// bottom, agent 1's one cell above it, agent 2 crosses the corridor.
+///
+/// ```text
+///      col 0 1 2 3 4
+/// row 0    . 0 1 . 2      goals: 0 → (3, 2), 1 → (2, 2), 2 → (0, 0)
+/// row 1    @ @ . @ @
+/// row 2    @ @ . @ @
+/// row 3    @ @ . @ @
+/// ```
+fn dead_end(features: ObsFeatures) -> GridEnv {
+    let map = map_from_rows(
+        &[".....", "@@.@@", "@@.@@", "@@.@@"],
+        &[(0, 1), (0, 2), (0, 4)],
+        &[(3, 2), (2, 2), (0, 0)],
+    );
+    let cfg = EnvConfig {
+        features,
+        sensor_range: 1,
+        ..fixed_cfg(3, 20)
+    };
+    GridEnv::new(map, cfg).unwrap()
+}
+
+/// The order window of `agent`: 2 flags per window cell.
+fn order_window(env: &GridEnv, agent: usize) -> Vec<[f32; 2]> {
+    let mut obs = vec![f32::NAN; env.local_obs_dim()];
+    env.write_local_obs(agent, &mut obs).unwrap();
+    obs[obs.len() - order_feature_dim(1)..]
+        .chunks(2)
+        .map(|c| [c[0], c[1]])
+        .collect()
+}
+
+#[test]
+fn order_says_whose_goal_lies_deeper_in_a_dead_end() {
+    let order = ObsFeatures {
+        order: true,
+        ..ObsFeatures::default()
+    };
+    let mut env = dead_end(order);
+    assert_eq!(env.local_obs_dim(), local_obs_dim(1) + order_feature_dim(1));
+    // Agent 0 at (0, 1) passes agent 1's goal (2, 2) on its way to (3, 2):
+    // its own goal is the deeper one, so it enters first — flag 0 on agent
+    // 1's cell (right of it), flag 1 off.
+    let seen = order_window(&env, 0);
+    assert_eq!(seen[5], [1.0, 0.0]);
+    assert_eq!(seen.iter().filter(|c| **c != [0.0, 0.0]).count(), 1);
+    // Agent 1 sees the same pair from the other side: agent 0 (left of it)
+    // goes first; agent 2 (right), bound the other way, neither.
+    let seen = order_window(&env, 1);
+    assert_eq!(seen[3], [0.0, 1.0]);
+    assert_eq!(seen[5], [0.0, 0.0]);
+    assert_eq!(seen.iter().filter(|c| **c != [0.0, 0.0]).count(), 1);
+    // Agent 1 walks down onto its goal: its own way is empty, so it flags
+    // nothing, while agent 0, now above it in the aisle, still must pass
+    // it — and agent 0's flag says so.
+    step(&mut env, &[0, 3, 0]); // agent 1 to (1, 2)
+    step(&mut env, &[0, 3, 0]); // agent 1 to (2, 2): on its goal
+    step(&mut env, &[2, 0, 0]); // agent 0 to (0, 2)
+    step(&mut env, &[3, 0, 0]); // agent 0 to (1, 2)
+    let below = 7;
+    assert_eq!(order_window(&env, 0)[below], [1.0, 0.0]);
+    let above = 1;
+    assert_eq!(order_window(&env, 1)[above], [0.0, 1.0]);
+}
+
+#[test]
+fn order_comes_last_after_every_other_feature() {
+    let all = ObsFeatures {
+        path: true,
+        priority: true,
+        pressure: true,
+        intent: true,
+        order: true,
+    };
+    let env = dead_end(all);
+    assert_eq!(
+        env.local_obs_dim(),
+        local_obs_dim(1)
+            + PATH_FEATURE_DIM
+            + priority_feature_dim(1)
+            + PRESSURE_FEATURE_DIM
+            + intent_feature_dim(1)
+            + order_feature_dim(1)
+    );
+    assert_eq!(order_window(&env, 0)[5], [1.0, 0.0]);
+    // The intent window still ends where the order window starts: agent 1
+    // (right of agent 0) is two steps down from its goal.
+    let mut obs = vec![f32::NAN; env.local_obs_dim()];
+    env.write_local_obs(0, &mut obs).unwrap();
+    let intent_end = obs.len() - order_feature_dim(1);
+    let intent = &obs[intent_end - intent_feature_dim(1)..intent_end];
+    assert_eq!(
+        &intent[5 * PATH_FEATURE_DIM..6 * PATH_FEATURE_DIM],
+        &[0.0, 0.0, 1.0, 0.0, 2.0 / 9.0]
+    );
 }

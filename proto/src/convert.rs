@@ -494,6 +494,7 @@ pub fn env_to_message(e: &EnvConfig) -> v1::EnvSettings {
         priority_feature: e.features.priority,
         pressure_feature: e.features.pressure,
         intent_feature: e.features.intent,
+        order_feature: e.features.order,
         shaping: e.shaping.map_or(0.0, |s| s.coeff),
         shaping_gamma: e.shaping.map_or(0.0, |s| s.gamma),
         rules: e.rules.name().into(),
@@ -524,6 +525,7 @@ pub fn env_from_message(m: &v1::EnvSettings, seed: u64) -> Result<EnvConfig, Con
             priority: m.priority_feature,
             pressure: m.pressure_feature,
             intent: m.intent_feature,
+            order: m.order_feature,
         },
         shaping: (m.shaping > 0.0).then_some(Shaping {
             coeff: m.shaping,

@@ -767,7 +767,7 @@ fn fuzz_env_settings() {
         (edge_u32(), edge_u32(), edge_u32(), edge_u32()),
         (word.clone(), word),
         (f.clone(), f),
-        any::<[bool; 5]>(),
+        any::<[bool; 6]>(),
         any::<u64>(),
     );
     run(
@@ -788,6 +788,7 @@ fn fuzz_env_settings() {
                 priority_feature: flags[2],
                 pressure_feature: flags[3],
                 intent_feature: flags[4],
+                order_feature: flags[5],
             };
             convert_env(&m, seed)
         },

@@ -50,7 +50,7 @@ class ParallelEnv(_PzParallelEnv):
         ``"pogema"`` (POGEMA's simultaneous moves).
     sensor_range, features:
         Observation window radius and extra feature groups (``"path"``,
-        ``"priority"``, ``"pressure"``, ``"intent"``), as a trained policy expects
+        ``"priority"``, ``"pressure"``, ``"intent"``, ``"order"``), as a trained policy expects
         (``Policy.env_kwargs()``).
     render_mode:
         ``None`` or ``"ansi"``.

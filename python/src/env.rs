@@ -186,7 +186,7 @@ pub fn map_arg(obj: &Bound<'_, PyAny>) -> PyResult<Arc<Map>> {
 }
 
 /// Observation features by name (`ObsFeatures::NAMES`: `"path"`,
-/// `"priority"`, `"pressure"`, `"intent"`).
+/// `"priority"`, `"pressure"`, `"intent"`, `"order"`).
 pub fn features_arg(names: &[String]) -> PyResult<ObsFeatures> {
     ObsFeatures::from_names(names)
         .map_err(|e| PyEnvError::new_err(format!("invalid configuration: {e}")))
