@@ -1,6 +1,10 @@
 //! Learner update throughput on one thread: a PPO epoch over a 4000
 //! env-step train batch (rm-1.1, CTDE, 2 agents → 8000 samples, one
-//! minibatch) and an IMPALA gradient step on the same batch.
+//! minibatch) and an IMPALA gradient step on the same batch; then one
+//! IMPALA step of the tuned rm-2.1 config (`learner/configs/impala-ctde-rm-2.1.toml`:
+//! 10 envs × 50 steps × 4 agents = 2000 samples) with the [64, 64] MLP
+//! and with the 64-cell LSTM after it, side by side — the learner's half
+//! of issue 15's LSTM / MLP ratio, apart from the actors.
 //!
 //! `cargo bench -p buridan-learner --bench update`
 
@@ -78,6 +82,32 @@ fn bench(c: &mut Criterion) {
     g.bench_function("impala_update_8000_samples", |b| {
         b.iter(|| impala.update(&ipolicy, &frags).unwrap())
     });
+    g.finish();
+
+    let tuned = TrainConfig::from_toml_file(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/configs/impala-ctde-rm-2.1.toml"
+        )
+        .as_ref(),
+    )
+    .expect("the tuned IMPALA config parses");
+    let mut g = c.benchmark_group("impala-rm-2.1");
+    g.sample_size(20);
+    for (name, lstm) in [("mlp", false), ("lstm", true)] {
+        let cfg = TrainConfig {
+            lstm,
+            ..tuned.clone()
+        };
+        // One train batch: 10 envs × 50 steps = 500 env steps.
+        let (policy, frags) = fragments(&cfg, 1);
+        let samples: usize = frags.iter().map(|f| f.len * f.rows).sum();
+        g.throughput(Throughput::Elements(samples as u64));
+        let mut impala = Impala::new(&policy, ImpalaSettings::from(&cfg));
+        g.bench_function(format!("update_{name}_{samples}_samples"), |b| {
+            b.iter(|| impala.update(&policy, &frags).unwrap())
+        });
+    }
     g.finish();
 }
 
