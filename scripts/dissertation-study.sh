@@ -7,10 +7,11 @@
 #      the cells the shipped configs now reach with the LSTM warm-started by
 #      imitation (comparison-lstm-imitation: PPO on rm-3.1 and rm-2.1b;
 #      comparison-impala-lstm-imitation-gentle: IMPALA on rm-2.1b, 2.2, 3.1;
-#      comparison-ppo-lstm-imitation-gentle: PPO on rm-2.1b; the default
-#      recipe, recipe-lstm-imitation-intent, whose rm-3.1 cell is the shipped
-#      PPO rm-3.1 config; comparison-ppo-rm-2.1b-sensor3: the shipped PPO
-#      rm-2.1b config), then each shipped config once more as its header
+#      comparison-ppo-lstm-imitation-gentle-intent-order: PPO on rm-2.1b
+#      without and with the intent feature and with the order feature too,
+#      the last the shipped PPO rm-2.1b config; the default recipe,
+#      recipe-lstm-imitation-intent, whose rm-3.1 cell is the shipped PPO
+#      rm-3.1 config), then each shipped config once more as its header
 #      says (scripts/check-configs.sh: the config's own seed and threads);
 #   3. scalability on rm-2.1 and rm-3.1 (the comparison's policies with 4..20
 #      agents: their run directories are copied, so only evaluations run);
@@ -84,9 +85,8 @@ study $S/comparison.toml comparison
 study $S/comparison-impala-10m.toml comparison-impala-10m
 study $S/comparison-lstm-imitation.toml comparison-lstm-imitation
 study $S/comparison-impala-lstm-imitation-gentle.toml comparison-impala-lstm-imitation-gentle
-study $S/comparison-ppo-lstm-imitation-gentle.toml comparison-ppo-lstm-imitation-gentle
+study $S/comparison-ppo-lstm-imitation-gentle-intent-order.toml comparison-ppo-lstm-imitation-gentle-intent-order
 study $S/recipe-lstm-imitation-intent.toml recipe-lstm-imitation-intent
-study $S/comparison-ppo-rm-2.1b-sensor3.toml comparison-ppo-rm-2.1b-sensor3
 reuse rm-2.1 scalability-rm-2.1
 study $S/scalability-rm-2.1.toml scalability-rm-2.1
 reuse rm-3.1 scalability-rm-3.1
