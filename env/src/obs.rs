@@ -251,20 +251,15 @@ impl GridEnv {
     /// The priority feature ([`crate::recipe`]): who outranks whom in the
     /// window, and the own urgency.
     fn write_priority_feature(&self, agent: usize, out: &mut [f32]) {
-        let raw = self.raw();
-        let r = self.config().sensor_range;
-        let side = 2 * r + 1;
+        let side = 2 * self.config().sensor_range + 1;
         let (window, urgency) = out.split_at_mut(side * side);
-        for (out_row, cells) in window.chunks_exact_mut(side).zip(raw.window_rows(agent, r)) {
-            for (slot, &who) in out_row.iter_mut().zip(&raw.occupant[cells]) {
-                *slot = match usize::from(who) {
-                    0 => 0.0,
-                    k if k - 1 == agent => 0.0,
-                    k if self.outranks(k - 1, agent) => 1.0,
-                    _ => -1.0,
-                };
-            }
-        }
+        self.write_per_neighbour(agent, window, 1, |other, slot| {
+            slot[0] = if self.outranks(other, agent) {
+                1.0
+            } else {
+                -1.0
+            };
+        });
         let t_max = self.config().t_max.max(1) as f32;
         urgency[0] = (self.steps_off_goal(agent) as f32 / t_max).min(1.0);
     }
@@ -290,38 +285,40 @@ impl GridEnv {
     /// The intent feature ([`crate::recipe`]): the path feature of every
     /// other agent in the window.
     fn write_intent_feature(&self, agent: usize, out: &mut [f32]) {
-        let raw = self.raw();
-        let r = self.config().sensor_range;
-        let cells = raw
-            .window_rows(agent, r)
-            .flat_map(|row| raw.occupant[row].iter());
-        for (slot, &who) in out.chunks_exact_mut(crate::PATH_FEATURE_DIM).zip(cells) {
-            match usize::from(who) {
-                0 => slot.fill(0.0),
-                k if k - 1 == agent => slot.fill(0.0),
-                k => self.write_path_feature(k - 1, slot),
-            }
-        }
+        self.write_per_neighbour(agent, out, crate::PATH_FEATURE_DIM, |other, slot| {
+            self.write_path_feature(other, slot)
+        });
     }
 
     /// The order feature ([`crate::recipe`]): for every other agent in the
     /// window, whether its goal lies on the observer's way and whether the
     /// observer's goal lies on its way.
     fn write_order_feature(&self, agent: usize, out: &mut [f32]) {
+        self.write_per_neighbour(agent, out, 2, |other, slot| {
+            slot[0] = f32::from(u8::from(self.goal_on_way(agent, other)));
+            slot[1] = f32::from(u8::from(self.goal_on_way(other, agent)));
+        });
+    }
+
+    /// The window features' common walk: `width` floats per window cell
+    /// (row-major, as the window), zeros where the cell holds no other
+    /// agent, else what `write(other, slot)` puts there.
+    fn write_per_neighbour(
+        &self,
+        agent: usize,
+        out: &mut [f32],
+        width: usize,
+        mut write: impl FnMut(usize, &mut [f32]),
+    ) {
         let raw = self.raw();
-        let r = self.config().sensor_range;
         let cells = raw
-            .window_rows(agent, r)
+            .window_rows(agent, self.config().sensor_range)
             .flat_map(|row| raw.occupant[row].iter());
-        for (slot, &who) in out.chunks_exact_mut(2).zip(cells) {
+        for (slot, &who) in out.chunks_exact_mut(width).zip(cells) {
             match usize::from(who) {
                 0 => slot.fill(0.0),
                 k if k - 1 == agent => slot.fill(0.0),
-                k => {
-                    let other = k - 1;
-                    slot[0] = f32::from(u8::from(self.goal_on_way(agent, other)));
-                    slot[1] = f32::from(u8::from(self.goal_on_way(other, agent)));
-                }
+                k => write(k - 1, slot),
             }
         }
     }
