@@ -37,9 +37,32 @@ fn u_corridor(features: ObsFeatures, shaping: Option<Shaping>) -> GridEnv {
     GridEnv::new(map, cfg).unwrap()
 }
 
-fn path_tail(env: &GridEnv) -> Vec<f32> {
+/// Agent `agent`'s whole local observation.
+fn local_obs(env: &GridEnv, agent: usize) -> Vec<f32> {
     let mut obs = vec![f32::NAN; env.local_obs_dim()];
-    env.write_local_obs(0, &mut obs).unwrap();
+    env.write_local_obs(agent, &mut obs).unwrap();
+    obs
+}
+
+/// Three agents with fixed starts and goals on terrain `rows`, seeing a
+/// 3×3 window.
+fn three_agents(
+    rows: &[&str],
+    starts: &[(usize, usize)],
+    goals: &[(usize, usize)],
+    t_max: u32,
+    features: ObsFeatures,
+) -> GridEnv {
+    let cfg = EnvConfig {
+        features,
+        sensor_range: 1,
+        ..fixed_cfg(3, t_max)
+    };
+    GridEnv::new(map_from_rows(rows, starts, goals), cfg).unwrap()
+}
+
+fn path_tail(env: &GridEnv) -> Vec<f32> {
+    let obs = local_obs(env, 0);
     obs[obs.len() - PATH_FEATURE_DIM..].to_vec()
 }
 
@@ -150,24 +173,19 @@ fn bad_shaping_is_a_config_error() {
 /// row 1    0 1 . . .
 /// ```
 fn aisle(features: ObsFeatures) -> GridEnv {
-    let map = map_from_rows(
+    three_agents(
         &["@@.@@", "....."],
         &[(1, 0), (1, 1), (0, 2)],
         &[(1, 4), (1, 0), (0, 2)],
-    );
-    let cfg = EnvConfig {
+        10,
         features,
-        sensor_range: 1,
-        ..fixed_cfg(3, 10)
-    };
-    GridEnv::new(map, cfg).unwrap()
+    )
 }
 
 /// The symmetry features of `agent`: the 3×3 priority window, the
 /// urgency, then the four pressure flags (after the path feature, if on).
 fn symmetry_tail(env: &GridEnv, agent: usize) -> (Vec<f32>, f32, Vec<f32>) {
-    let mut obs = vec![f32::NAN; env.local_obs_dim()];
-    env.write_local_obs(agent, &mut obs).unwrap();
+    let obs = local_obs(env, agent);
     let path = if env.config().features.path {
         PATH_FEATURE_DIM
     } else {
@@ -255,8 +273,7 @@ fn symmetry_features_leave_the_dynamics_unchanged() {
 
 /// The intent window of `agent`: 5 floats per window cell.
 fn intent_window(env: &GridEnv, agent: usize) -> Vec<Vec<f32>> {
-    let mut obs = vec![f32::NAN; env.local_obs_dim()];
-    env.write_local_obs(agent, &mut obs).unwrap();
+    let obs = local_obs(env, agent);
     obs[obs.len() - intent_feature_dim(1)..]
         .chunks(PATH_FEATURE_DIM)
         .map(<[f32]>::to_vec)
@@ -333,23 +350,18 @@ fn intent_follows_the_other_features_and_moves_with_the_agents() {
 /// row 3    @ @ . @ @
 /// ```
 fn dead_end(features: ObsFeatures) -> GridEnv {
-    let map = map_from_rows(
+    three_agents(
         &[".....", "@@.@@", "@@.@@", "@@.@@"],
         &[(0, 1), (0, 2), (0, 4)],
         &[(3, 2), (2, 2), (0, 0)],
-    );
-    let cfg = EnvConfig {
+        20,
         features,
-        sensor_range: 1,
-        ..fixed_cfg(3, 20)
-    };
-    GridEnv::new(map, cfg).unwrap()
+    )
 }
 
 /// The order window of `agent`: 2 flags per window cell.
 fn order_window(env: &GridEnv, agent: usize) -> Vec<[f32; 2]> {
-    let mut obs = vec![f32::NAN; env.local_obs_dim()];
-    env.write_local_obs(agent, &mut obs).unwrap();
+    let obs = local_obs(env, agent);
     obs[obs.len() - order_feature_dim(1)..]
         .chunks(2)
         .map(|c| [c[0], c[1]])
@@ -411,8 +423,7 @@ fn order_comes_last_after_every_other_feature() {
     assert_eq!(order_window(&env, 0)[5], [1.0, 0.0]);
     // The intent window still ends where the order window starts: agent 1
     // (right of agent 0) is two steps down from its goal.
-    let mut obs = vec![f32::NAN; env.local_obs_dim()];
-    env.write_local_obs(0, &mut obs).unwrap();
+    let obs = local_obs(&env, 0);
     let intent_end = obs.len() - order_feature_dim(1);
     let intent = &obs[intent_end - intent_feature_dim(1)..intent_end];
     assert_eq!(
