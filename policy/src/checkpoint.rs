@@ -1,6 +1,10 @@
 //! Where a training run keeps its checkpoints: the one layout the trainer
 //! writes and every reader (evaluation, `--resume`, a study) resolves.
 //!
+//! Pretrained policies of the repository's `models/` folder are named
+//! `model:NAME` wherever a checkpoint directory is accepted ([`resolve`],
+//! [`model_dir`]).
+//!
 //! ```text
 //! OUT/checkpoints/update-000010/    every `checkpoint_every` updates
 //! OUT/checkpoints/final/            at the end of the run
@@ -30,6 +34,14 @@ pub const TRAINER_FILE: &str = "trainer.json";
 pub const OPTIMIZER_FILE: &str = "optimizer.safetensors";
 /// The run configuration inside a checkpoint (and in the run directory).
 pub const CONFIG_FILE: &str = "config.toml";
+/// The prefix of a checkpoint argument that names a pretrained model
+/// (`model:rm-2.1` is the folder `models/rm-2.1`).
+pub const MODEL_PREFIX: &str = "model:";
+/// The environment variable that names the folder of pretrained models
+/// (searched first; see [`models_dirs`]).
+pub const MODELS_ENV: &str = "BURIDAN_MODELS";
+/// A pretrained model's description inside its folder.
+pub const MANIFEST_FILE: &str = "manifest.toml";
 
 /// `OUT/checkpoints`.
 pub fn checkpoints_dir(out: &Path) -> PathBuf {
@@ -51,14 +63,89 @@ pub fn is_checkpoint(dir: &Path) -> bool {
     dir.join(SPEC_FILE).is_file()
 }
 
-/// Resolves a checkpoint argument: a checkpoint directory itself, or a run
-/// directory (its final checkpoint, else its newest `update-*`).
+/// The folders searched for pretrained models, in order, those that exist:
+/// `$BURIDAN_MODELS`, `models/` in the current directory, and the
+/// `models/` folder of the checkout this crate was built from (so that
+/// `cargo run` works from a fresh clone in any directory).
+pub fn models_dirs() -> Vec<PathBuf> {
+    let mut dirs = Vec::new();
+    if let Some(env) = std::env::var_os(MODELS_ENV) {
+        dirs.push(PathBuf::from(env));
+    }
+    dirs.push(PathBuf::from("models"));
+    dirs.push(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("..")
+            .join("models"),
+    );
+    let mut seen: Vec<PathBuf> = Vec::new();
+    dirs.retain(|d| {
+        let Ok(canon) = d.canonicalize() else {
+            return false;
+        };
+        if !canon.is_dir() || seen.contains(&canon) {
+            return false;
+        }
+        seen.push(canon);
+        true
+    });
+    dirs
+}
+
+/// The names of the pretrained models found in [`models_dirs`]: their
+/// folders that hold a checkpoint, sorted, each once.
+pub fn available_models() -> Vec<String> {
+    let mut names: Vec<String> = models_dirs()
+        .iter()
+        .filter_map(|d| std::fs::read_dir(d).ok())
+        .flatten()
+        .filter_map(|e| e.ok())
+        .filter(|e| is_checkpoint(&e.path()))
+        .filter_map(|e| e.file_name().to_str().map(str::to_owned))
+        .collect();
+    names.sort();
+    names.dedup();
+    names
+}
+
+/// The folder of the pretrained model `name` (`rm-2.1`, without the
+/// `model:` prefix): the first of [`models_dirs`] that holds it as a
+/// checkpoint. An unknown name is [`PolicyError::UnknownModel`], which
+/// lists the names there are.
+pub fn model_dir(name: &str) -> Result<PathBuf, PolicyError> {
+    let plain = !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))
+        && !name.starts_with('.');
+    if plain {
+        for dir in models_dirs() {
+            let candidate = dir.join(name);
+            if is_checkpoint(&candidate) {
+                return Ok(candidate);
+            }
+        }
+    }
+    Err(PolicyError::UnknownModel {
+        name: name.to_owned(),
+        available: available_models(),
+    })
+}
+
+/// Resolves a checkpoint argument: `model:NAME` (a pretrained model,
+/// [`model_dir`]), a checkpoint directory itself, or a run directory (its
+/// final checkpoint, else its newest `update-*`).
 ///
 /// ```
 /// let dir = tempfile::tempdir().unwrap();
 /// assert!(buridan_policy::checkpoint::resolve(dir.path()).is_err());
+/// let err = buridan_policy::checkpoint::resolve("model:no-such-model".as_ref()).unwrap_err();
+/// assert!(err.to_string().contains("no-such-model"));
 /// ```
 pub fn resolve(dir: &Path) -> Result<PathBuf, PolicyError> {
+    if let Some(name) = dir.to_str().and_then(|s| s.strip_prefix(MODEL_PREFIX)) {
+        return model_dir(name);
+    }
     if is_checkpoint(dir) {
         return Ok(dir.to_path_buf());
     }

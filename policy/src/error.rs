@@ -30,6 +30,17 @@ pub enum PolicyError {
         /// The directory searched.
         dir: PathBuf,
     },
+    /// `model:NAME` names no pretrained model (`checkpoint::models_dirs`).
+    #[error(
+        "no pretrained model '{name}' (available: {}; models are the folders of models/ in the current directory, of $BURIDAN_MODELS or of the checkout)",
+        if available.is_empty() { "none found".to_owned() } else { available.join(", ") }
+    )]
+    UnknownModel {
+        /// The name asked for.
+        name: String,
+        /// The names found.
+        available: Vec<String>,
+    },
     /// The spec file is not valid JSON/TOML for a [`crate::ModelSpec`].
     #[error("spec file {path}: {message}")]
     BadSpecFile {

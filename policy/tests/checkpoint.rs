@@ -29,3 +29,42 @@ fn a_run_directory_resolves_to_final_else_the_newest_update() {
     let two = checkpoint::update_dir(out, 2);
     assert_eq!(resolve(&two).unwrap(), two);
 }
+
+#[test]
+fn a_pretrained_model_resolves_by_name_and_loads() {
+    let names = checkpoint::available_models();
+    for want in ["rm-2.1", "rm-2.1b", "rm-2.2", "rm-3.1", "pogema-warehouse"] {
+        assert!(names.iter().any(|n| n == want), "{want} not in {names:?}");
+    }
+    for name in &names {
+        let dir = resolve(format!("model:{name}").as_ref()).unwrap();
+        assert_eq!(dir, checkpoint::model_dir(name).unwrap());
+        assert!(dir.ends_with(name));
+        assert!(
+            dir.join(checkpoint::MANIFEST_FILE).is_file(),
+            "{name} has no manifest"
+        );
+        Policy::load(&dir).unwrap_or_else(|e| panic!("model {name}: {e}"));
+    }
+    let spec = Policy::load(&resolve("model:rm-2.1".as_ref()).unwrap())
+        .unwrap()
+        .spec()
+        .clone();
+    assert_eq!(spec.mode, Mode::Ctde);
+    assert!(spec.features.intent && spec.features.path);
+}
+
+#[test]
+fn an_unknown_model_name_lists_the_available_ones() {
+    for bad in ["no-such-model", "", "../policy", "rm-2.1/../rm-2.2"] {
+        let err = resolve(format!("model:{bad}").as_ref()).unwrap_err();
+        let PolicyError::UnknownModel { name, available } = &err else {
+            panic!("{bad}: {err}");
+        };
+        assert_eq!(name, bad);
+        assert!(available.iter().any(|n| n == "rm-2.1"), "{available:?}");
+        let message = err.to_string();
+        assert!(message.contains(&format!("'{bad}'")), "{message}");
+        assert!(message.contains("rm-2.1, rm-2.1b"), "{message}");
+    }
+}

@@ -131,7 +131,8 @@ def test_solve_errors():
 
 
 def committed_summary():
-    path = REPO / "docs/results/scalability-rm-3.1/study/evals/rm-3.1/cbs/agents-4/summary.json"
+    # `learner eval --map rm-3.1 --agents 4 --controller cbs` (tests/data/README.md).
+    path = REPO / "python/tests/data/cbs-rm-3.1-agents-4-summary.json"
     return json.loads(path.read_text())
 
 

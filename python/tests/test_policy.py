@@ -132,9 +132,8 @@ def test_recurrent_learner_run_reproduces_its_learner_eval_summary():
     """A `learner train` run directory of an LSTM policy (PPO-LSTM-CTDE on
     rm-3.1, path features) and the `learner eval` summary committed beside
     it: every field but the timings is reproduced exactly."""
-    study = REPO / "docs" / "results" / "comparison-lstm" / "study"
-    run = study / "runs" / "rm-3.1" / "ppo-lstm-ctde" / "seed-0"
-    want = json.loads((study / "evals/rm-3.1/ppo-lstm-ctde/seed-0/greedy/agents-4/summary.json").read_text())
+    run = REPO / "python" / "tests" / "data" / "ppo-lstm-ctde-rm-3.1"
+    want = json.loads((run / "eval-greedy-summary.json").read_text())
     pol = Policy.load(run)
     assert pol.recurrent and pol.path == run / "checkpoints" / "final"
     assert pol.env_kwargs()["features"] == ["path"] and pol.obs_dim == 134
@@ -146,3 +145,27 @@ def test_recurrent_learner_run_reproduces_its_learner_eval_summary():
     assert {k: v for k, v in got.items() if k not in timing} == {
         k: v for k, v in want.items() if k not in timing
     }
+
+
+def test_a_composed_controller_evaluates_as_its_canonical_text():
+    """A backstop over a shield with lanes and goal settling, sampled: the
+    general form of the controller grammar, and the same value written with
+    its options in another order and `sampled:` outside the net."""
+    ckpt = f"checkpoint:{CHECKPOINT}"
+    a = buridan.evaluate("rm-2.1", f"backstop:sampled:shield[patience=16,settle,lanes]:{ckpt}", agents=4, episodes=3, seed=42, time_limit=1.0)
+    b = buridan.evaluate("rm-2.1", f"sampled:backstop:shield[lanes,settle,patience=16]:{ckpt}", agents=4, episodes=3, seed=42, time_limit=1.0)
+    assert a.summary["episodes"] == 3
+    strip = lambda rs: [{k: v for k, v in r.items() if k != "compute_ms"} for r in rs]  # noqa: E731
+    assert strip(a.records) == strip(b.records)
+    with pytest.raises(buridan.PlannerError, match="shield option 'teleport'"):
+        buridan.evaluate("rm-2.1", f"shield[teleport]:{ckpt}", agents=4, episodes=1)
+
+
+def test_a_pretrained_model_loads_by_name():
+    """`model:NAME` names a folder of the checkout's models/ (manifest.toml
+    there says what it is)."""
+    pol = Policy.load("model:rm-2.1")
+    assert pol.path.resolve() == (REPO / "models" / "rm-2.1").resolve()
+    assert pol.recurrent and pol.env_kwargs()["features"] == ["path", "intent"]
+    with pytest.raises(PolicyError, match=r"no pretrained model 'nope' \(available: .*rm-2\.1"):
+        Policy.load("model:nope")
