@@ -1,0 +1,135 @@
+//! A [`Controller`] value made into controllers, one per evaluation thread.
+
+use std::sync::Arc;
+
+use buridan_env::Rules;
+use buridan_mapf::{planner_for_rules, Limits, Planner, PlannerLookupError};
+
+use super::grammar::{Controller, NetKind, Portfolio};
+use super::{
+    ControllerFactory, ControllerNameError, CROWD_RESCUE_PLANNER, DEFAULT_RESCUE_PLANNER,
+    RESCUE_OD_ASTAR_MAX_AGENTS,
+};
+use crate::planner::PlannerController;
+use crate::policy::{PolicyController, PolicyLoadError};
+use crate::rescue::RescueController;
+use crate::shield::ShieldController;
+use crate::RandomController;
+
+/// The planner of a net that names none, for `agents` agents under `rules`.
+fn default_rescue_planner(agents: usize, rules: Rules) -> &'static str {
+    if rules == Rules::Pogema || agents > RESCUE_OD_ASTAR_MAX_AGENTS {
+        CROWD_RESCUE_PLANNER
+    } else {
+        DEFAULT_RESCUE_PLANNER
+    }
+}
+
+impl Controller {
+    /// A factory of this controller for episodes with `agents` agents
+    /// under `rules`: planners (also the nets') plan for that rule set, and
+    /// one that cannot (OD-A* under pogema) is an error; policies sample
+    /// with `seed`; the shield keeps the thesis conflict model, whose joint
+    /// moves POGEMA's rules execute too. A checkpoint is loaded once here,
+    /// so that a bad one fails with its reason.
+    ///
+    /// ```
+    /// use buridan_eval::by_name::Controller;
+    /// use buridan_env::Rules;
+    /// let c: Controller = "rescue=lacam:random".parse().unwrap();
+    /// let make = c.factory(4, 42, Default::default(), Rules::Thesis).unwrap();
+    /// assert_eq!(make().name(), "random+rescue-lacam");
+    /// ```
+    pub fn factory(
+        &self,
+        agents: usize,
+        seed: u64,
+        limits: Limits,
+        rules: Rules,
+    ) -> Result<ControllerFactory, ControllerNameError> {
+        let name = || self.to_string();
+        match self {
+            Controller::Net(net) => {
+                let planner = match &net.planner {
+                    Some(p) => p.to_string(),
+                    None => default_rescue_planner(agents, rules).to_string(),
+                };
+                let planner: Arc<dyn Planner> = planner_for_rules(&planner, rules)
+                    .map_err(|source| ControllerNameError::RescueRules {
+                        name: name(),
+                        source,
+                    })?
+                    .into();
+                let inner = net.inner.factory(agents, seed, limits, rules)?;
+                let kind = net.kind;
+                Ok(Box::new(move || {
+                    let rescue = RescueController::new(inner(), planner.clone(), limits);
+                    Box::new(match kind {
+                        NetKind::Lookahead => rescue.with_foresight(inner()),
+                        NetKind::Backstop => rescue.with_backstop(inner()),
+                        NetKind::Pace => rescue.with_pace(inner()),
+                        NetKind::Rescue => rescue,
+                    })
+                }))
+            }
+            Controller::Shield(s) => {
+                let s = s.clone();
+                let load = move || {
+                    let p = &s.policy;
+                    let mut shield = ShieldController::load(
+                        &p.checkpoint,
+                        agents,
+                        p.act.into(),
+                        seed,
+                        s.ranking,
+                    )?;
+                    match s.fallback {
+                        Some(f) if f.goal_settling => {
+                            shield = shield.with_goal_settling(f.patience)
+                        }
+                        Some(f) => shield = shield.with_progress_fallback(f.patience),
+                        None => {}
+                    }
+                    if s.dead_end_order {
+                        shield = shield.with_dead_end_order();
+                    }
+                    if s.one_way_lanes {
+                        shield = shield.with_one_way_lanes();
+                    }
+                    Ok::<_, PolicyLoadError>(shield)
+                };
+                load()?;
+                Ok(Box::new(move || {
+                    Box::new(load().expect("loaded once already"))
+                }))
+            }
+            Controller::Policy(p) => {
+                let (dir, act) = (p.checkpoint.clone(), p.act.into());
+                PolicyController::load(&dir, agents, act, seed)?;
+                Ok(Box::new(move || {
+                    Box::new(
+                        PolicyController::load(&dir, agents, act, seed)
+                            .expect("loaded once already"),
+                    )
+                }))
+            }
+            Controller::Random => Ok(Box::new(move || Box::new(RandomController::new(seed)))),
+            Controller::Planner(p) => {
+                let planner: Arc<dyn Planner> = planner_of(p, rules)
+                    .map_err(|source| ControllerNameError::Rules {
+                        name: name(),
+                        source,
+                    })?
+                    .into();
+                Ok(Box::new(move || {
+                    Box::new(PlannerController::new(planner.clone(), limits))
+                }))
+            }
+        }
+    }
+}
+
+/// The portfolio's planner for `rules`.
+fn planner_of(p: &Portfolio, rules: Rules) -> Result<Box<dyn Planner>, PlannerLookupError> {
+    planner_for_rules(&p.to_string(), rules)
+}
