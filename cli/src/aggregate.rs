@@ -21,7 +21,7 @@ use buridan_study::report::{Cell, Table};
 use buridan_study::stats::{Aggregate, Bootstrap, BoxStats};
 use serde::Serialize;
 
-use crate::experiment::{Actions, Evaluated, Experiment, PLAN_FILE};
+use crate::experiment::{Evaluated, Experiment, PLAN_FILE};
 
 /// One cell's record in `cells.json`.
 #[derive(Debug, Clone, Serialize)]
@@ -38,7 +38,7 @@ pub struct CellRecord {
     /// Training seed (policies).
     pub seed: Option<u64>,
     /// `sampled` or `greedy` (policies).
-    pub actions: Option<&'static str>,
+    pub actions: Option<String>,
     /// Agents per evaluated episode.
     pub agents: usize,
     /// The training run directory (policies).
@@ -78,7 +78,12 @@ pub fn records(x: &Experiment, out: &Path) -> Vec<CellRecord> {
             let (kind, seed, actions, train) = match &cell.evaluated {
                 Evaluated::Policy { train, actions } => {
                     let t = &x.train[*train];
-                    ("policy", Some(t.seed), Some(actions.name()), Some(t))
+                    (
+                        "policy",
+                        Some(t.seed),
+                        Some(actions.name().to_string()),
+                        Some(t),
+                    )
                 }
                 Evaluated::Planner => ("planner", None, None, None),
             };
@@ -120,7 +125,7 @@ pub struct Row {
     /// Method or planner.
     pub method: String,
     /// Action mode (policies).
-    pub actions: Option<&'static str>,
+    pub actions: Option<String>,
     /// Agents.
     pub agents: usize,
     /// Whether a planner.
@@ -138,7 +143,7 @@ pub struct Row {
 impl Row {
     /// `ppo-ctde sampled`, or the planner's name.
     pub fn label(&self) -> String {
-        series_label(&self.method, self.actions, None, false)
+        series_label(&self.method, self.actions.as_deref(), None, false)
     }
 }
 
@@ -161,14 +166,7 @@ fn series_label(
 }
 
 /// What the rows group by: (layout, trained on, method, actions, agents, planner).
-type Key = (
-    String,
-    Option<String>,
-    String,
-    Option<&'static str>,
-    usize,
-    bool,
-);
+type Key = (String, Option<String>, String, Option<String>, usize, bool);
 
 /// Groups the records by (layout, training layout, method, actions,
 /// agents) in the experiment's order and aggregates each group over seeds;
@@ -182,7 +180,7 @@ pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Ve
             r.layout.clone(),
             r.trained_on.clone(),
             r.method.clone(),
-            r.actions,
+            r.actions.clone(),
             r.agents,
             r.kind == "planner",
         );
@@ -201,7 +199,7 @@ pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Ve
                     MEAN_LAYOUT.to_string(),
                     k.1.clone(),
                     k.2.clone(),
-                    k.3,
+                    k.3.clone(),
                     k.4,
                     k.5,
                 )
@@ -228,9 +226,7 @@ pub fn rows(x: &Experiment, records: &[CellRecord], bootstrap: &Bootstrap) -> Ve
             .chain(&x.planners)
             .position(|m| *m == k.2)
             .unwrap_or(usize::MAX);
-        let actions =
-            k.3.as_ref()
-                .map(|a| Actions::ALL.iter().position(|kind| kind.name() == *a));
+        let actions = k.3.as_ref().map(|a| x.eval.action_order(a));
         (l, k.4, t, m, actions)
     };
     keys.sort_by_key(order);
@@ -336,7 +332,7 @@ pub fn table(rows: &[Row]) -> Table {
         }
         cells.extend([
             Cell::text(&r.method),
-            Cell::text(r.actions.unwrap_or("plan")),
+            Cell::text(r.actions.as_deref().unwrap_or("plan")),
             Cell::Number {
                 value: r.agents as f64,
                 decimals: 0,
@@ -446,7 +442,14 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
 
     // Success per layout and method at each method's smallest agent count.
     let several = x.layouts.len() > 1;
-    let label = |r: &Row| series_label(&r.method, r.actions, r.trained_on.as_deref(), several);
+    let label = |r: &Row| {
+        series_label(
+            &r.method,
+            r.actions.as_deref(),
+            r.trained_on.as_deref(),
+            several,
+        )
+    };
     let labels: Vec<String> = {
         let mut v: Vec<String> = Vec::new();
         for r in &rows {
@@ -492,8 +495,14 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
     files.push(path);
 
     // Timesteps of solved episodes at each series' smallest agent count, pooled over seeds.
-    let record_label =
-        |r: &CellRecord| series_label(&r.method, r.actions, r.trained_on.as_deref(), several);
+    let record_label = |r: &CellRecord| {
+        series_label(
+            &r.method,
+            r.actions.as_deref(),
+            r.trained_on.as_deref(),
+            several,
+        )
+    };
     let mut boxes = Vec::new();
     for (g, layout) in x.eval_layouts().iter().enumerate() {
         for (s, name) in labels.iter().enumerate() {

@@ -11,16 +11,13 @@ use buridan_eval::benchmark::{
     check_published_methods, markdown, pool_seeds, published_rows, read_measured, read_published,
     write_table, LowerBounds, Row, DEFAULT_PUBLISHED,
 };
-use buridan_eval::by_name::RESCUE_KINDS;
+use buridan_eval::by_name::{ControllerParseError, Labelled};
 use buridan_eval::instances::load_instance_set;
 use buridan_eval::output::write_report;
 use buridan_eval::runner::soc_lower_bound;
 use buridan_eval::{evaluate_instances, EvalSpec};
-use buridan_policy::ActMode;
 
-use crate::eval::{
-    controller_factory_for_rules, parse_agent_counts, planner_limits, summary_line, EpisodeProgress,
-};
+use crate::eval::{parse_agent_counts, planner_limits, summary_line, EpisodeProgress};
 
 /// The benchmarks of `learner bench`.
 #[derive(Debug, clap::Subcommand)]
@@ -56,14 +53,14 @@ pub struct PogemaArgs {
     /// Instance seeds: a list (`0,5`) or an inclusive range (`0..127`).
     #[arg(long, default_value = "0..127")]
     pub seeds: String,
-    /// A controller as `learner eval --controller` names it (repeatable;
-    /// run in the order given). `LABEL=CONTROLLER` names its rows (e.g.
-    /// `learned=shield:checkpoint:DIR`); a `sampled:` prefix samples a
-    /// trained policy's actions instead of taking the most probable.
+    /// A controller, `[LABEL@]CONTROLLER` (repeatable; run in the order
+    /// given): the grammar of `learner eval --controller`
+    /// (`buridan_eval::by_name::Controller`), the label naming its rows
+    /// (`learned@sampled:shield:checkpoint:DIR`; without one, the text).
     /// Labels `NAME#K` (one per training seed K) are pooled into one row
     /// `NAME`: mean success over seeds with its 95 % bootstrap interval.
-    #[arg(long = "controller", default_values_t = ["lacam".to_string(), "pibt".to_string(), "lacam-star".to_string(), "cbs".to_string()])]
-    pub controllers: Vec<String>,
+    #[arg(long = "controller", value_parser = parse_labelled, default_values = ["lacam", "pibt", "lacam-star", "cbs"])]
+    pub controllers: Vec<Labelled>,
     /// Published per-instance results (default: `<map>-published.csv` in
     /// the instances folder).
     #[arg(long)]
@@ -117,70 +114,18 @@ pub fn parse_seeds(text: &str) -> Result<Vec<u64>> {
     text.split(',').map(num).collect()
 }
 
-/// A `--controller` value: the rows' label, the controller, how it acts.
+/// Parses a `--controller` value ([`Labelled`]).
 ///
 /// ```
-/// use buridan_cli::bench::ControllerSpec;
-/// use buridan_policy::ActMode;
-/// let s = ControllerSpec::parse("learned=sampled:shield:checkpoint:runs/a").unwrap();
-/// assert_eq!((s.label.as_str(), s.controller.as_str(), s.act_mode), ("learned", "shield:checkpoint:runs/a", ActMode::Sample));
-/// let s = ControllerSpec::parse("rescue=lacam:checkpoint:runs/a").unwrap();
-/// assert_eq!((s.label.as_str(), s.controller.as_str()), ("rescue-lacam-checkpoint-runs-a", "rescue=lacam:checkpoint:runs/a"));
-/// assert!(ControllerSpec::parse("=lacam").is_err());
+/// use buridan_cli::bench::parse_labelled;
+/// let l = parse_labelled("shield-lanes=16:checkpoint:runs/a").unwrap();
+/// assert_eq!((l.label.as_str(), l.controller.to_string().as_str()), ("shield-lanes-16-checkpoint-runs-a", "shield-lanes=16:checkpoint:runs/a"));
+/// let l = parse_labelled("learned=sampled:shield:checkpoint:runs/a").unwrap();
+/// assert_eq!((l.label.as_str(), l.controller.to_string().as_str()), ("learned", "sampled:shield:checkpoint:runs/a"));
+/// assert!(parse_labelled("=lacam").is_err());
 /// ```
-#[derive(Debug, Clone, PartialEq)]
-pub struct ControllerSpec {
-    /// Names the rows and the output folder.
-    pub label: String,
-    /// As `learner eval --controller` takes it.
-    pub controller: String,
-    /// Greedy or sampled (trained policies).
-    pub act_mode: ActMode,
-}
-
-impl ControllerSpec {
-    /// Parses `[LABEL=][sampled:]CONTROLLER`; `rescue=`, `lookahead=`,
-    /// `backstop=` and `pace=` belong to the controller, not to a label.
-    pub fn parse(text: &str) -> Result<Self> {
-        let labelled = text
-            .split_once('=')
-            .filter(|(label, _)| !RESCUE_KINDS.contains(label));
-        let (label, rest) = match labelled {
-            Some((label, rest)) => {
-                // '#' only in a label given: `NAME#K` pools seeds.
-                let ok = !label.is_empty() && label.chars().all(|c| label_char(c) || c == '#');
-                if !ok {
-                    bail!("'{text}': a label is letters, digits and - _ . + # before '='");
-                }
-                (Some(label.to_string()), rest)
-            }
-            None => (None, text),
-        };
-        let (controller, act_mode) = match rest.strip_prefix("sampled:") {
-            Some(inner) => (inner, ActMode::Sample),
-            None => (rest, ActMode::Greedy),
-        };
-        if controller.is_empty() {
-            bail!("'{text}': no controller");
-        }
-        let label = label.unwrap_or_else(|| {
-            let plain: String = rest
-                .chars()
-                .map(|c| if label_char(c) { c } else { '-' })
-                .collect();
-            plain.trim_matches('-').to_string()
-        });
-        Ok(ControllerSpec {
-            label,
-            controller: controller.to_string(),
-            act_mode,
-        })
-    }
-}
-
-/// Characters a label (and so a folder name) keeps as they are.
-fn label_char(c: char) -> bool {
-    c.is_ascii_alphanumeric() || "-_.+".contains(c)
+pub fn parse_labelled(text: &str) -> Result<Labelled, ControllerParseError> {
+    text.parse()
 }
 
 /// Runs `learner bench`.
@@ -196,15 +141,11 @@ pub fn run(command: &BenchCommand) -> Result<()> {
 pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
     let counts = parse_agent_counts(&args.agents)?;
     let seeds = parse_seeds(&args.seeds)?;
-    let specs = args
-        .controllers
-        .iter()
-        .map(|c| ControllerSpec::parse(c))
-        .collect::<Result<Vec<_>>>()?;
+    let specs = &args.controllers;
     for (k, spec) in specs.iter().enumerate() {
         if specs[..k].iter().any(|s| s.label == spec.label) {
             bail!(
-                "two controllers are labelled '{}': name them apart with LABEL=CONTROLLER",
+                "two controllers are labelled '{}': name them apart with LABEL@CONTROLLER",
                 spec.label
             );
         }
@@ -237,7 +178,7 @@ pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
         sets.push((agents, set));
     }
     let mut rows = Vec::new();
-    for spec in &specs {
+    for spec in specs {
         for (agents, set) in &sets {
             let dir = args.out.join(&spec.label).join(format!("agents-{agents}"));
             let summary_path = dir.join("summary.json");
@@ -255,14 +196,7 @@ pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
                 rows.push(Row::measured(&spec.label, &kept));
                 continue;
             }
-            let make = controller_factory_for_rules(
-                &spec.controller,
-                *agents,
-                args.seed,
-                limits,
-                spec.act_mode,
-                rules,
-            )?;
+            let make = spec.controller.factory(*agents, args.seed, limits, rules)?;
             let eval_spec = EvalSpec {
                 agents: *agents,
                 episodes: set.instances.len(),

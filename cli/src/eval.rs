@@ -59,34 +59,12 @@ pub struct EvalArgs {
     /// Seed of the episode generator (42 as in the dissertation).
     #[arg(long, default_value_t = 42)]
     pub seed: u64,
-    /// `ma-astar`, `od-astar`, `cbs`, `pibt`, `lacam`, `lacam-star`, `pp`
-    /// (prioritized planning; planners joined by `+` are tried in turn), `random`,
-    /// `checkpoint:DIR`, or a checkpoint through the PIBT collision shield:
-    /// `shield:checkpoint:DIR` (preferences over every move but walls) or
-    /// `shield-env:checkpoint:DIR` (moves into occupied cells ranked last);
-    /// `shield=K:…` lets an agent that has not come closer to its goal for
-    /// K steps follow its shortest path, `shield-ordered[=K]:…` also fills
-    /// dead-end aisles from the back (an agent bound nearer the mouth waits
-    /// outside until those bound deeper have passed its goal),
-    /// `shield-lanes[=K]:…` also keeps one-lane corridors one-way (an agent
-    /// waits outside a lane while another comes out towards it),
-    /// `shield-settle=K:…` counts only an agent's first arrival on its goal
-    /// as progress (one that steps on and off its goal settles on it);
-    /// `rescue:CONTROLLER` adds a planner as a safety net: it plans from the
-    /// current state whenever an agent is stuck (within --time-limit), by
-    /// default LaCAM then OD-A* (`lacam+od-astar`; beyond 8 agents
-    /// prioritized planning then LaCAM, `pp+lacam`); `rescue=PLANNER:CONTROLLER`
-    /// names another (e.g. `rescue=lacam:shield:checkpoint:DIR`);
-    /// `lookahead:CONTROLLER` (and `lookahead=PLANNER:CONTROLLER`) adds
-    /// foresight: a twin of the (deterministic) controller plays each
-    /// episode ahead in a copy of the env, and if it would get stuck the
-    /// planner plans from the start; `backstop:CONTROLLER` (and
-    /// `backstop=PLANNER:CONTROLLER`) uses the same twin as a backstop: the
-    /// planner plans from the start only if the twin would fail, and
-    /// otherwise the controller drives untouched; `pace:CONTROLLER` (and
-    /// `pace=PLANNER:CONTROLLER`): the backstop, and the planner's plan
-    /// from the start also drives the episodes the twin would finish more
-    /// than 10 % after it.
+    /// The controller: a planner (`lacam`, `cbs`, `lacam+od-astar`, …),
+    /// `random`, `checkpoint:DIR`, `shield[OPTIONS]:checkpoint:DIR`, or a
+    /// planner net around any of these (`rescue:…`, `lookahead:…`,
+    /// `backstop:…`, `pace:…`); the grammar's table is the doc comment of
+    /// `buridan_eval::by_name::Controller` (`cargo doc -p buridan-eval`). With
+    /// --plant: `reservation`, `random` or `checkpoint:DIR`.
     #[arg(long)]
     pub controller: String,
     /// `random` starts and goals, or `fixed` (the map's `.scen`).
@@ -163,7 +141,8 @@ pub fn parse_agent_counts(text: &str) -> Result<Vec<usize>> {
 }
 
 pub use buridan_eval::by_name::{
-    ControllerFactory, CROWD_RESCUE_PLANNER, DEFAULT_RESCUE_PLANNER, RESCUE_OD_ASTAR_MAX_AGENTS,
+    Controller, ControllerFactory, CROWD_RESCUE_PLANNER, DEFAULT_RESCUE_PLANNER,
+    RESCUE_OD_ASTAR_MAX_AGENTS,
 };
 
 /// Planner limits from a time limit in seconds and a memory cap in MiB
@@ -185,10 +164,8 @@ pub fn planner_limits(time_limit: f64, memory_limit_mib: usize) -> Result<Limits
     })
 }
 
-/// Resolves `--controller` (`ma-astar`, `cbs`, `random`, `checkpoint:DIR`,
-/// `shield:checkpoint:DIR`, `rescue:CONTROLLER`, …) to a factory for
-/// episodes with `agents` agents under the thesis rules
-/// ([`buridan_eval::by_name`] has the language).
+/// Resolves a controller's text ([`Controller`]) to a factory for
+/// episodes with `agents` agents under the thesis rules.
 ///
 /// ```
 /// use buridan_cli::eval::controller_factory;
@@ -321,11 +298,10 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
     let limits = planner_limits(args.time_limit, args.memory_limit)?;
     let t_max = args.t_max.unwrap_or(args.rules.default_t_max());
     let sweep = counts.len() > 1;
-    let act_mode = if args.sample {
-        ActMode::Sample
-    } else {
-        ActMode::Greedy
-    };
+    let mut controller: Controller = args.controller.parse()?;
+    if args.sample {
+        controller = controller.with_act(buridan_eval::by_name::Act::Sampled);
+    }
     let mut summaries = Vec::new();
     for &count in &counts {
         let set = match &fixed_map {
@@ -345,14 +321,7 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
             None => count.expect("a count without --scen"),
         };
         let episodes = set.as_ref().map_or(args.episodes, |s| s.instances.len());
-        let make = controller_factory_for_rules(
-            &args.controller,
-            agents,
-            args.seed,
-            limits,
-            act_mode,
-            args.rules,
-        )?;
+        let make = controller.factory(agents, args.seed, limits, args.rules)?;
         let spec = EvalSpec {
             agents,
             episodes,

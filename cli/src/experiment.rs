@@ -37,6 +37,9 @@
 //!                                   #   if the twin would fail, else the policy drives untouched
 //!                                   # "pace": the backstop; the plan also drives the episodes the twin
 //!                                   #   would finish more than 10 % after the plan
+//!                                   # or any controller over the run's policy, LABEL@CONTROLLER with
+//!                                   #   `checkpoint:` left without DIR (`learner eval --controller`):
+//!                                   #   "bss@backstop:sampled:shield[patience=16,settle,lanes]:checkpoint:"
 //! rescue_time = 1.0                 # seconds per rescue plan
 //! rescue_planner = "od-astar+lacam" # default: as `--controller rescue:…` (LaCAM, then OD-A*;
 //!                                   #   beyond 8 agents prioritized planning, then LaCAM)
@@ -57,6 +60,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use buridan_env::Starts;
+use buridan_eval::by_name::{Act, Controller, ControllerParseError, Labelled, Portfolio};
 use buridan_eval::shield::DEFAULT_PATIENCE;
 use buridan_learner::train::{TrainConfig, WeightedMap};
 use serde::{Deserialize, Serialize};
@@ -160,7 +164,9 @@ impl Default for EvalToml {
         EvalToml {
             episodes: 100,
             seed: 42,
-            actions: vec![Actions::Sampled, Actions::Greedy],
+            actions: ["sampled", "greedy"]
+                .map(|a| a.parse().expect("named actions parse"))
+                .to_vec(),
             agents: None,
             starts: Starts::Random,
             t_max: 100,
@@ -184,101 +190,154 @@ struct MethodToml {
     set: Vec<String>,
 }
 
-/// How a policy picks its actions in the evaluation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Actions {
-    /// Sampled from the policy (as in training).
-    Sampled,
-    /// The most probable action.
-    Greedy,
-    /// The most probable actions through the PIBT collision shield
-    /// (`learner eval --controller shield:checkpoint:DIR`): deterministic,
-    /// conflict-free.
-    Shielded,
-    /// Shielded, and an agent that has not come closer to its goal for
-    /// [`buridan_eval::shield::DEFAULT_PATIENCE`] steps follows its
-    /// shortest path, with PIBT's swap (`--controller
-    /// shield=16:checkpoint:DIR`): deterministic, no planner search.
-    Fallback,
-    /// The fallback with goal settling: reaching the goal counts as
-    /// progress only the first time, so an agent that steps on and off its
-    /// goal runs out of patience and settles on it (`--controller
-    /// shield-settle=16:checkpoint:DIR`,
-    /// [`buridan_mapf::shield::Shield::with_goal_settling`]):
-    /// deterministic, no planner search.
-    Settle,
-    /// The fallback, and the shield fills dead-end aisles from the back:
-    /// an agent bound nearer an aisle's mouth waits outside until those
-    /// bound deeper have passed its goal (`--controller
-    /// shield-ordered=16:checkpoint:DIR`,
-    /// [`buridan_mapf::shield::Shield::with_dead_end_order`]):
-    /// deterministic, no planner search.
-    Ordered,
-    /// Ordered, and the shield keeps one-lane corridors one-way: an agent
-    /// about to enter a lane waits outside while another comes out towards
-    /// it, or while one bound deeper into the lane has yet to pass its goal
-    /// (`--controller shield-lanes=16:checkpoint:DIR`,
-    /// [`buridan_mapf::shield::Shield::with_one_way_lanes`]):
-    /// deterministic, no planner search.
-    Lanes,
-    /// Shielded, with LaCAM then OD-A* planning from the current state whenever an
-    /// agent is stuck (`--controller rescue:shield:checkpoint:DIR`, within
-    /// `rescue_time` seconds per call).
-    Rescued,
-    /// Rescued with foresight (`--controller lookahead:shield:checkpoint:DIR`):
-    /// a twin of the shielded policy plays each episode ahead in a copy of
-    /// the env, and if it would get stuck the planner plans from the start.
-    Lookahead,
-    /// The shielded policy with a planner as its backstop (`--controller
-    /// backstop:shield:checkpoint:DIR`): a twin plays each episode ahead,
-    /// and only if it would fail does the planner plan from the start;
-    /// otherwise the policy drives the whole episode.
-    Backstop,
-    /// The backstop with a pace (`--controller pace:shield:checkpoint:DIR`):
-    /// the planner plans every episode from the start, and its plan drives
-    /// the episodes the twin would fail or finish more than 10 % later.
-    Pace,
+/// The named ways a study evaluates a policy, in the order reports list
+/// them: (name, controller over the run's checkpoint; `{K}` is
+/// [`DEFAULT_PATIENCE`]). `sampled` and `greedy` act as trained;
+/// `shielded` is greedy through the PIBT collision shield; `fallback`
+/// also lets an agent without progress for K steps follow its shortest
+/// path; `settle` counts only the first arrival on a goal as progress;
+/// `ordered` also fills dead-end aisles from the back; `lanes` also keeps
+/// one-lane corridors one-way; `rescued`, `lookahead`, `backstop` and
+/// `pace` put the shielded policy in a planner net (`rescue_planner`,
+/// within `rescue_time`).
+pub const NAMED_ACTIONS: [(&str, &str); 11] = [
+    ("sampled", "sampled:checkpoint:"),
+    ("greedy", "checkpoint:"),
+    ("shielded", "shield:checkpoint:"),
+    ("fallback", "shield={K}:checkpoint:"),
+    ("settle", "shield-settle={K}:checkpoint:"),
+    ("ordered", "shield-ordered={K}:checkpoint:"),
+    ("lanes", "shield-lanes={K}:checkpoint:"),
+    ("rescued", "rescue:shield:checkpoint:"),
+    ("lookahead", "lookahead:shield:checkpoint:"),
+    ("backstop", "backstop:shield:checkpoint:"),
+    ("pace", "pace:shield:checkpoint:"),
+];
+
+/// How a study evaluates each trained policy: a name (its folder and its
+/// label in reports) and a [`Controller`] over the policy, whose checkpoint
+/// is each run's. Written as one of [`NAMED_ACTIONS`] or as
+/// `[LABEL@]CONTROLLER` with the checkpoint's DIR left out
+/// (`"bss@backstop:sampled:shield[patience=16,settle,lanes]:checkpoint:"`;
+/// the grammar of `learner eval --controller`, [`Labelled`]).
+///
+/// ```
+/// use buridan_cli::experiment::Actions;
+/// let a: Actions = "lanes".parse().unwrap();
+/// assert_eq!((a.name(), a.controller().to_string().as_str()), ("lanes", "shield-lanes=16:checkpoint:"));
+/// let a: Actions = "bss@backstop:sampled:shield[patience=16,settle,lanes]:checkpoint:".parse().unwrap();
+/// assert_eq!(a.name(), "bss");
+/// assert!("cbs".parse::<Actions>().unwrap_err().contains("evaluates no policy"));
+/// assert!("sampled:checkpoint:runs/a".parse::<Actions>().unwrap_err().contains("without DIR"));
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Actions {
+    name: String,
+    controller: Controller,
+    /// Written as `LABEL@CONTROLLER` rather than by a name.
+    labelled: bool,
 }
 
 impl Actions {
-    /// Every kind, in the order reports list them.
-    ///
-    /// ```
-    /// use buridan_cli::experiment::Actions;
-    /// let names: Vec<_> = Actions::ALL.iter().map(|a| a.name()).collect();
-    /// assert_eq!(names, ["sampled", "greedy", "shielded", "fallback", "settle", "ordered", "lanes", "rescued", "lookahead", "backstop", "pace"]);
-    /// ```
-    pub const ALL: [Actions; 11] = [
-        Actions::Sampled,
-        Actions::Greedy,
-        Actions::Shielded,
-        Actions::Fallback,
-        Actions::Settle,
-        Actions::Ordered,
-        Actions::Lanes,
-        Actions::Rescued,
-        Actions::Lookahead,
-        Actions::Backstop,
-        Actions::Pace,
-    ];
+    /// The folder name and report label (`sampled`, `shielded`, a label).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
 
-    /// `sampled`, `greedy`, `shielded`, `fallback`, `settle`, `ordered`,
-    /// `lanes`, `rescued`, `lookahead`, `backstop` or `pace`.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Actions::Sampled => "sampled",
-            Actions::Greedy => "greedy",
-            Actions::Shielded => "shielded",
-            Actions::Fallback => "fallback",
-            Actions::Settle => "settle",
-            Actions::Ordered => "ordered",
-            Actions::Lanes => "lanes",
-            Actions::Rescued => "rescued",
-            Actions::Lookahead => "lookahead",
-            Actions::Backstop => "backstop",
-            Actions::Pace => "pace",
+    /// The controller, its checkpoint left empty.
+    pub fn controller(&self) -> &Controller {
+        &self.controller
+    }
+
+    /// The controller over the policy in `run`, with `rescue_planner` in
+    /// nets that name no planner.
+    pub fn controller_for(&self, run: &Path, rescue_planner: Option<&Portfolio>) -> Controller {
+        let c = self.controller.clone().with_checkpoint(run);
+        match rescue_planner {
+            Some(p) => c.with_default_planner(p),
+            None => c,
         }
+    }
+
+    /// Where [`NAMED_ACTIONS`] lists it.
+    pub fn named_rank(name: &str) -> Option<usize> {
+        NAMED_ACTIONS.iter().position(|(n, _)| *n == name)
+    }
+}
+
+impl std::str::FromStr for Actions {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        if let Some((name, form)) = NAMED_ACTIONS.iter().find(|(n, _)| *n == text) {
+            let form = form.replace("{K}", &DEFAULT_PATIENCE.to_string());
+            return Ok(Actions {
+                name: name.to_string(),
+                controller: form.parse().expect("the named actions parse"),
+                labelled: false,
+            });
+        }
+        let names: Vec<_> = NAMED_ACTIONS.iter().map(|(n, _)| *n).collect();
+        let l: Labelled = text.parse().map_err(|e| {
+            format!(
+                "action '{text}' is neither one of {} nor [LABEL@]CONTROLLER: {e}",
+                names.join(", ")
+            )
+        })?;
+        let policies = l.controller.policies();
+        if policies.is_empty() {
+            return Err(format!(
+                "action '{text}' evaluates no policy: its controller needs checkpoint: (without DIR: each run's)"
+            ));
+        }
+        if policies
+            .iter()
+            .any(|p| !p.checkpoint.as_os_str().is_empty())
+        {
+            return Err(format!(
+                "action '{text}': write checkpoint: without DIR (each run's checkpoint is evaluated)"
+            ));
+        }
+        if !l.label.chars().any(|c| c.is_ascii_alphanumeric()) {
+            return Err(format!(
+                "action '{text}': a label needs a letter or a digit"
+            ));
+        }
+        if Actions::named_rank(&l.label).is_some() {
+            return Err(format!(
+                "action '{text}': the label '{}' names one of {}; choose another",
+                l.label,
+                names.join(", ")
+            ));
+        }
+        Ok(Actions {
+            name: l.label,
+            controller: l.controller,
+            labelled: true,
+        })
+    }
+}
+
+impl std::fmt::Display for Actions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.labelled {
+            write!(f, "{}@{}", self.name, self.controller)
+        } else {
+            f.write_str(&self.name)
+        }
+    }
+}
+
+impl Serialize for Actions {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for Actions {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let text = String::deserialize(d)?;
+        text.parse().map_err(serde::de::Error::custom)
     }
 }
 
@@ -289,7 +348,7 @@ pub struct EvalProtocol {
     pub episodes: usize,
     /// Seed of the episode generator.
     pub seed: u64,
-    /// Action modes of the policies.
+    /// How the policies are evaluated.
     pub actions: Vec<Actions>,
     /// Agent counts (`None`: each policy's training count).
     pub agents: Option<Vec<usize>>,
@@ -313,6 +372,17 @@ pub struct EvalProtocol {
     /// policy on its training layout.
     #[serde(default)]
     pub layouts: Option<Vec<String>>,
+}
+
+impl EvalProtocol {
+    /// Where reports list the action named `name`: the named actions in
+    /// their order ([`NAMED_ACTIONS`]), then the others in the study's.
+    pub fn action_order(&self, name: &str) -> Option<usize> {
+        Actions::named_rank(name).or_else(|| {
+            let k = self.actions.iter().position(|a| a.name() == name)?;
+            Some(NAMED_ACTIONS.len() + k)
+        })
+    }
 }
 
 /// One training cell: a layout, a method and a seed.
@@ -544,7 +614,7 @@ impl Experiment {
             return Err(bad("[experiment.eval] episodes must be at least 1".into()));
         }
         if e.actions.is_empty() && !parsed.method.is_empty() {
-            let names: Vec<_> = Actions::ALL.iter().map(Actions::name).collect();
+            let names: Vec<_> = NAMED_ACTIONS.iter().map(|(n, _)| *n).collect();
             return Err(bad(format!(
                 "[experiment.eval] actions: name one or more of {}",
                 names.join(", ")
@@ -556,7 +626,7 @@ impl Experiment {
             ));
         }
         if let Some(planner) = &e.rescue_planner {
-            buridan_mapf::planner_by_name(planner).ok_or_else(|| {
+            planner.parse::<Portfolio>().map_err(|_| {
                 bad(format!(
                     "[experiment.eval] rescue_planner: unknown planner '{planner}' (expected pibt, lacam, lacam-star, od-astar, pp, cbs, ma-astar, or several joined by '+')"
                 ))
@@ -602,6 +672,14 @@ impl Experiment {
         }
         let mut actions = e.actions.clone();
         actions.dedup();
+        for (k, a) in actions.iter().enumerate() {
+            if actions[..k].iter().any(|b| b.name() == a.name()) {
+                return Err(bad(format!(
+                    "[experiment.eval] actions: two actions are named '{}'",
+                    a.name()
+                )));
+            }
+        }
         let eval = EvalProtocol {
             episodes: e.episodes,
             seed: e.seed,
@@ -624,7 +702,8 @@ impl Experiment {
             }
         }
         for p in &x.planners {
-            if buridan_mapf::planner_by_name(p).is_none() && p != "random" {
+            let planner = p.parse::<Controller>();
+            if !matches!(planner, Ok(Controller::Planner(_) | Controller::Random)) {
                 return Err(bad(format!(
                     "planner '{p}' is unknown: expected ma-astar, cbs, pibt, lacam, lacam-star or random"
                 )));
@@ -726,7 +805,7 @@ impl Experiment {
                             .entry(on.clone())
                             .or_default()
                             .extend(counts.iter().copied());
-                        for &actions in &eval.actions {
+                        for actions in &eval.actions {
                             for &agents in &counts {
                                 evals.push(EvalCell {
                                     layout: on.clone(),
@@ -734,7 +813,7 @@ impl Experiment {
                                     method: m.name.clone(),
                                     evaluated: Evaluated::Policy {
                                         train: index,
-                                        actions,
+                                        actions: actions.clone(),
                                     },
                                     agents,
                                     dir: dir.join(actions.name()).join(format!("agents-{agents}")),
@@ -785,50 +864,55 @@ impl Experiment {
         })
     }
 
-    /// The `learner eval --controller` value of an evaluation cell.
-    pub fn controller(&self, cell: &EvalCell, out: &Path) -> String {
+    /// The controller of an evaluation cell (a planner's name was checked
+    /// when the study file was read, not when a plan file is).
+    pub fn controller(
+        &self,
+        cell: &EvalCell,
+        out: &Path,
+    ) -> Result<Controller, ControllerParseError> {
         match &cell.evaluated {
             Evaluated::Policy { train, actions } => {
-                let shield = match (actions, &self.eval.rescue_planner) {
-                    (Actions::Shielded, _) => "shield:".to_string(),
-                    (Actions::Fallback, _) => format!("shield={DEFAULT_PATIENCE}:"),
-                    (Actions::Settle, _) => format!("shield-settle={DEFAULT_PATIENCE}:"),
-                    (Actions::Ordered, _) => format!("shield-ordered={DEFAULT_PATIENCE}:"),
-                    (Actions::Lanes, _) => format!("shield-lanes={DEFAULT_PATIENCE}:"),
-                    (Actions::Rescued, None) => "rescue:shield:".to_string(),
-                    (Actions::Rescued, Some(planner)) => format!("rescue={planner}:shield:"),
-                    (Actions::Lookahead, None) => "lookahead:shield:".to_string(),
-                    (Actions::Lookahead, Some(planner)) => format!("lookahead={planner}:shield:"),
-                    (Actions::Backstop, None) => "backstop:shield:".to_string(),
-                    (Actions::Backstop, Some(planner)) => format!("backstop={planner}:shield:"),
-                    (Actions::Pace, None) => "pace:shield:".to_string(),
-                    (Actions::Pace, Some(planner)) => format!("pace={planner}:shield:"),
-                    (Actions::Sampled | Actions::Greedy, _) => String::new(),
-                };
-                format!(
-                    "{shield}checkpoint:{}",
-                    out.join(&self.train[*train].run_dir).display()
-                )
+                let planner = self
+                    .eval
+                    .rescue_planner
+                    .as_deref()
+                    .and_then(|p| p.parse::<Portfolio>().ok());
+                let run = out.join(&self.train[*train].run_dir);
+                Ok(actions.controller_for(&run, planner.as_ref()))
             }
-            Evaluated::Planner => cell.method.clone(),
+            Evaluated::Planner => cell.method.parse(),
         }
     }
 
     /// The planner time limit of an evaluation cell, seconds: the rescue's
-    /// for rescued policies, the planners' otherwise.
+    /// for policies in a planner net, the planners' otherwise.
     pub fn time_limit(&self, cell: &EvalCell) -> f64 {
-        match cell.evaluated {
-            Evaluated::Policy {
-                actions: Actions::Rescued | Actions::Lookahead | Actions::Backstop | Actions::Pace,
-                ..
-            } => self.eval.rescue_time,
+        match &cell.evaluated {
+            Evaluated::Policy { actions, .. } if actions.controller().has_net() => {
+                self.eval.rescue_time
+            }
             _ => self.eval.time_limit,
         }
     }
 
-    /// The equivalent `learner eval` command line of an evaluation cell.
+    /// The equivalent `learner eval` command line of an evaluation cell:
+    /// a controller whose policies all sample is written greedy, with
+    /// `--sample`.
     pub fn eval_command(&self, cell: &EvalCell, out: &Path) -> String {
         let e = &self.eval;
+        let (controller, sample) = match (&cell.evaluated, self.controller(cell, out)) {
+            (Evaluated::Policy { .. }, Ok(c)) => {
+                let policies = c.policies();
+                let sample = !policies.is_empty() && policies.iter().all(|p| p.act == Act::Sampled);
+                if sample {
+                    (c.with_act(Act::Greedy).to_string(), true)
+                } else {
+                    (c.to_string(), false)
+                }
+            }
+            _ => (cell.method.clone(), false),
+        };
         let mut args = vec![
             "learner".to_string(),
             "eval".into(),
@@ -848,21 +932,17 @@ impl Experiment {
             "--t-max".into(),
             e.t_max.to_string(),
             "--controller".into(),
-            self.controller(cell, out),
+            controller,
         ];
+        if sample {
+            args.push("--sample".into());
+        }
         match &cell.evaluated {
-            Evaluated::Policy { actions, .. } => match actions {
-                Actions::Sampled => args.push("--sample".into()),
-                Actions::Rescued | Actions::Lookahead | Actions::Backstop | Actions::Pace => {
-                    args.extend(["--time-limit".into(), self.time_limit(cell).to_string()])
+            Evaluated::Policy { actions, .. } => {
+                if actions.controller().has_net() {
+                    args.extend(["--time-limit".into(), self.time_limit(cell).to_string()]);
                 }
-                Actions::Greedy
-                | Actions::Shielded
-                | Actions::Fallback
-                | Actions::Settle
-                | Actions::Ordered
-                | Actions::Lanes => {}
-            },
+            }
             Evaluated::Planner => args.extend([
                 "--time-limit".into(),
                 self.time_limit(cell).to_string(),
@@ -1207,7 +1287,7 @@ mod tests {
                 e.evaluated
                     == (Evaluated::Policy {
                         train: 0,
-                        actions: Actions::Sampled,
+                        actions: "sampled".parse().unwrap(),
                     })
             })
             .collect();

@@ -16,14 +16,13 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use buridan_env::Map;
+use buridan_env::{Map, Rules};
 use buridan_eval::output::write_report;
 use buridan_eval::{evaluate, EvalSpec};
 use buridan_learner::train::{MetricsRow, Progress, TrainConfig, TrainError, SUMMARY_FILE};
-use buridan_policy::ActMode;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use crate::experiment::{Actions, Evaluated, Experiment, PLAN_FILE};
+use crate::experiment::{Evaluated, Experiment, PLAN_FILE};
 use crate::signals::watch_signals;
 use crate::train::train_interruptible;
 
@@ -207,18 +206,12 @@ fn run_eval(x: &Experiment, out: &Path, index: usize, bars: &Bars) -> Result<()>
         return Ok(());
     }
     let e = &x.eval;
-    let act_mode = match &cell.evaluated {
-        Evaluated::Policy {
-            actions: Actions::Sampled,
-            ..
-        } => ActMode::Sample,
-        _ => ActMode::Greedy,
-    };
     // Time limits were checked positive when the study file was read.
     let limits = crate::eval::planner_limits(x.time_limit(cell), e.memory_limit)?;
     let map = Arc::new(Map::load(&cell.layout)?);
-    let controller = x.controller(cell, out);
-    let make = crate::eval::controller_factory(&controller, cell.agents, e.seed, limits, act_mode)?;
+    let controller = x.controller(cell, out)?;
+    // The env's thesis rules: this caller does not choose a rule set yet.
+    let make = controller.factory(cell.agents, e.seed, limits, Rules::Thesis)?;
     let spec = EvalSpec {
         agents: cell.agents,
         episodes: e.episodes,

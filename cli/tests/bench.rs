@@ -189,3 +189,55 @@ fn the_benchmark_runs_planners_and_a_pogema_policy_beside_published_rows() {
     let err = format!("{:#}", run_pogema(&bench_args(&missing_seed)).unwrap_err());
     assert!(err.contains("room-1-2.scen"), "{err}");
 }
+
+/// `--controller shield-lanes=16:checkpoint:DIR` is the shield with lanes,
+/// not a row labelled `shield-lanes` of a controller `16:checkpoint:DIR`;
+/// `LABEL@CONTROLLER` and the older `LABEL=CONTROLLER` name rows.
+#[test]
+fn controllers_with_a_patience_parse_as_controllers() {
+    let BenchCommand::Pogema(args) = bench_args(&[
+        "--instances",
+        "set",
+        "--out",
+        "out",
+        "--controller",
+        "shield-lanes=16:checkpoint:runs/a",
+        "--controller",
+        "learned@backstop:sampled:shield[patience=16,settle,lanes]:checkpoint:runs/a",
+        "--controller",
+        "learned-fallback#0=shield=16:checkpoint:runs/a",
+    ]) else {
+        panic!("not the pogema benchmark")
+    };
+    let rows: Vec<(String, String)> = args
+        .controllers
+        .iter()
+        .map(|c| (c.label.clone(), c.controller.to_string()))
+        .collect();
+    assert_eq!(
+        rows,
+        [
+            (
+                "shield-lanes-16-checkpoint-runs-a".to_string(),
+                "shield-lanes=16:checkpoint:runs/a".to_string()
+            ),
+            (
+                "learned".into(),
+                "backstop:sampled:shield[patience=16,settle,lanes]:checkpoint:runs/a".into()
+            ),
+            (
+                "learned-fallback#0".into(),
+                "shield=16:checkpoint:runs/a".into()
+            ),
+        ]
+    );
+    let BenchCommand::Pogema(defaults) = bench_args(&["--instances", "set", "--out", "out"]) else {
+        panic!("not the pogema benchmark")
+    };
+    let labels: Vec<_> = defaults
+        .controllers
+        .iter()
+        .map(|c| c.label.as_str())
+        .collect();
+    assert_eq!(labels, ["lacam", "pibt", "lacam-star", "cbs"]);
+}
