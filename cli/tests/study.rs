@@ -389,7 +389,7 @@ steps = 2000
 planners = ["cbs"]
 [experiment.eval]
 episodes = 3
-actions = ["greedy"]
+actions = ["greedy", "bss@backstop:sampled:shield[patience=16,settle,lanes]:checkpoint:"]
 agents = [2, 3]
 time_limit = 5.0
 [[method]]
@@ -400,6 +400,17 @@ config = "tiny.toml"
     let out = args.out.clone().unwrap();
     let outcome = study::run(&args).unwrap();
     assert!(outcome.failures.is_empty(), "{:?}", outcome.failures);
+    // The composed action: a backstop over the sampled shield with goal
+    // settling and one-way lanes, in its own folder, its command as
+    // `learner eval` takes it.
+    let bss = out.join("evals/rm-2.1/ppo/seed-0/bss/agents-3");
+    let command = std::fs::read_to_string(bss.join("command.txt")).unwrap();
+    assert!(
+        command.contains("--controller 'backstop:shield[patience=16,settle,lanes]:checkpoint:")
+            && command.contains("--sample --time-limit 1 "),
+        "{command}"
+    );
+    assert!(bss.join("summary.json").is_file());
     for f in [
         "scalability-rm-2.1.png",
         "heatmap-rm-2.1.png",
