@@ -6,11 +6,10 @@ use std::time::Duration;
 
 use buridan_env::error::error_chain;
 use buridan_env::{Cell, EnvError, Map, Rules, Starts};
-use buridan_eval::by_name::{self, ControllerFactory, ControllerNameError};
+use buridan_eval::by_name::{Act, Controller, ControllerFactory, ControllerNameError};
 use buridan_eval::{evaluate as eval_run, EvalSpec};
 use buridan_mapf::replay::plan_actions;
 use buridan_mapf::{planner_for_rules, replay_with, validate_with, Limits, Plan, Stats};
-use buridan_policy::ActMode;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2};
 use pyo3::exceptions::PyValueError;
@@ -273,21 +272,33 @@ pub fn plan(
 
 // --------------------------------------------------------------- evaluation
 
-/// `learner eval --controller` names, resolved by the same code as the CLI
-/// (`buridan_eval::by_name`); a checkpoint that does not load raises
-/// `PolicyError`, any other bad name `PlannerError`, with the Rust message.
+/// A `learner eval --controller` text as the [`Controller`] value, made
+/// into controllers by the same code as the CLI; with `sample`, every
+/// policy in it samples. A text that is none of the grammar's forms, or a
+/// planner that cannot plan under the rules, raises `PlannerError`; a
+/// checkpoint that does not load raises `PolicyError`, with the Rust
+/// message.
 fn controller_factory(
     name: &str,
     agents: usize,
     seed: u64,
     limits: Limits,
-    act_mode: ActMode,
+    sample: bool,
     rules: Rules,
 ) -> PyResult<ControllerFactory> {
-    by_name::controller_factory(name, agents, seed, limits, act_mode, rules).map_err(|e| match e {
+    let raise = |e: ControllerNameError| match e {
         ControllerNameError::Checkpoint(_) => PolicyError::new_err(error_chain(&e)),
         _ => PlannerError::new_err(error_chain(&e)),
-    })
+    };
+    let mut controller: Controller = name
+        .parse()
+        .map_err(|e| raise(ControllerNameError::Parse(e)))?;
+    if sample {
+        controller = controller.with_act(Act::Sampled);
+    }
+    controller
+        .factory(agents, seed, limits, rules)
+        .map_err(raise)
 }
 
 /// What `evaluate` returns: the per-episode records, the summary (the same
@@ -342,13 +353,14 @@ fn json_loads(py: Python<'_>, text: &str) -> PyResult<Py<PyAny>> {
 /// Evaluates a controller on the seeded episodes `0..episodes` of `map`,
 /// as `learner eval` does.
 ///
-/// `controller` is a planner name (`"cbs"`, `"lacam"`, `"lacam+od-astar"`,
-/// …), `"random"`, `"checkpoint:DIR"` (a trained policy),
-/// `"shield:checkpoint:DIR"` / `"shield-env:checkpoint:DIR"` (through the
-/// PIBT collision shield) or `"rescue:CONTROLLER"` /
-/// `"rescue=PLANNER:CONTROLLER"` / `"lookahead:CONTROLLER"` /
-/// `"backstop:CONTROLLER"`. The GIL is
-/// released while episodes run.
+/// `controller` is a `learner eval --controller` text: a planner name
+/// (`"cbs"`, `"lacam"`, `"lacam+od-astar"`, …), `"random"`,
+/// `"checkpoint:DIR"` (a trained policy), `"shield[OPTIONS]:checkpoint:DIR"`
+/// (through the PIBT collision shield; options `env`, `patience=K`,
+/// `settle`, `ordered`, `lanes`), `"sampled:CONTROLLER"`, or a planner net
+/// around any of these (`"rescue[=PLANNER]:CONTROLLER"`, `"lookahead:…"`,
+/// `"backstop:…"`, `"pace:…"`); `buridan_eval::by_name::Controller` has
+/// the grammar's table. The GIL is released while episodes run.
 #[pyfunction]
 #[pyo3(signature = (map, controller, *, agents=4, episodes=100, seed=42, starts="random", t_max=None, rules="thesis", time_limit=60.0, memory_limit_mib=2048, jobs=1, sample=false))]
 #[allow(clippy::too_many_arguments)]
@@ -371,12 +383,7 @@ pub fn evaluate(
     let rules = rules_arg(rules)?;
     let starts: Starts = starts_arg(starts)?;
     let limits = limits(time_limit, memory_limit_mib, None, None)?;
-    let act_mode = if sample {
-        ActMode::Sample
-    } else {
-        ActMode::Greedy
-    };
-    let make = controller_factory(controller, agents, seed, limits, act_mode, rules)?;
+    let make = controller_factory(controller, agents, seed, limits, sample, rules)?;
     let spec = EvalSpec {
         agents,
         episodes,
