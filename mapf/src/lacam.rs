@@ -128,7 +128,7 @@ pub struct Lacam {
     /// Probability that reaching a known configuration sends the search
     /// back to the start instead of to that configuration (default 0.1; 0
     /// turns random restarts off). Measured on the seed-42 episodes with 1 s
-    /// per instance (`docs/results/planners/README.md`): on rm-2.1b with 4
+    /// per instance (`docs/results/planners/RESULTS.md`): on rm-2.1b with 4
     /// agents the worst case drops from over 1 s (episode 2 unsolved) to
     /// 0.9 ms; with 16 agents 89 instead of 44 of 100 are planned.
     #[serde(default = "restart_default")]
@@ -173,7 +173,7 @@ pub struct LacamStar {
     /// CPU time after which a search that has a solution stops refining it
     /// and returns it (default 0.5 s: on the seed-42 episodes of the four
     /// layouts, 4 agents, the plans' sum of costs is within 0.5 % of what
-    /// 1 s gives, `docs/results/planners/README.md`); `None` refines until the solution is
+    /// 1 s gives, `docs/results/planners/RESULTS.md`); `None` refines until the solution is
     /// proven optimal or [`Limits::time`] runs out. Without a solution the
     /// search goes on until the limits.
     pub refine_time: Option<Duration>,
