@@ -124,10 +124,17 @@ impl<'a> DashboardProgress<'a> {
         }
     }
 
-    fn close(&mut self) {
+    /// Closes the queue and waits for the evaluator: after the checkpoint
+    /// still queued if `drain`, else after the evaluation under way (a
+    /// stopped or failed run does not wait for one more).
+    fn close(&mut self, drain: bool) {
         {
             let (lock, cv) = &*self.queue;
-            lock.lock().unwrap_or_else(|e| e.into_inner()).closed = true;
+            let mut q = lock.lock().unwrap_or_else(|e| e.into_inner());
+            q.closed = true;
+            if !drain {
+                q.next = None;
+            }
             cv.notify_all();
         }
         if let Some(t) = self.evaluator.take() {
@@ -138,7 +145,7 @@ impl<'a> DashboardProgress<'a> {
 
 impl Drop for DashboardProgress<'_> {
     fn drop(&mut self) {
-        self.close();
+        self.close(false);
     }
 }
 
@@ -201,7 +208,7 @@ impl Progress for DashboardProgress<'_> {
 
     fn on_finish(&mut self, summary: &Summary) {
         // The final checkpoint's evaluation is shown before the run says it is done.
-        self.close();
+        self.close(true);
         self.inner.on_finish(summary);
     }
 }

@@ -456,6 +456,7 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
         summary.steps_per_s,
         args.out.display()
     );
+    eprintln!("  stopped: {}", summary.stop_reason);
     for (map, success) in &summary.success_by_map {
         let episodes = summary.episodes_by_map.get(map).copied().unwrap_or(0);
         if episodes == 0 {

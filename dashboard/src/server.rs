@@ -10,6 +10,7 @@
 
 use std::convert::Infallible;
 use std::net::SocketAddr;
+use std::time::Duration;
 
 use axum::extract::State;
 use axum::http::{header, StatusCode};
@@ -17,8 +18,9 @@ use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::get;
 use axum::{Json, Router};
+use tokio::sync::watch;
 use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
-use tokio_stream::wrappers::BroadcastStream;
+use tokio_stream::wrappers::{BroadcastStream, WatchStream};
 use tokio_stream::{Stream, StreamExt};
 
 use crate::board::Board;
@@ -42,10 +44,16 @@ pub enum DashboardError {
     Runtime(#[source] std::io::Error),
 }
 
-/// A running dashboard; dropping it stops the server.
+/// How long a stopping server waits for its connections to close before it
+/// drops them: event streams end at once on a stop, so this only bounds a
+/// client that does not read.
+pub const SHUTDOWN_GRACE: Duration = Duration::from_secs(2);
+
+/// A running dashboard; dropping it stops the server: open event streams
+/// end, and the server's thread is gone within [`SHUTDOWN_GRACE`].
 pub struct Running {
     addr: SocketAddr,
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    stop: Option<watch::Sender<bool>>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
 
@@ -59,7 +67,7 @@ impl Running {
 impl Drop for Running {
     fn drop(&mut self) {
         if let Some(stop) = self.stop.take() {
-            let _ = stop.send(());
+            let _ = stop.send(true);
         }
         if let Some(t) = self.thread.take() {
             let _ = t.join();
@@ -67,8 +75,16 @@ impl Drop for Running {
     }
 }
 
-/// The routes over `board`.
-pub fn router(board: Board) -> Router {
+/// What the handlers share: the board, and the stop signal that ends the
+/// event streams.
+#[derive(Clone)]
+struct Served {
+    board: Board,
+    stopping: watch::Receiver<bool>,
+}
+
+/// The routes over `board`; event streams end when `stopping` turns true.
+pub fn router(board: Board, stopping: watch::Receiver<bool>) -> Router {
     Router::new()
         .route("/", get(|| async { Html(INDEX_HTML) }))
         .route(
@@ -83,7 +99,7 @@ pub fn router(board: Board) -> Router {
         .route("/api/state", get(state))
         .route("/api/events", get(events))
         .route("/api/replay.gif", get(replay))
-        .with_state(board)
+        .with_state(Served { board, stopping })
 }
 
 /// Serves `board` on `addr` from a thread of its own until the returned
@@ -105,7 +121,8 @@ pub fn serve(addr: SocketAddr, board: Board) -> Result<Running, DashboardError> 
         .enable_all()
         .build()
         .map_err(DashboardError::Runtime)?;
-    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let (stop, stopping) = watch::channel(false);
+    let stopping_too = stopping.clone();
     let thread = std::thread::Builder::new()
         .name("dashboard".into())
         .spawn(move || {
@@ -117,11 +134,28 @@ pub fn serve(addr: SocketAddr, board: Board) -> Result<Running, DashboardError> 
                         return;
                     }
                 };
-                let server = axum::serve(listener, router(board)).with_graceful_shutdown(async {
-                    let _ = stopped.await;
-                });
-                if let Err(e) = server.await {
-                    tracing::error!(error = %e, "dashboard server");
+                let mut stopped = stopping.clone();
+                let server = axum::serve(listener, router(board, stopping)).with_graceful_shutdown(
+                    async move {
+                        let _ = stopped.wait_for(|&s| s).await;
+                    },
+                );
+                // Graceful shutdown waits for open connections; a client
+                // that holds one past the grace period is dropped with the
+                // runtime.
+                let mut grace = stopping_too.clone();
+                let deadline = async move {
+                    let _ = grace.wait_for(|&s| s).await;
+                    tokio::time::sleep(SHUTDOWN_GRACE).await;
+                };
+                tokio::select! {
+                    served = server => if let Err(e) = served {
+                        tracing::error!(error = %e, "dashboard server");
+                    },
+                    () = deadline => tracing::warn!(
+                        grace_s = SHUTDOWN_GRACE.as_secs_f64(),
+                        "dashboard: connections still open after the grace period, closed"
+                    ),
                 }
             });
         })
@@ -133,24 +167,36 @@ pub fn serve(addr: SocketAddr, board: Board) -> Result<Running, DashboardError> 
     })
 }
 
-async fn state(State(board): State<Board>) -> Json<serde_json::Value> {
-    Json(board.snapshot())
+async fn state(State(served): State<Served>) -> Json<serde_json::Value> {
+    Json(served.board.snapshot())
 }
 
-async fn events(State(board): State<Board>) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
-    let stream = BroadcastStream::new(board.subscribe()).map(|u| {
-        Ok(match u {
+/// The board's changes until the server stops: then the stream ends, so a
+/// page left open does not keep a stopping server alive.
+async fn events(
+    State(served): State<Served>,
+) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
+    let changes = BroadcastStream::new(served.board.subscribe()).map(|u| {
+        Some(match u {
             Ok(u) => Event::default().event(u.kind).data(u.data.to_string()),
             // The page fell behind: it reloads the snapshot.
             Err(BroadcastStreamRecvError::Lagged(_)) => Event::default().event("resync").data("{}"),
         })
     });
+    // `None` marks the stop; the stream ends there.
+    let stop = WatchStream::new(served.stopping)
+        .filter(|&s| s)
+        .map(|_| None);
+    let stream = changes
+        .merge(stop)
+        .take_while(Option::is_some)
+        .filter_map(|e| e.map(Ok));
     // The first event tells the page it is connected.
     let hello = tokio_stream::once(Ok(Event::default().event("hello").data("{}")));
     Sse::new(hello.chain(stream)).keep_alive(KeepAlive::default())
 }
 
-async fn replay(State(board): State<Board>) -> Response {
+async fn replay(State(Served { board, .. }): State<Served>) -> Response {
     match board.replay_gif() {
         Some(gif) => (
             [
@@ -221,6 +267,37 @@ mod tests {
             seen.push_str(&String::from_utf8_lossy(&buf[..n]));
         }
         assert!(seen.contains("event: row"), "{seen}");
+    }
+
+    #[test]
+    fn a_stop_ends_open_event_streams() {
+        let running = serve("127.0.0.1:0".parse().unwrap(), Board::default()).unwrap();
+        let mut s = std::net::TcpStream::connect(running.addr()).unwrap();
+        write!(s, "GET /api/events HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+        let mut seen = String::new();
+        let mut buf = [0u8; 4096];
+        while !seen.contains("event: hello") {
+            let n = s.read(&mut buf).unwrap();
+            assert!(n > 0, "closed early: {seen}");
+            seen.push_str(&String::from_utf8_lossy(&buf[..n]));
+        }
+        // The page stays connected while the server stops: the stop must not
+        // wait for it to leave.
+        let t0 = std::time::Instant::now();
+        drop(running);
+        assert!(
+            t0.elapsed() < SHUTDOWN_GRACE,
+            "the stop waited {:?} for an open event stream",
+            t0.elapsed()
+        );
+        // And the stream was ended, not left dangling.
+        s.set_read_timeout(Some(std::time::Duration::from_secs(5)))
+            .unwrap();
+        let mut rest = Vec::new();
+        assert!(
+            s.read_to_end(&mut rest).is_ok(),
+            "the stream was not closed"
+        );
     }
 
     #[test]

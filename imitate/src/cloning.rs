@@ -13,10 +13,12 @@ use crate::dataset::Dataset;
 use crate::error::ImitationError;
 use crate::windows::{Window, Windows};
 
-/// The cloning loss `−mean_r log π(a*_r | o_r)` over rows, with the policy's
-/// logits `[rows, 5]` masked by `bias` (0 legal, −1e9 illegal) and the
-/// expert's actions `labels [rows]` (u32); also the fraction of rows whose
-/// most probable legal action is the expert's.
+/// The cloning loss `−mean_{r,h} log π_h(a*_{r,h} | o_r)` over rows and
+/// heads, with the policy's logits `[rows, heads·5]` masked by `bias`
+/// (0 legal, −1e9 illegal) and the expert's actions `labels [rows, heads]`
+/// (u32; one head for a policy acting for one agent, one per agent for
+/// CTE's joint policy); also the fraction of (row, head) pairs whose most
+/// probable legal action is the expert's.
 ///
 /// ```
 /// use candle_core::{Device, Tensor};
@@ -24,27 +26,28 @@ use crate::windows::{Window, Windows};
 /// // Row 0: four legal actions, the expert's (1) has the top logit;
 /// // row 1: the expert's action 1 is legal beside action 0 (logit 2).
 /// let bias = Tensor::new(&[[0f32, 0.0, 0.0, 0.0, -1e9], [0.0, 0.0, -1e9, -1e9, -1e9]], &Device::Cpu).unwrap();
-/// let labels = Tensor::new(&[1u32, 1], &Device::Cpu).unwrap();
+/// let labels = Tensor::new(&[[1u32], [1]], &Device::Cpu).unwrap();
 /// let (loss, acc) = buridan_imitate::cloning::cloning_loss(&logits, &bias, &labels).unwrap();
 /// // −(ln(e/(3+e)) + ln(1/(1+e²))) / 2 = (0.7437 + 2.1269) / 2
 /// assert!((loss.to_scalar::<f32>().unwrap() - 1.4353).abs() < 1e-3);
 /// assert_eq!(acc, 0.5); // row 0 agrees, row 1 prefers action 0
+/// // The same two rows as one joint row of two heads: the same mean.
+/// let joint = Tensor::new(&[[0f32, 1.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0]], &Device::Cpu).unwrap();
+/// let bias = Tensor::new(&[[0f32, 0.0, 0.0, 0.0, -1e9, 0.0, 0.0, -1e9, -1e9, -1e9]], &Device::Cpu).unwrap();
+/// let labels = Tensor::new(&[[1u32, 1]], &Device::Cpu).unwrap();
+/// let (loss, acc) = buridan_imitate::cloning::cloning_loss(&joint, &bias, &labels).unwrap();
+/// assert!((loss.to_scalar::<f32>().unwrap() - 1.4353).abs() < 1e-3);
+/// assert_eq!(acc, 0.5);
 /// ```
 pub fn cloning_loss(
     logits: &Tensor,
     bias: &Tensor,
     labels: &Tensor,
 ) -> Result<(Tensor, f64), ImitationError> {
-    let logp = masked_log_probs(logits, bias, 1)?.squeeze(1)?;
-    let chosen = logp.gather(&labels.unsqueeze(D::Minus1)?, D::Minus1)?;
+    let (chosen, hits) = label_log_probs(logits, bias, labels)?;
     let loss = chosen.mean_all()?.neg()?;
-    let best = logp.argmax(D::Minus1)?;
-    let hits = best
-        .eq(labels)?
-        .to_dtype(DType::F32)?
-        .mean_all()?
-        .to_scalar::<f32>()?;
-    Ok((loss, f64::from(hits)))
+    let acc = hits.mean_all()?.to_scalar::<f32>()?;
+    Ok((loss, f64::from(acc)))
 }
 
 /// [`cloning_loss`] over the rows whose `weights [rows]` are 1 (steps the
@@ -55,7 +58,7 @@ pub fn cloning_loss(
 /// use candle_core::{Device, Tensor};
 /// let logits = Tensor::new(&[[0f32, 1.0, 0.0, 0.0, 0.0], [2.0, 0.0, 0.0, 0.0, 0.0]], &Device::Cpu).unwrap();
 /// let bias = Tensor::new(&[[0f32, 0.0, 0.0, 0.0, -1e9], [0.0, 0.0, -1e9, -1e9, -1e9]], &Device::Cpu).unwrap();
-/// let labels = Tensor::new(&[1u32, 1], &Device::Cpu).unwrap();
+/// let labels = Tensor::new(&[[1u32], [1]], &Device::Cpu).unwrap();
 /// let weights = Tensor::new(&[1f32, 0.0], &Device::Cpu).unwrap();
 /// let (loss, acc) = buridan_imitate::cloning::weighted_cloning_loss(&logits, &bias, &labels, &weights).unwrap();
 /// // Row 0 alone: −ln(e/(3+e)) = 0.7437, and it agrees.
@@ -68,16 +71,29 @@ pub fn weighted_cloning_loss(
     labels: &Tensor,
     weights: &Tensor,
 ) -> Result<(Tensor, f64), ImitationError> {
-    let logp = masked_log_probs(logits, bias, 1)?.squeeze(1)?;
+    let (chosen, hits) = label_log_probs(logits, bias, labels)?;
+    let heads = chosen.dim(D::Minus1)?;
+    let count = weights.sum_all()?.to_scalar::<f32>()?.max(1.0) * heads as f32;
+    let w = weights.unsqueeze(D::Minus1)?;
+    let loss = (chosen.broadcast_mul(&w)?.sum_all()?.neg()? / f64::from(count))?;
+    let hits = hits.broadcast_mul(&w)?.sum_all()?.to_scalar::<f32>()?;
+    Ok((loss, f64::from(hits / count)))
+}
+
+/// The log-probabilities of the expert's actions `[rows, heads]` and
+/// whether each is the most probable legal action (1.0) or not (0.0).
+fn label_log_probs(
+    logits: &Tensor,
+    bias: &Tensor,
+    labels: &Tensor,
+) -> Result<(Tensor, Tensor), ImitationError> {
+    let heads = labels.dim(D::Minus1)?;
+    let logp = masked_log_probs(logits, bias, heads)?;
     let chosen = logp
         .gather(&labels.unsqueeze(D::Minus1)?, D::Minus1)?
         .squeeze(D::Minus1)?;
-    let count = weights.sum_all()?.to_scalar::<f32>()?.max(1.0);
-    let loss = ((chosen * weights)?.sum_all()?.neg()? / f64::from(count))?;
-    let hits = (logp.argmax(D::Minus1)?.eq(labels)?.to_dtype(DType::F32)? * weights)?
-        .sum_all()?
-        .to_scalar::<f32>()?;
-    Ok((loss, f64::from(hits / count)))
+    let hits = logp.argmax(D::Minus1)?.eq(labels)?.to_dtype(DType::F32)?;
+    Ok((chosen, hits))
 }
 
 /// What one pass of fitting achieved.
@@ -91,22 +107,33 @@ pub struct FitStats {
     pub steps: u64,
 }
 
-/// Adam over a policy's weights for behaviour cloning.
+/// Adam over the weights of one of a policy's networks for behaviour
+/// cloning (DTE's agents each have their own network and their own
+/// optimiser: an agent's steps move only its own weights).
 pub struct Cloner {
+    net: usize,
     opt: AdamW,
     minibatch: usize,
 }
 
 impl Cloner {
-    /// An optimiser over every weight of `policy` (Adam without decay).
-    pub fn new(policy: &Policy, lr: f64, minibatch: usize) -> Result<Self, ImitationError> {
+    /// An optimiser over every weight of network `net` of `policy` (Adam
+    /// without decay).
+    pub fn new(
+        policy: &Policy,
+        net: usize,
+        lr: f64,
+        minibatch: usize,
+    ) -> Result<Self, ImitationError> {
         let params = ParamsAdamW {
             lr,
             weight_decay: 0.0,
             ..ParamsAdamW::default()
         };
+        let vars = policy.net_vars(net).into_iter().map(|(_, v)| v).collect();
         Ok(Self {
-            opt: AdamW::new(policy.varmap().all_vars(), params)?,
+            net,
+            opt: AdamW::new(vars, params)?,
             minibatch,
         })
     }
@@ -120,30 +147,34 @@ impl Cloner {
         rng: &mut R,
     ) -> Result<FitStats, ImitationError> {
         let device = Device::Cpu;
-        let (d, w) = (data.obs_dim(), data.mask_dim());
-        let minibatch = self.minibatch;
+        let (d, w, h) = (data.obs_dim(), data.mask_dim(), data.heads());
+        let (minibatch, net) = (self.minibatch, policy.net(self.net));
         self.descend(data.len(), minibatch, epochs, rng, |chunk| {
             let rows = chunk.len();
             let mut obs = Vec::with_capacity(rows * d);
             let mut masks = Vec::with_capacity(rows * w);
-            let mut labels = Vec::with_capacity(rows);
+            let mut labels = Vec::with_capacity(rows * h);
             for &r in chunk {
                 obs.extend_from_slice(&data.obs[r * d..(r + 1) * d]);
                 masks.extend_from_slice(&data.masks[r * w..(r + 1) * w]);
-                labels.push(u32::from(data.labels[r]));
+                labels.extend(
+                    data.labels[r * h..(r + 1) * h]
+                        .iter()
+                        .map(|&a| u32::from(a)),
+                );
             }
             let obs = Tensor::from_vec(obs, (rows, d), &device)?;
             let bias = mask_bias(&masks, rows, w, &device)?;
-            let labels = Tensor::from_vec(labels, rows, &device)?;
-            let logits = policy.forward(&obs)?.logits;
+            let labels = Tensor::from_vec(labels, (rows, h), &device)?;
+            let logits = net.forward(&obs)?.logits;
             cloning_loss(&logits, &bias, &labels)
         })
     }
 
     /// `epochs` passes over recurrent `data` in shuffled minibatches of
     /// whole windows (about `minibatch` steps each), each replayed by
-    /// [`replay_windows`], the loss taken over the labelled steps. The
-    /// policy must be recurrent with one network.
+    /// [`replay_windows`] through this cloner's network, the loss taken
+    /// over the labelled steps. The policy must be recurrent.
     pub fn fit_windows<R: Rng + ?Sized>(
         &mut self,
         policy: &Policy,
@@ -151,9 +182,9 @@ impl Cloner {
         epochs: usize,
         rng: &mut R,
     ) -> Result<FitStats, ImitationError> {
-        let per_batch = (self.minibatch / data.steps()).max(1);
+        let (per_batch, net) = ((self.minibatch / data.steps()).max(1), self.net);
         self.descend(data.len(), per_batch, epochs, rng, |chunk| {
-            let replay = replay_windows(policy, data, chunk)?;
+            let replay = replay_windows(policy, net, data, chunk)?;
             weighted_cloning_loss(
                 &replay.logits,
                 &replay.bias,
@@ -201,18 +232,19 @@ pub struct WindowReplay {
     pub logits: Tensor,
     /// The steps' action masks as a logit bias `[t·b, 5]` (0 legal, −1e9 not).
     pub bias: Tensor,
-    /// The expert's actions `[t·b]` (u32).
+    /// The expert's actions `[t·b, heads]` (u32).
     pub labels: Tensor,
     /// 1 where the expert labelled the step `[t·b]`.
     pub weights: Tensor,
 }
 
-/// Replays `windows` of `data` through the first network of `policy`: each
+/// Replays `windows` of `data` through network `net` of `policy`: each
 /// from its stored LSTM state, with the state reset where an episode starts
 /// inside it — the logits an actor computed step by step, recomputed with
 /// gradients (`Net::unroll`, the same path PPO and IMPALA train through).
 pub fn replay_windows(
     policy: &Policy,
+    net: usize,
     data: &Windows,
     windows: &[usize],
 ) -> Result<WindowReplay, ImitationError> {
@@ -221,8 +253,9 @@ pub fn replay_windows(
         data.steps(),
         data.obs_dim(),
         data.mask_dim(),
-        policy.net(0).cells(),
+        policy.net(net).cells(),
     );
+    let h = data.heads();
     let picked: Vec<&Window> = windows.iter().map(|&i| &data.held()[i]).collect();
     let b = picked.len();
     let rows = t * b;
@@ -242,7 +275,7 @@ pub fn replay_windows(
             prev_a.extend_from_slice(&win.prev_actions[s * w..(s + 1) * w]);
             prev_r.push(win.prev_rewards[s]);
             keep.push(win.keep[s]);
-            labels.push(u32::from(win.labels[s]));
+            labels.extend(win.labels[s * h..(s + 1) * h].iter().map(|&a| u32::from(a)));
             weights.push(win.weights[s]);
         }
     }
@@ -254,7 +287,7 @@ pub fn replay_windows(
         .iter()
         .flat_map(|win| win.c0.iter().copied())
         .collect();
-    let out = policy.net(0).unroll(
+    let out = policy.net(net).unroll(
         &Tensor::from_vec(obs, (rows, d), &device)?,
         &Tensor::from_vec(prev_a, (rows, w), &device)?,
         &Tensor::from_vec(prev_r, (rows, 1), &device)?,
@@ -267,7 +300,7 @@ pub fn replay_windows(
     Ok(WindowReplay {
         logits: out.logits,
         bias: mask_bias(&masks, rows, w, &device)?,
-        labels: Tensor::from_vec(labels, rows, &device)?,
+        labels: Tensor::from_vec(labels, (rows, h), &device)?,
         weights: Tensor::from_vec(weights, rows, &device)?,
     })
 }

@@ -33,11 +33,21 @@ use crate::error::ImitationError;
 use crate::expert::Expert;
 use crate::windows::{WindowStep, Windows};
 
-/// DAgger's aggregate: labelled rows for a feed-forward policy, windows of
-/// consecutive steps for a recurrent one.
+/// DAgger's aggregate for one network: labelled rows for a feed-forward
+/// policy, windows of consecutive steps for a recurrent one.
 enum Data {
     Rows(Dataset),
     Windows(Windows),
+}
+
+impl Data {
+    /// Rows held (for windows: steps in the windows held).
+    fn held(&self) -> usize {
+        match self {
+            Data::Rows(rows) => rows.len(),
+            Data::Windows(windows) => windows.len() * windows.steps(),
+        }
+    }
 }
 
 /// What one DAgger round did.
@@ -66,14 +76,16 @@ pub struct RoundReport {
     pub seconds: f64,
 }
 
-/// Trains `policy` in place by DAgger on the envs of `venv` (local
-/// observations, one row per agent); calls `on_round` after every round.
+/// Trains `policy` in place by DAgger on the envs of `venv`; calls
+/// `on_round` after every round.
 ///
-/// The policy must have one network shared by all agents and one action
-/// head (CTDE); the env's observations must be the ones the policy was
-/// built for. A recurrent policy (LSTM) is cloned on windows of
-/// consecutive steps ([`crate::windows`]): its rollouts carry the LSTM
-/// state, the previous action and reward from step to step as in
+/// Every mode learns from the expert's joint step: a CTDE policy from each
+/// agent's action on that agent's row, each DTE agent's own network from
+/// its own rows, CTE's joint policy from all agents' actions on the env's
+/// one central row (one label per head). The env's observations must be
+/// the ones the policy was built for. A recurrent policy (LSTM) is cloned
+/// on windows of consecutive steps ([`crate::windows`]): its rollouts carry
+/// the LSTM state, the previous action and reward from step to step as in
 /// training, also in round 0, where the expert acts and the policy only
 /// watches.
 pub fn dagger<S: EnvSlot>(
@@ -85,17 +97,6 @@ pub fn dagger<S: EnvSlot>(
 ) -> Result<Vec<RoundReport>, ImitationError> {
     cfg.validate()?;
     let spec = policy.spec();
-    if policy.nets().len() != 1 || spec.heads != 1 {
-        return Err(ImitationError::Unsupported {
-            needed: "a policy shared by all agents (CTDE)",
-            found: format!(
-                "{} ({} networks, {} heads)",
-                spec.mode,
-                policy.nets().len(),
-                spec.heads,
-            ),
-        });
-    }
     if venv.obs_dim() != spec.obs_dim || venv.mask_dim() != spec.logits_dim() {
         return Err(ImitationError::Unsupported {
             needed: "the env's observations of the policy",
@@ -109,28 +110,44 @@ pub fn dagger<S: EnvSlot>(
         });
     }
     let (n, envs) = (venv.agents(), venv.num_envs());
-    let (d, w) = (venv.obs_dim(), venv.mask_dim());
-    let rows = n * envs;
+    let (d, w, heads) = (venv.obs_dim(), venv.mask_dim(), spec.heads);
+    let (rows, per_env) = (venv.rows(), venv.rows_per_env());
+    if per_env * heads != n {
+        return Err(ImitationError::Unsupported {
+            needed: "one head per agent on each env's rows",
+            found: format!("{per_env} rows of {heads} heads for {n} agents"),
+        });
+    }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut expert = Expert::new(cfg);
-    let mut data = match spec.lstm {
-        None => Data::Rows(Dataset::new(d, w, cfg.max_rows)),
-        Some(_) => Data::Windows(Windows::new(
-            d,
-            w,
-            cfg.window,
-            (cfg.max_rows / cfg.window).max(1),
-            rows,
-        )),
-    };
-    let mut cloner = Cloner::new(policy, cfg.lr, cfg.minibatch)?;
+    let nets = policy.nets().len();
+    let cap = (cfg.max_rows / nets).max(1);
+    let mut data: Vec<Data> = (0..nets)
+        .map(|_| match spec.lstm {
+            None => Data::Rows(Dataset::new(d, w, heads, cap)),
+            Some(_) => Data::Windows(Windows::new(
+                d,
+                w,
+                cfg.window,
+                (cap / cfg.window).max(1),
+                rows,
+            )),
+        })
+        .collect();
+    let mut cloners = (0..nets)
+        .map(|k| Cloner::new(policy, k, cfg.lr, cfg.minibatch))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut reports = Vec::with_capacity(cfg.rounds);
     let mode = match cfg.rollout {
         Rollout::Greedy => ActMode::Greedy,
         Rollout::Sampled => ActMode::Sample,
     };
-    let (mut actions, mut policy_actions, mut logp) =
-        (vec![0u8; rows], vec![0u8; rows], vec![0f32; rows]);
+    // Actions are `[rows, heads]`: one per agent in every mode.
+    let (mut actions, mut policy_actions, mut logp) = (
+        vec![0u8; rows * heads],
+        vec![0u8; rows * heads],
+        vec![0f32; rows],
+    );
     let (mut row_rewards, mut row_done) = (vec![0f32; rows], vec![0u8; rows]);
     let mut prev_one_hot = Vec::new();
     let mut actor: Option<Inference> = None;
@@ -172,12 +189,13 @@ pub fn dagger<S: EnvSlot>(
             for e in 0..envs {
                 let lo = e * n;
                 let labels = expert.label(venv.envs()[e].env());
-                for a in 0..n {
-                    let r = lo + a;
-                    let label = labels.map(|l| l.policy[a]);
+                for r in e * per_env..(e + 1) * per_env {
+                    // The agents row `r` acts for: one, or all of CTE's.
+                    let agents = (r - e * per_env) * heads..(r - e * per_env + 1) * heads;
+                    let label = labels.map(|l| &l.actions[agents]);
                     let obs = &venv.obs()[r * d..(r + 1) * d];
                     let mask = &venv.masks()[r * w..(r + 1) * w];
-                    match (&mut data, &before) {
+                    match (&mut data[spec.net_of_row(r)], &before) {
                         (Data::Rows(labelled), _) => {
                             if let Some(label) = label {
                                 labelled.push(obs, mask, label, &mut rng);
@@ -191,8 +209,8 @@ pub fn dagger<S: EnvSlot>(
                                 prev_action: &prev_one_hot[r * w..(r + 1) * w],
                                 prev_reward: st.prev_rewards[r],
                                 // The state marks a row's episode start with
-                                // "no previous action" (one head: CTDE).
-                                episode_start: st.prev_actions[r] == NO_ACTION,
+                                // "no previous action".
+                                episode_start: st.prev_actions[r * heads] == NO_ACTION,
                                 label,
                             };
                             let (h, c) = (&st.h[r * k..(r + 1) * k], &st.c[r * k..(r + 1) * k]);
@@ -206,7 +224,7 @@ pub fn dagger<S: EnvSlot>(
                 let follow_expert = expert_only || rng.random_bool(cfg.beta);
                 let chosen = &mut actions[lo..lo + n];
                 match (labels, follow_expert) {
-                    (Some(l), true) => chosen.copy_from_slice(&l.plan),
+                    (Some(l), true) => chosen.copy_from_slice(&l.actions),
                     // Round 0 without a plan: wait (the episode truncates).
                     _ if expert_only => chosen.fill(0),
                     _ => chosen.copy_from_slice(&policy_actions[lo..lo + n]),
@@ -228,26 +246,28 @@ pub fn dagger<S: EnvSlot>(
         } else {
             episodes.iter().filter(|e| e.success).count() as f64 / episodes.len() as f64
         };
-        let (fit, held) = match &data {
-            Data::Rows(labelled) => (
-                cloner.fit(policy, labelled, cfg.epochs, &mut rng)?,
-                labelled.len(),
-            ),
-            Data::Windows(windows) => (
-                cloner.fit_windows(policy, windows, cfg.epochs, &mut rng)?,
-                windows.len() * windows.steps(),
-            ),
-        };
+        // Each network fits its own data; the round reports their mean.
+        let (mut loss, mut accuracy) = (0.0, 0.0);
+        for (cloner, data) in cloners.iter_mut().zip(&data) {
+            let fit = match data {
+                Data::Rows(labelled) => cloner.fit(policy, labelled, cfg.epochs, &mut rng)?,
+                Data::Windows(windows) => {
+                    cloner.fit_windows(policy, windows, cfg.epochs, &mut rng)?
+                }
+            };
+            loss += fit.loss / nets as f64;
+            accuracy += fit.accuracy / nets as f64;
+        }
         let report = RoundReport {
             round,
             env_steps: steps,
-            rows: held,
+            rows: data.iter().map(Data::held).sum(),
             expert_calls: expert.calls - calls0,
             expert_failures: expert.failures - failures0,
             episodes: episodes.len(),
             success_rate,
-            loss: fit.loss,
-            accuracy: fit.accuracy,
+            loss,
+            accuracy,
             seconds: t0.elapsed().as_secs_f64(),
         };
         tracing::info!(

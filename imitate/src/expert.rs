@@ -9,10 +9,17 @@
 //! call in all.
 //!
 //! The policy's action mask forbids entering an occupied cell, even one
-//! its holder leaves in the same step (the env's index order would allow
-//! following a lower-index agent). Such a plan step is labelled "stay" for
-//! the policy ([`Labels::policy`]): the agent waits one step and enters the
-//! cell on the next, which is what a masked policy can do.
+//! its holder leaves in the same step (the env's index order would let an
+//! agent follow a lower-index one). So the expert never labels such a move:
+//! a plan step in which an agent follows another is split into steps that
+//! the policy can take ([`masked_steps`]) — first the agents whose target is
+//! free move and the followers wait, then the followers enter the cells
+//! just left. The labels are exactly the actions that take a rollout from
+//! one configuration of the (split) plan to the next, so a policy that
+//! follows them stays on the plan's track. (Replacing a follow move by
+//! "stay" and keeping the plan's next configurations instead leaves the
+//! track: the state after the wait is planned afresh, and the two plans'
+//! labels can close a cycle the policy then imitates faithfully.)
 
 use std::collections::HashMap;
 use std::time::Duration;
@@ -23,31 +30,59 @@ use buridan_mapf::{planner_by_name, Limits, Planner};
 
 use crate::config::ImitationConfig;
 
-/// The expert's next joint step in one state.
+/// The expert's next joint step in one state: one action per agent, none
+/// of them into a cell occupied at the start of the step, so the env
+/// executes it and a masked policy can take it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Labels {
-    /// The plan's actions (what the env executes to follow the plan).
-    pub plan: Vec<u8>,
-    /// The same with moves into a cell occupied at the start of the step
-    /// replaced by "stay": the targets for a policy whose mask forbids them.
-    pub policy: Vec<u8>,
+    /// Every agent's action (0 stay, 1 up, 2 right, 3 down, 4 left).
+    pub actions: Vec<u8>,
 }
 
-impl Labels {
-    fn new(plan: Vec<u8>, from: &[Cell], to: &[Cell]) -> Self {
-        let policy = plan
-            .iter()
-            .zip(to)
-            .map(|(&a, target)| {
-                if a != 0 && from.contains(target) {
-                    0
-                } else {
-                    a
-                }
-            })
+/// Splits one plan step, from `from` to `to` (a conflict-free joint move),
+/// into steps without following moves: each moves the agents whose target
+/// is free at its start, and the others wait. Returns each step's start
+/// configuration and actions, or `None` if agents would wait for each
+/// other in a cycle (a rotation, which simultaneous-move plans may hold).
+///
+/// ```
+/// use buridan_env::Cell;
+/// use buridan_imitate::expert::masked_steps;
+/// let c = |col| Cell { row: 0, col };
+/// // Agent 0 leaves cell 1 to the right; agent 1 follows it from cell 0.
+/// let steps = masked_steps(&[c(1), c(0)], &[c(2), c(1)], &[2, 2]).unwrap();
+/// assert_eq!(steps, vec![
+///     (vec![c(1), c(0)], vec![2, 0]), // the leader moves, the follower waits
+///     (vec![c(2), c(0)], vec![0, 2]), // then the follower enters
+/// ]);
+/// // A step without following stays one step.
+/// assert_eq!(masked_steps(&[c(0), c(5)], &[c(1), c(4)], &[2, 4]).unwrap().len(), 1);
+/// ```
+pub fn masked_steps(
+    from: &[Cell],
+    to: &[Cell],
+    actions: &[u8],
+) -> Option<Vec<(Vec<Cell>, Vec<u8>)>> {
+    let mut at = from.to_vec();
+    let mut pending: Vec<bool> = (0..from.len()).map(|i| from[i] != to[i]).collect();
+    let mut steps = Vec::with_capacity(1);
+    while pending.iter().any(|&p| p) {
+        let go: Vec<bool> = (0..at.len())
+            .map(|i| pending[i] && !at.contains(&to[i]))
             .collect();
-        Labels { plan, policy }
+        if !go.contains(&true) {
+            return None;
+        }
+        let step_actions = (0..at.len())
+            .map(|i| if go[i] { actions[i] } else { 0 })
+            .collect();
+        steps.push((at.clone(), step_actions));
+        for i in (0..at.len()).filter(|&i| go[i]) {
+            at[i] = to[i];
+            pending[i] = false;
+        }
     }
+    Some(steps)
 }
 
 type StateKey = (String, Vec<Cell>, Vec<Cell>);
@@ -133,15 +168,28 @@ impl Expert {
             self.known.insert(key.clone(), None);
             return;
         };
+        let at_goals = steps.is_empty();
         for (t, actions) in steps.into_iter().enumerate() {
             let (from, to) = (plan.positions_at(t), plan.positions_at(t + 1));
-            self.known
-                .entry((key.0.clone(), goals.clone(), from.clone()))
-                .or_insert_with(|| Some(Labels::new(actions, &from, &to)));
+            let Some(split) = masked_steps(&from, &to, &actions) else {
+                // A rotation the policy cannot take: the track ends here,
+                // and its states are asked anew when a rollout reaches them.
+                break;
+            };
+            for (config, actions) in split {
+                self.known
+                    .entry((key.0.clone(), goals.clone(), config))
+                    .or_insert_with(|| Some(Labels { actions }));
+            }
         }
-        // A state already on its goals: everyone stays.
-        self.known
-            .entry(key.clone())
-            .or_insert_with(|| Some(Labels::new(vec![0; starts.len()], starts, starts)));
+        if at_goals {
+            // Everyone is on their goal: everyone stays.
+            let actions = vec![0; starts.len()];
+            self.known.insert(key.clone(), Some(Labels { actions }));
+        } else if !self.known.contains_key(key) {
+            // The plan opens with a rotation: no label the policy can take.
+            self.failures += 1;
+            self.known.insert(key.clone(), None);
+        }
     }
 }

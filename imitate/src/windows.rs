@@ -12,6 +12,7 @@
 //! policy as it was when the window was collected; later fits start from it
 //! all the same, which R2D2 found works once windows are a few dozen steps.
 
+use buridan_policy::ACTIONS_PER_HEAD;
 use rand::Rng;
 
 /// One step of one agent inside a window.
@@ -28,8 +29,9 @@ pub struct WindowStep<'a> {
     /// Whether an episode starts at this step (the LSTM state is reset
     /// before it).
     pub episode_start: bool,
-    /// The expert's action, if the expert answered for this state.
-    pub label: Option<u8>,
+    /// The expert's action for each head (one per agent the row acts
+    /// for), if the expert answered for this state.
+    pub label: Option<&'a [u8]>,
 }
 
 /// One window: `len` consecutive steps of one agent, time-major, and the
@@ -46,7 +48,7 @@ pub struct Window {
     pub prev_rewards: Vec<f32>,
     /// 0 where an episode starts at the step, else 1 `[len]`.
     pub keep: Vec<f32>,
-    /// The expert's actions `[len]` (0 where unlabelled).
+    /// The expert's actions `[len, heads]` (0 where unlabelled).
     pub labels: Vec<u8>,
     /// 1 where the step has a label, else 0 `[len]`.
     pub weights: Vec<f32>,
@@ -59,7 +61,7 @@ pub struct Window {
 impl Window {
     /// Steps in the window so far.
     pub fn steps(&self) -> usize {
-        self.labels.len()
+        self.weights.len()
     }
 
     /// Its labelled steps.
@@ -68,8 +70,10 @@ impl Window {
     }
 }
 
-/// Windows of `len` steps of one agent each, kept in a reservoir of at most
-/// `cap` windows; one window is filled per row (agent slot) at a time.
+/// Windows of `len` steps of one row each (one agent, or CTE's joint row),
+/// kept in a reservoir of at most `cap` windows; one window is filled per
+/// row at a time. Masks hold [`ACTIONS_PER_HEAD`] slots per head, so a row
+/// has `mask_dim / 5` labels.
 ///
 /// ```
 /// use buridan_imitate::windows::{WindowStep, Windows};
@@ -81,7 +85,7 @@ impl Window {
 ///     let step = WindowStep {
 ///         obs: &[0.5, 1.0], mask: &[1, 1, 0, 0, 1], prev_action: &[0.0; 5],
 ///         prev_reward: 0.0, episode_start: k == 0,
-///         label: if k == 1 { None } else { Some(4) },
+///         label: if k == 1 { None } else { Some(&[4]) },
 ///     };
 ///     // The LSTM state before the step: kept when it opens a window.
 ///     w.push(0, step, &[0.1], &[0.2], &mut rng);
@@ -93,6 +97,7 @@ impl Window {
 pub struct Windows {
     obs_dim: usize,
     mask_dim: usize,
+    heads: usize,
     len: usize,
     cap: usize,
     seen: u64,
@@ -107,6 +112,7 @@ impl Windows {
         Self {
             obs_dim,
             mask_dim,
+            heads: (mask_dim / ACTIONS_PER_HEAD).max(1),
             len: len.max(1),
             cap: cap.max(1),
             seen: 0,
@@ -145,6 +151,11 @@ impl Windows {
         self.obs_dim
     }
 
+    /// Labels per step: the heads of a row.
+    pub fn heads(&self) -> usize {
+        self.heads
+    }
+
     /// Row width of the masks (and of the one-hot previous actions).
     pub fn mask_dim(&self) -> usize {
         self.mask_dim
@@ -179,7 +190,13 @@ impl Windows {
         o.prev_actions.extend_from_slice(step.prev_action);
         o.prev_rewards.push(step.prev_reward);
         o.keep.push(if step.episode_start { 0.0 } else { 1.0 });
-        o.labels.push(step.label.unwrap_or(0));
+        match step.label {
+            Some(labels) => {
+                debug_assert_eq!(labels.len(), self.heads);
+                o.labels.extend_from_slice(labels);
+            }
+            None => o.labels.extend(std::iter::repeat_n(0, self.heads)),
+        }
         o.weights.push(if step.label.is_some() { 1.0 } else { 0.0 });
         if o.steps() == self.len {
             let full = std::mem::take(o);
@@ -206,6 +223,8 @@ impl Windows {
 mod tests {
     use super::*;
 
+    const LABELS: [[u8; 1]; 5] = [[0], [1], [2], [3], [4]];
+
     fn step(
         obs: &[f32],
         prev_reward: f32,
@@ -218,7 +237,7 @@ mod tests {
             prev_action: &[0.0; 5],
             prev_reward,
             episode_start,
-            label,
+            label: label.map(|a| &LABELS[a as usize][..]),
         }
     }
 

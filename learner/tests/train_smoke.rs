@@ -240,11 +240,34 @@ fn imitation_runs_before_learning_and_logs_its_rounds() {
     assert_eq!(csv.lines().count(), 3, "{csv}");
     let trained = Policy::load(&final_checkpoint(lstm_dir.path())).unwrap();
     assert!(trained.spec().is_recurrent());
-    // Imitation needs a network shared by all agents.
-    cfg.lstm = false;
-    cfg.mode = Mode::Dte;
-    let err = train(&cfg, dir.path(), &mut NoProgress).unwrap_err();
-    assert!(matches!(err, TrainError::Config(_)), "{err}");
+    // DTE's agents each imitate with their own network, CTE's joint policy
+    // with one head per agent: every network moves, and the expert's
+    // actions are what each head learns.
+    for (mode, lstm) in [(Mode::Dte, false), (Mode::Cte, false), (Mode::Dte, true)] {
+        cfg.mode = mode;
+        cfg.lstm = lstm;
+        let out = tempfile::tempdir().unwrap();
+        train(&cfg, out.path(), &mut NoProgress).unwrap();
+        let rounds = std::fs::read_to_string(out.path().join("imitation.csv")).unwrap();
+        assert_eq!(rounds.lines().count(), 3, "{mode}: {rounds}");
+        let trained = Policy::load(&final_checkpoint(out.path())).unwrap();
+        let fresh = Policy::new(trained.spec().clone(), cfg.seed).unwrap();
+        for k in 0..trained.nets().len() {
+            let (a, b) = (trained.net_vars(k), fresh.net_vars(k));
+            let values = |v: &candle_core::Var| {
+                v.as_tensor()
+                    .flatten_all()
+                    .unwrap()
+                    .to_vec1::<f32>()
+                    .unwrap()
+            };
+            let moved = a
+                .iter()
+                .zip(&b)
+                .any(|((_, x), (_, y))| values(x) != values(y));
+            assert!(moved, "{mode}: network {k} did not learn");
+        }
+    }
 }
 
 #[test]

@@ -11,6 +11,7 @@ use buridan_plant::{Plant, PlantConfig, PlantEnv, PlantError};
 use buridan_policy::{ActMode, LstmSpec, Mode, ModelSpec, ValueHead};
 use serde::{Deserialize, Serialize};
 
+use super::stop::StopRule;
 use crate::algo::impala::ImpalaSettings;
 use crate::algo::ppo::PpoSettings;
 use crate::algo::schedule::Schedule;
@@ -530,6 +531,11 @@ pub struct TrainConfig {
     pub stop_return: Option<f64>,
     /// …and (if set) their mean length is at most this.
     pub stop_len: Option<f64>,
+    /// Stop once the policy has learned, TOML `[stop]`: the training
+    /// success has held `success` for `hold` env steps (`steps` stays the
+    /// cap; [`super::stop`]). Off by default; the recipe sets it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stop: Option<StopRule>,
     /// Continue from this checkpoint directory (weights, optimiser, counters).
     pub resume: Option<PathBuf>,
     /// PPO settings.
@@ -582,6 +588,7 @@ impl Default for TrainConfig {
             checkpoint_every: 50,
             stop_return: None,
             stop_len: None,
+            stop: None,
             resume: None,
             ppo: PpoConfig::default(),
             impala: ImpalaConfig::default(),
@@ -938,16 +945,15 @@ impl TrainConfig {
         )?;
         ensure(self.lstm_cells >= 1, "lstm_cells must be positive")?;
         self.replay.validate().map_err(ConfigError::Replay)?;
+        if let Some(stop) = &self.stop {
+            stop.validate().map_err(ConfigError::Invalid)?;
+        }
         self.validate_hyperparameters()?;
         for (section, im) in self.imitation_phases() {
             im.validate().map_err(|e| ConfigError::Imitation {
                 section,
                 source: Box::new(e),
             })?;
-            ensure(
-                self.mode == Mode::Ctde,
-                "[imitation] and [polish] train a policy shared by all agents: mode = \"ctde\"",
-            )?;
         }
         self.validate_plant()?;
         self.validate_maps()

@@ -338,6 +338,10 @@ pub struct Summary {
     pub stale_fragments: u64,
     /// Whether the stop criteria ended the run before the step budget.
     pub stopped_early: bool,
+    /// What ended the run: its step budget, the `[stop]` rule or the
+    /// return goal.
+    #[serde(default)]
+    pub stop_reason: super::stop::StopReason,
     /// The training layouts (one for a single-map run).
     #[serde(default)]
     pub maps: Vec<String>,

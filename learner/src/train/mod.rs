@@ -29,6 +29,7 @@ pub mod exchange;
 pub mod gate;
 pub mod metrics;
 pub mod rollout;
+pub mod stop;
 pub mod target;
 pub mod tensorboard;
 
@@ -57,6 +58,7 @@ pub use config::{Algo, ConfigError, ImpalaConfig, PpoConfig, TrainConfig, Weight
 pub use error::{ExchangeError, Interrupted, TrainError};
 pub use exchange::{Exchange, InProcess, Shared, Ticket};
 pub use metrics::{EpisodeWindow, LayoutWindows, MetricsError, MetricsRow, MetricsWriter, Summary};
+pub use stop::{StopReason, StopRule};
 
 /// The run's metrics file inside its output directory.
 pub const METRICS_FILE: &str = "metrics.csv";
@@ -385,6 +387,8 @@ pub struct Run {
     wall_offset: f64,
     t_start: Instant,
     interrupt: Option<Arc<AtomicBool>>,
+    /// The `[stop]` rule's progress (it starts afresh on resume).
+    holding: Option<stop::Holding>,
 }
 
 impl Run {
@@ -473,6 +477,7 @@ impl Run {
             state,
             t_start,
             interrupt: None,
+            holding: cfg.stop.map(stop::Holding::new),
         })
     }
 
@@ -609,7 +614,7 @@ impl Run {
     ) -> Result<Summary, TrainError> {
         let result = self.learn_loop(exchange, progress);
         let finished = exchange.finish(result.is_ok());
-        let stopped_early = result?;
+        let reason = result?;
         finished?;
         if let Some(polish) = &self.cfg.polish {
             imitate(
@@ -624,7 +629,8 @@ impl Run {
         let final_dir = checkpoint::final_dir(&self.out);
         self.save_checkpoint(&final_dir)?;
         progress.on_checkpoint(&final_dir);
-        let summary = self.summary(final_dir, stopped_early);
+        tracing::info!(reason = %reason, env_steps = self.state.env_steps, "training stopped");
+        let summary = self.summary(final_dir, reason);
         let json = serde_json::to_value(&summary).unwrap_or(serde_json::Value::Null);
         let json = serde_json::to_string_pretty(&json).expect("summary serialises");
         write_file(&self.out.join(SUMMARY_FILE), &json)?;
@@ -636,13 +642,13 @@ impl Run {
         self.wall_offset + self.t_start.elapsed().as_secs_f64()
     }
 
-    /// Runs updates until the step budget; `Ok(true)` if stopped early by
-    /// the `stop_return` goal.
+    /// Runs updates until the step budget, or until a stop rule holds
+    /// (`[stop]`, `stop_return`); says which ended it.
     fn learn_loop(
         &mut self,
         exchange: &mut dyn Exchange,
         progress: &mut dyn Progress,
-    ) -> Result<bool, TrainError> {
+    ) -> Result<StopReason, TrainError> {
         let mut metrics = MetricsWriter::open(&self.out.join(METRICS_FILE))?;
         let mut events = tensorboard::EventWriter::create(&self.out)?;
         let shuffle_seed = seed::learner_shuffle(self.cfg.seed, self.state.updates);
@@ -678,10 +684,26 @@ impl Run {
                 progress.on_checkpoint(&dir);
             }
             if self.goal_reached() {
-                return Ok(true);
+                return Ok(StopReason::ReturnGoal);
+            }
+            if self.learned(&row) {
+                return Ok(StopReason::Learned);
             }
         }
-        Ok(false)
+        Ok(StopReason::Budget)
+    }
+
+    /// Whether the `[stop]` rule holds after the update of `row`.
+    fn learned(&mut self, row: &MetricsRow) -> bool {
+        let full = self.window.len() >= metrics::EPISODE_WINDOW;
+        let at = target::Mark {
+            update: row.update,
+            env_steps: row.env_steps,
+            wall_seconds: row.wall_seconds,
+        };
+        self.holding
+            .as_mut()
+            .is_some_and(|h| h.observe(row.success_rate, full, at))
     }
 
     fn exchange_status(&self, exchange: &dyn Exchange) -> ExchangeStatus {
@@ -825,7 +847,7 @@ impl Run {
         self.window.len() >= metrics::EPISODE_WINDOW && self.window.return_mean() >= goal && len_ok
     }
 
-    fn summary(&self, final_checkpoint: PathBuf, stopped_early: bool) -> Summary {
+    fn summary(&self, final_checkpoint: PathBuf, reason: StopReason) -> Summary {
         let (cfg, window, state) = (&self.cfg, &self.window, &self.state);
         let names = cfg.layout_names();
         let (mut success_by_map, mut episodes_by_map) = Default::default();
@@ -858,7 +880,8 @@ impl Run {
             success_rate: window.success_rate(),
             episode_len_mean: window.len_mean(),
             stale_fragments: state.stale_fragments,
-            stopped_early,
+            stopped_early: reason != StopReason::Budget,
+            stop_reason: reason,
             time_to_target: state.time_to_target.clone(),
             final_checkpoint,
         }
