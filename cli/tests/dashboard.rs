@@ -163,3 +163,121 @@ fn an_address_that_cannot_be_bound_is_reported() {
         "{err}"
     );
 }
+
+/// Starts `learner ARGS --dashboard 127.0.0.1:0` on the tiny config, opens
+/// the event stream as a browser tab would, waits until `ready` says the
+/// run is under way, sends SIGTERM and asserts that the process exits
+/// within 10 s, with the checkpoint of an interrupted run written.
+#[cfg(unix)]
+fn sigterm_ends_the_run_despite_an_open_page(
+    command: &str,
+    extra: &[&str],
+    ready: fn(&std::path::Path) -> bool,
+) {
+    use std::time::{Duration, Instant};
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let config = common::tiny_config(dir.path());
+    let child = Command::new(env!("CARGO_BIN_EXE_learner"))
+        .args([command, "--config"])
+        .arg(&config)
+        .args(["--steps", "100000000", "--seed", "5", "--quiet"])
+        .args(["--set", "checkpoint_every=100000"])
+        .args(["--dashboard", "127.0.0.1:0", "--dashboard-eval", "3"])
+        .args(extra)
+        .arg("--out")
+        .arg(&out)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut child = Guard(child);
+    let stderr = child.0.stderr.take().unwrap();
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let mut log = Vec::new();
+    let addr: SocketAddr = loop {
+        let line = rx
+            .recv_timeout(Duration::from_secs(120))
+            .unwrap_or_else(|_| panic!("no dashboard address:\n{}", log.join("\n")));
+        log.push(line.clone());
+        if let Some(rest) = line.strip_prefix("dashboard at http://") {
+            break rest.split_whitespace().next().unwrap().parse().unwrap();
+        }
+    };
+    // The open page: its event stream stays connected through the stop.
+    let mut page = TcpStream::connect(addr).unwrap();
+    write!(page, "GET /api/events HTTP/1.1\r\nHost: test\r\n\r\n").unwrap();
+    let mut seen = String::new();
+    let mut buf = [0u8; 1024];
+    while !seen.contains("event: hello") {
+        let n = page.read(&mut buf).unwrap();
+        assert!(n > 0, "the event stream closed: {seen}");
+        seen.push_str(&String::from_utf8_lossy(&buf[..n]));
+    }
+    let start = Instant::now();
+    while !ready(&out) {
+        assert!(start.elapsed() < Duration::from_secs(120), "never ready");
+        assert!(child.0.try_wait().unwrap().is_none(), "ended early");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.0.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let signalled = Instant::now();
+    let status = loop {
+        if let Some(status) = child.0.try_wait().unwrap() {
+            break status;
+        }
+        assert!(
+            signalled.elapsed() < Duration::from_secs(10),
+            "learner {command} still running 10 s after SIGTERM with a page open"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    while let Ok(line) = rx.recv_timeout(Duration::from_secs(1)) {
+        log.push(line);
+    }
+    let log = log.join("\n");
+    assert!(status.code().is_some(), "killed by the signal: {log}");
+    let line = log
+        .lines()
+        .find(|l| l.contains("interrupted after update"))
+        .unwrap_or_else(|| panic!("no interruption message in: {log}"));
+    let checkpoint = line.split("--resume ").nth(1).unwrap().trim();
+    assert!(
+        buridan_policy::checkpoint::is_checkpoint(std::path::Path::new(checkpoint)),
+        "{checkpoint} is not a checkpoint"
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_ends_training_with_a_dashboard_page_open() {
+    // Under way: an update logged.
+    sigterm_ends_the_run_despite_an_open_page("train", &[], |out| {
+        std::fs::read_to_string(out.join("metrics.csv")).is_ok_and(|s| s.lines().count() > 1)
+    });
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_ends_serving_with_a_dashboard_page_open() {
+    // The learner serves and waits for actors: it has written its config.
+    let listen = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listen.local_addr().unwrap().to_string();
+    drop(listen);
+    let addr: &'static str = Box::leak(addr.into_boxed_str());
+    sigterm_ends_the_run_despite_an_open_page("serve", &["--listen", addr], |out| {
+        out.join("config.toml").is_file()
+    });
+}
