@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
-# Issue 9's second must-show, as a user would check it: each shipped
-# per-layout config (learner/configs/<algo>-ctde-<layout>.toml) trained
-# exactly as its header says (`learner train --config FILE`, the config's
-# own seed, steps and threads), then the seed-42 evaluation (100 episodes,
-# 4 agents, random starts and goals, T_max 100) with sampled and with
-# greedy actions, beside the dissertation's figure (SPEC §6, sampled).
+# Each shipped per-layout config (learner/configs/<algo>-ctde-<layout>.toml),
+# checked as a user would: trained exactly as its header says (`learner
+# train --config FILE`, the config's own seed, steps and threads), then the
+# seed-42 evaluation (100 episodes, 4 agents, random starts and goals, T_max
+# 100) with sampled and with greedy actions, beside the dissertation's
+# figure (SPEC §6, sampled). Results: docs/results/check-configs/.
 #
 # Usage: scripts/check-configs.sh OUT [PARALLEL] [CONFIG_NAME ...]
 #   PARALLEL  runs at once (default 1; each PPO run uses both cores alone)

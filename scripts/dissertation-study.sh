@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The dissertation's whole evaluation program (issue 9, SPEC §6) in one
+# The dissertation's whole evaluation program (SPEC §6) in one
 # command, on the study files in learner/studies/:
 #   1. the phase-1 searches: model 1.1 in all modes, 2.1 and 3.1 (PPO, IMPALA);
 #   2. the comparison table: rm-2.1, 2.1b, 2.2, 3.1 x PPO, IMPALA, 10 seeds;

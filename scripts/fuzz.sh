@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Long runs of the fuzz targets (issue 16; README, "Fuzzed parsers and
+# Long runs of the fuzz targets (the book's "Fuzzed parsers and
 # decoders"): every target with CASES inputs (default 1,000,000), in release
 # mode with overflow checks on in the crates under test, one target at a
 # time; prints per target the inputs run, how many the parser accepted, and

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Embedded training against `learner serve` + actor processes on loopback,
 # alternating, same config, steps and seeds: env steps/s of each run and
-# the ratio gRPC / embedded (issue 15: "IMPALA over gRPC ≥ 0.9× the
-# embedded run"). Each pair runs back to back, so both arms see the same
+# the ratio gRPC / embedded (the target: IMPALA over gRPC at ≥ 0.9× the
+# embedded run). Each pair runs back to back, so both arms see the same
 # background load; the ratio is the mean of the per-pair ratios. Usage:
 #   cargo build --release -p buridan-cli -p buridan-actor
 #   scripts/transport-bench.sh                                   # IMPALA tuned rm-2.1, 2M steps, 3 pairs

@@ -1,4 +1,4 @@
-//! Fuzz target of the experiment files (issue 16): TOML text →
+//! Fuzz target of the experiment files: TOML text →
 //! `Experiment::from_str` (`learner study`'s `[experiment]` and
 //! `[[method]]` tables, resolved against the file's directory). Nothing
 //! panics or allocates what a number asks for; an accepted experiment has

@@ -1,4 +1,4 @@
-//! Fuzz targets of the MovingAI `.map` and `.scen` parsers (issue 16): any
+//! Fuzz targets of the MovingAI `.map` and `.scen` parsers: any
 //! text is either refused with a `MapError::Parse` or parsed into a grid and
 //! scenario that agree with the text, and printing the result parses back to
 //! the same. `BURIDAN_FUZZ_CASES` sets the cases per target (default 256);

@@ -61,7 +61,7 @@ use crate::controller::{Controller, GiveUp, PlanNotes};
 
 /// How much longer than the planner's plan from the start a `pace:` twin's
 /// run may take and still drive the episode: 10 % (the recipe's target
-/// against CBS's timesteps, issue 10).
+/// against CBS's timesteps: within 10 % of them on the instances both solve).
 pub const PACE_SLACK: f64 = 0.10;
 
 /// An inner controller rescued from stalls by a planner (see the

@@ -4,7 +4,7 @@
 //! IMPALA step of the tuned rm-2.1 config (`learner/configs/impala-ctde-rm-2.1.toml`:
 //! 10 envs × 50 steps × 4 agents = 2000 samples) with the [64, 64] MLP
 //! and with the 64-cell LSTM after it, side by side — the learner's half
-//! of issue 15's LSTM / MLP ratio, apart from the actors.
+//! of the end-to-end LSTM / MLP training-speed ratio, apart from the actors.
 //!
 //! `cargo bench -p buridan-learner --bench update`
 

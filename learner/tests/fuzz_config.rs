@@ -1,4 +1,4 @@
-//! Fuzz target of the training configuration (issue 16): TOML text →
+//! Fuzz target of the training configuration: TOML text →
 //! `TrainConfig::from_toml_file`, and `--maps` lists →
 //! `WeightedMap::parse_list`. Nothing panics; an accepted config validates,
 //! prints (`to_toml`) and reads back to the same config. Seeds are the

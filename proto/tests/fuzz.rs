@@ -1,4 +1,4 @@
-//! Fuzz targets of the wire (issue 16): prost decoding of arbitrary bytes
+//! Fuzz targets of the wire: prost decoding of arbitrary bytes
 //! into every message of `buridan.v1`, and the conversion of arbitrary
 //! well-formed but nonsensical messages into the crate types
 //! (`proto/src/convert.rs`). Nothing panics or allocates more than the

@@ -1,5 +1,5 @@
 #!/bin/sh
-# The POGEMA benchmark's learned row (issue 18): the recipe trained under
+# The POGEMA benchmark's learned row: the recipe trained under
 # pogema rules on the reference layouts rm-3.1 and rm-2.2 (never on the
 # warehouse), one policy per training seed, then `learner bench pogema` with
 # each policy raw (greedy), through the PIBT collision shield, through the

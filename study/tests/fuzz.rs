@@ -1,4 +1,4 @@
-//! Fuzz targets of the study files (issue 16): TOML text →
+//! Fuzz targets of the study files: TOML text →
 //! `StudyConfig::from_toml_str` (which parses the `[space]` table too), and
 //! durations → `parse_duration`. Nothing panics or allocates what a number
 //! asks for; an accepted study has its documented ranges, and every

@@ -269,7 +269,7 @@ fn a_killed_pbt_study_continues_from_its_last_finished_round() {
     study.run(&Fake::default()).unwrap();
     let expected = study.state().clone();
 
-    // Session 1 is killed as member 2 starts round 3: on disk, what was saved then.
+    // The first invocation is killed as member 2 starts round 3: on disk, what was saved then.
     let dir = tempfile::tempdir().unwrap();
     let first = Fake {
         snapshot_at: Some((2, 3)),

@@ -65,7 +65,7 @@ fn config(extra: &str, trials: u64) -> StudyConfig {
 #[test]
 fn a_study_resumes_without_rerunning_finished_trials() {
     let dir = tempfile::tempdir().unwrap();
-    // Session 1: four trials.
+    // First invocation: four trials.
     let first = Counting::default();
     let mut study = Study::open(dir.path(), config("", 4)).unwrap();
     let p = study.run(&first).unwrap();
@@ -78,7 +78,7 @@ fn a_study_resumes_without_rerunning_finished_trials() {
     killed.trials[3].status = TrialStatus::Running;
     killed.save(dir.path()).unwrap();
 
-    // Session 2, with a larger budget of 6 trials.
+    // Second invocation, with a larger budget of 6 trials.
     let second = Counting::default();
     let mut study = Study::open(dir.path(), config("", 6)).unwrap();
     let p = study.run(&second).unwrap();
@@ -103,7 +103,7 @@ fn a_study_resumes_without_rerunning_finished_trials() {
     assert_eq!(after.trials[3].overrides, before.trials[3].overrides);
     assert_eq!(after.trials[3].starts, 2);
 
-    // Session 3: nothing left to do, nothing runs.
+    // Third invocation: nothing left to do, nothing runs.
     let third = Counting::default();
     let p = Study::open(dir.path(), config("", 6))
         .unwrap()

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The ablation table of the default recipe (issue 10), one row per layout and method.
+"""The ablation table of the default recipe, one row per layout and method.
 
 Reads a `learner study` directory after `learner study report` (its
 `table.csv`: mean success and 95 % CI per layout, method and actions) and

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""How much of a hybrid controller's work the planner did (issue 10).
+"""How much of a hybrid controller's work the planner did.
 
 Reads a `learner study` directory and, for every evaluation of a policy
 behind a planner (`rescued`, `lookahead`, `backstop`), prints per layout,

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Time to target of a study's training runs (issue 15: "wall time until the
-training success first reaches 96 % and stays there").
+"""Time to target of a study's training runs: the wall time until the
+training success first reaches 96 % and stays there.
 
 Reads every run's summary.json under a `learner study` directory (its
 `time_to_target`: per level, when the 100-episode training success first

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Median timesteps of learned controllers against a planner's, on the
-episodes both solve (issue 10: "median timesteps within 10 % of CBS's on the
-instances both solve").
+episodes both solve (the target: median timesteps within 10 % of CBS's on
+the instances both solve).
 
 Reads a `learner study` directory (its plan.json and each evaluation's
 episodes.csv) and prints, per layout, method and action mode, the median
