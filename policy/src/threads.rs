@@ -59,7 +59,7 @@ pub fn tune_allocator() {
 /// (0–19; threads it starts afterwards inherit it), so that on a machine
 /// it shares with the learner an actor process yields the cores to the
 /// learner's update thread, the run's bottleneck
-/// (`docs/results/transport/RUNS.md`). Call it at the start of `main`,
+/// (`docs/results/transport/RESULTS.md`). Call it at the start of `main`,
 /// before any other thread exists. Lowering needs no privileges; nothing
 /// here raises a priority. Linux only: elsewhere an `Unsupported` error.
 ///

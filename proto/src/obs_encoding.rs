@@ -5,7 +5,7 @@
 //! Observations are mostly one-hot zeros and ones, so a fragment's megabyte
 //! of them packs into about a tenth with LZ4 or with codes — and packing
 //! costs the actor less CPU than HTTP/2 and the kernel spend moving the raw
-//! bytes (`docs/results/transport/RUNS.md`); codes decode faster than LZ4
+//! bytes (`docs/results/transport/RESULTS.md`); codes decode faster than LZ4
 //! (the learner's side) and encode in about its time. Decoding is bounded: the caller names the number
 //! of values the shape asks for, a buffer must decode to exactly that, and
 //! the output is never larger than the caller's byte limit, so a small
