@@ -55,7 +55,9 @@ pub struct TrainArgs {
     /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it. Without one: the default recipe (PPO-CTDE with the 64-cell LSTM, warm-started by imitating LaCAM and OD-A*, the path feature and shaping, 1M steps; README, "The default recipe")
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Env-step budget.
+    /// Env-step budget: the most a run trains (the recipe's `[stop]` rule
+    /// may end it sooner, once the policy has learned; --no-stop keeps it
+    /// to the budget).
     #[arg(long)]
     pub steps: Option<u64>,
     /// Seed of envs, weights and sampling.
@@ -76,6 +78,10 @@ pub struct TrainArgs {
     /// from rewards alone from the first step.
     #[arg(long)]
     pub no_imitation: bool,
+    /// Ignore the `[stop]` rule of the recipe or the config: train for the
+    /// whole step budget even once the policy has learned.
+    #[arg(long)]
+    pub no_stop: bool,
     /// Output directory: metrics.csv, checkpoints/, summary.json, curves.
     #[arg(long)]
     pub out: PathBuf,
@@ -206,6 +212,9 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
     if args.no_imitation {
         cfg.imitation = None;
     }
+    if args.no_stop {
+        cfg.stop = None;
+    }
     if cfg.plant.is_some() && args.config.is_none() {
         // The recipe's features and shaping are grid ones (a plant run
         // refuses them): left out unless set explicitly.
@@ -218,6 +227,10 @@ pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
         // Its imitation asks grid planners for labels.
         if !set_keys.iter().any(|k| k.starts_with("imitation")) {
             cfg.imitation = None;
+        }
+        // Plant episodes only truncate: no success for `[stop]` to hold.
+        if !set_keys.iter().any(|k| k.starts_with("stop")) {
+            cfg.stop = None;
         }
     }
     if !t_max_given {

@@ -191,6 +191,12 @@ fn without_a_config_the_recipe_imitates_first_unless_told_not_to() {
     let recipe = buridan_learner::train::TrainConfig::recipe();
     assert!(cfg.lstm && cfg.imitation.is_some());
     assert_eq!(cfg.imitation, recipe.imitation);
+    // The recipe stops once learned, unless told to use its whole budget.
+    assert_eq!(cfg.stop, recipe.stop);
+    assert!(cfg.stop.is_some());
+    args.no_stop = true;
+    assert!(train::resolve_config(&args).unwrap().stop.is_none());
+    args.no_stop = false;
     args.no_imitation = true;
     let cfg = train::resolve_config(&args).unwrap();
     assert!(cfg.lstm && cfg.imitation.is_none());

@@ -111,7 +111,7 @@ impl Expert {
     /// let mut expert = buridan_imitate::Expert::new(&cfg);
     /// let env = GridEnv::new(Arc::new(Map::load("rm-2.1").unwrap()), EnvConfig::default()).unwrap();
     /// let labels = expert.label(&env).unwrap();
-    /// assert_eq!(labels.plan.len(), 4);
+    /// assert_eq!(labels.actions.len(), 4);
     /// assert_eq!(expert.calls, 1);
     /// expert.label(&env);
     /// assert_eq!(expert.calls, 1, "a known state costs no call");

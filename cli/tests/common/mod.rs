@@ -71,6 +71,7 @@ pub fn train_args(out: PathBuf) -> TrainArgs {
             "lstm=false".into(),
         ],
         no_imitation: true,
+        no_stop: false,
         out,
         quiet: true,
         stop_when_stdin_closes: false,

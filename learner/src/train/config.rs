@@ -600,25 +600,19 @@ impl Default for TrainConfig {
 
 impl TrainConfig {
     /// The default recipe: what `learner train --map LAYOUT` runs without a
-    /// config (issue 10). PPO-CTDE with the dissertation's 64-cell LSTM,
-    /// warm-started by imitation: DAgger on the planners' next steps (4
-    /// rounds of 20k env steps labelled by LaCAM, then OD-A\*, 10 ms per
-    /// call), then 1M PPO env steps with the comparison settings (lr 1e-3,
-    /// 12 epochs, clip 0.05, entropy 0.001, batch = minibatch = 4000), the
-    /// path and intent features and potential-based shaping 0.05; one
-    /// update thread, so two runs share two cores.
+    /// config. PPO-CTDE with the dissertation's 64-cell LSTM, warm-started
+    /// by imitation: DAgger on the planners' next steps (4 rounds of 20k env
+    /// steps labelled by LaCAM, then OD-A\*, 10 ms per call), then PPO with
+    /// the comparison settings (lr 1e-3, 12 epochs, clip 0.05, entropy
+    /// 0.001, batch = minibatch = 4000), the path and intent features and
+    /// potential-based shaping 0.05; one update thread, so two runs share
+    /// two cores. PPO runs until the training success has stayed at 99 % or
+    /// more for 200k env steps (`[stop]`), at most 1M env steps.
     ///
-    /// Chosen by measurement (README, "The default recipe";
-    /// `learner/studies/recipe-lstm-imitation.toml`, 10 seeds per layout):
-    /// shielded greedy it solves 95-99 % of the seed-42 episodes on rm-2.1,
-    /// rm-2.1b, rm-2.2 and rm-3.1 (the feed-forward IMPALA recipe before it:
-    /// 58-91 %), and behind the planner backstop 100 % with the planner
-    /// driving 1-5 % of the episodes; a run takes 6-9 minutes here. The
-    /// intent feature joined it in session 26: on rm-2.1b it lifts greedy
-    /// success from 89.2 to 95.1 % (10 seeds,
-    /// `learner/studies/recipe-lstm-imitation-intent.toml`). The recipe
-    /// before it, IMPALA feed-forward in 20-40 s, is kept as
-    /// `learner/configs/recipe-impala-feedforward.toml`.
+    /// Chosen by measurement: the book's recipe chapter and
+    /// `docs/results/recipe-lstm-imitation*/RESULTS.md` give its figures per
+    /// layout (10 seeds each) and the feed-forward IMPALA recipe it
+    /// replaced, kept as `learner/configs/recipe-impala-feedforward.toml`.
     ///
     /// ```
     /// use buridan_learner::train::{Algo, TrainConfig};
@@ -627,6 +621,7 @@ impl TrainConfig {
     /// assert!(r.lstm && r.features.path && r.features.intent && r.shaping > 0.0);
     /// let imitation = r.imitation.as_ref().unwrap();
     /// assert_eq!((imitation.rounds, imitation.expert.as_slice()), (4, &["lacam".to_string(), "od-astar".into()][..]));
+    /// assert_eq!(r.stop.map(|s| (s.success, s.hold)), Some((0.99, 200_000)));
     /// r.validate().unwrap();
     /// ```
     pub fn recipe() -> Self {
@@ -639,6 +634,10 @@ impl TrainConfig {
             },
             shaping: 0.05,
             steps: 1_000_000,
+            stop: Some(StopRule {
+                success: 0.99,
+                hold: 200_000,
+            }),
             lstm: true,
             ppo: PpoConfig {
                 update_threads: 1,
