@@ -360,3 +360,36 @@ fn schedules_set_each_updates_learning_rate_and_entropy_coefficient() {
         .iter()
         .all(|r| r.entropy_coeff == cfg.ppo.entropy_coeff as f64));
 }
+
+/// Right after imitation the RL phase's rollouts do what the imitated
+/// policy does: on rm-1.1's corridor with one niche (fixed starts, the
+/// simplest conflict) the first training batch succeeds as the planner's
+/// episodes do. (Labels that only the env could follow — entering a cell as
+/// its holder leaves, which the policy's mask forbids — once taught a
+/// policy that solved every DAgger episode with the expert's help and none
+/// on its own.)
+#[test]
+fn the_first_episodes_after_imitation_succeed_as_the_imitated_policy_does() {
+    buridan_policy::threads::pin_threads(1);
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = tiny(Algo::Ppo, Mode::Ctde);
+    cfg.hidden = vec![64, 64];
+    cfg.steps = 1000;
+    cfg.ppo.train_batch = 1000;
+    cfg.ppo.minibatch = 500;
+    cfg.fragment_len = 50;
+    cfg.imitation = Some(buridan_imitate::ImitationConfig {
+        expert: vec!["lacam".into(), "od-astar".into()],
+        rounds: 2,
+        steps_per_round: 2_000,
+        envs: 4,
+        epochs: 10,
+        minibatch: 256,
+        ..Default::default()
+    });
+    let mut record = Record::default();
+    train(&cfg, dir.path(), &mut record).unwrap();
+    let first = &record.rows[0];
+    assert!(first.episodes >= 20, "{first:?}");
+    assert!(first.success_rate >= 0.9, "{first:?}");
+}
