@@ -122,6 +122,7 @@ impl TrainCell {
             metrics: None,
             overrides: self.set.clone(),
             no_imitation: false,
+            no_stop: false,
             out: out.join(&self.run_dir),
             quiet: true,
             stop_when_stdin_closes: false,
