@@ -102,43 +102,7 @@ pub struct EvalArgs {
     pub replays_max: usize,
 }
 
-/// Parses `4`, `4..20`, `4..20:2` or `4,8,12` into agent counts.
-///
-/// ```
-/// use buridan_cli::eval::parse_agent_counts;
-/// assert_eq!(parse_agent_counts("4").unwrap(), vec![4]);
-/// assert_eq!(parse_agent_counts("4..8:2").unwrap(), vec![4, 6, 8]);
-/// assert_eq!(parse_agent_counts("2,5").unwrap(), vec![2, 5]);
-/// assert!(parse_agent_counts("8..4").is_err());
-/// ```
-pub fn parse_agent_counts(text: &str) -> Result<Vec<usize>> {
-    let num = |s: &str| -> Result<usize> {
-        let n: usize = s
-            .trim()
-            .parse()
-            .with_context(|| format!("'{s}' is not an agent count"))?;
-        if n == 0 {
-            bail!("agent counts must be at least 1");
-        }
-        // The env's limit; it also bounds a range's length (`1..1000000000000`
-        // was collected in full; found by cli/tests/fuzz_experiment.rs).
-        // The env's limit (`EnvConfig::validate`).
-        const MAX: usize = u16::MAX as usize - 1;
-        if n > MAX {
-            bail!("agent counts must be at most {MAX}");
-        }
-        Ok(n)
-    };
-    if let Some((lo, rest)) = text.split_once("..") {
-        let (hi, step) = rest.split_once(':').unwrap_or((rest, "1"));
-        let (lo, hi, step) = (num(lo)?, num(hi)?, num(step)?);
-        if lo > hi {
-            bail!("empty agent range {text}: {lo} > {hi}");
-        }
-        return Ok((lo..=hi).step_by(step).collect());
-    }
-    text.split(',').map(num).collect()
-}
+pub use buridan_experiment::agents::parse_agent_counts;
 
 pub use buridan_eval::by_name::{
     Controller, ControllerFactory, CROWD_RESCUE_PLANNER, DEFAULT_RESCUE_PLANNER,

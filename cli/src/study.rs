@@ -1,7 +1,7 @@
 //! `learner study EXPERIMENT.toml --out DIR`: runs an experiment's cells
 //! (training runs, then their evaluations; planners on the same episodes),
 //! `parallel` at a time, skipping what is finished; then writes the report
-//! ([`crate::aggregate`]). `learner study report DIR` re-aggregates.
+//! ([`buridan_experiment::report`]). `learner study report DIR` re-aggregates.
 //!
 //! Ctrl-C or SIGTERM stops a study gracefully: the training cells under way
 //! checkpoint their current update (as `learner train` does), no new job
@@ -22,9 +22,10 @@ use buridan_eval::{evaluate, EvalSpec};
 use buridan_learner::train::{MetricsRow, Progress, TrainConfig, TrainError, SUMMARY_FILE};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use crate::experiment::{Evaluated, Experiment, PLAN_FILE};
 use crate::signals::watch_signals;
 use crate::train::train_interruptible;
+use buridan_experiment::plan::{Evaluated, Experiment, PLAN_FILE};
+use buridan_experiment::resolve::RunArgs;
 
 /// Arguments of `learner study`.
 #[derive(Debug, clap::Args)]
@@ -150,6 +151,32 @@ enum Trained {
     Interrupted,
 }
 
+/// `learner train`'s arguments for a run's arguments (no bar: the study draws its own).
+fn train_args(a: RunArgs) -> crate::train::TrainArgs {
+    crate::train::TrainArgs {
+        map: a.map,
+        maps: a.maps,
+        plant: a.plant,
+        agents: a.agents,
+        algo: a.algo,
+        mode: a.mode,
+        starts: a.starts,
+        rules: a.rules,
+        config: a.config,
+        steps: a.steps,
+        seed: a.seed,
+        resume: a.resume,
+        metrics: None,
+        overrides: a.overrides,
+        no_imitation: a.no_imitation,
+        no_stop: a.no_stop,
+        out: a.out,
+        quiet: true,
+        stop_when_stdin_closes: false,
+        dashboard: Default::default(),
+    }
+}
+
 fn run_train(
     x: &Experiment,
     out: &Path,
@@ -163,7 +190,7 @@ fn run_train(
     if !needs_training(&run_dir, evals_pending) {
         return Ok(Trained::Done);
     }
-    let args = cell.train_args(out);
+    let args = train_args(cell.run_args(out));
     let cfg = crate::train::resolve_config(&args)?;
     let what = format!("{} {} seed {}", cell.layout, cell.method, cell.seed);
     bars.say(format!(
@@ -306,8 +333,8 @@ pub struct StudyOutcome {
 /// Runs `learner study`.
 pub fn run(args: &StudyArgs) -> Result<StudyOutcome> {
     if let Some(StudyCommand::Report { dir }) = &args.command {
-        let x = crate::aggregate::read_plan(dir)?;
-        let files = crate::aggregate::write_report(&x, dir)?;
+        let x = buridan_experiment::report::read_plan(dir)?;
+        let files = buridan_experiment::report::write_report(&x, dir)?;
         eprintln!("{}", std::fs::read_to_string(dir.join("table.md"))?);
         return Ok(StudyOutcome {
             files,
@@ -378,7 +405,7 @@ pub fn run(args: &StudyArgs) -> Result<StudyOutcome> {
     });
     total.finish_and_clear();
     let failures = failures.into_inner().expect("failure lock");
-    let files = crate::aggregate::write_report(&x, out)?;
+    let files = buridan_experiment::report::write_report(&x, out)?;
     bars.say(std::fs::read_to_string(out.join("table.md"))?);
     bars.say(format!(
         "{} jobs in {:.0} s, {} failed; report in {}",

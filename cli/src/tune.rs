@@ -14,25 +14,23 @@
 //! `objective.png`, `params.png`, and for PBT `pbt.csv` (the lineage) and
 //! `pbt-schedule.csv` (the best member's hyperparameters by round).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use buridan_learner::train::TrainConfig;
+use buridan_experiment::process::ProcessRunner;
+use buridan_experiment::trial::{EvalProtocol, LearnerRunner, TrialDisplay};
+pub use buridan_experiment::tune::{
+    load_study_dir, load_study_file, resolve_relative, save_copies, trial_lines, write_outputs,
+    BASE_FILE, BEST_CONFIG_FILE, STUDY_FILE,
+};
 use buridan_study::scheduler::SchedulerKind;
 use buridan_study::state::{StudyState, TrialStatus};
-use buridan_study::{Study, StudyConfig, TrialRunner};
+use buridan_study::{Study, TrialRunner};
 use indicatif::{MultiProgress, ProgressDrawTarget};
 
-use crate::process::ProcessRunner;
-use crate::trial::{apply_overrides, EvalProtocol, LearnerRunner};
-
-/// The copy of the study file inside a study directory.
-pub const STUDY_FILE: &str = "study.toml";
-/// The full base configuration inside a study directory.
-pub const BASE_FILE: &str = "base.toml";
-/// The best configuration merged into the base.
-pub const BEST_CONFIG_FILE: &str = "best-config.toml";
+use crate::trial_bars::TrialBars;
 
 /// Arguments of `learner tune`.
 #[derive(Debug, clap::Args)]
@@ -138,119 +136,6 @@ pub enum TuneCommand {
     },
 }
 
-/// A path named in a file: absolute, else relative to the working
-/// directory if it exists there, else relative to the file's directory.
-///
-/// ```
-/// use std::path::Path;
-/// let p = buridan_cli::tune::resolve_relative(Path::new("/a/b/study.toml"), "../c.toml");
-/// assert_eq!(p, Path::new("/a/b/../c.toml"));
-/// ```
-pub fn resolve_relative(file: &Path, named: &str) -> PathBuf {
-    let p = PathBuf::from(named);
-    if p.is_absolute() || p.exists() {
-        return p;
-    }
-    file.parent().unwrap_or(Path::new(".")).join(p)
-}
-
-/// Reads a study file and its base configuration (defaults if none).
-pub fn load_study_file(path: &Path) -> Result<(StudyConfig, TrainConfig)> {
-    let config = StudyConfig::from_file(path).with_context(|| format!("{}", path.display()))?;
-    let base = match &config.base_config {
-        Some(b) => {
-            let p = resolve_relative(path, b);
-            TrainConfig::from_toml_file(&p)
-                .with_context(|| format!("{}: base_config", path.display()))?
-        }
-        None => TrainConfig::default(),
-    };
-    // Every key of the space must be a configuration key: check with a sample now.
-    let sample: buridan_study::Overrides = config
-        .space
-        .params()
-        .iter()
-        .map(|p| {
-            let (low, _) = p.domain.internal_bounds();
-            (p.key.clone(), p.domain.value_at(low))
-        })
-        .collect();
-    apply_overrides(&base, &sample).with_context(|| {
-        format!(
-            "{}: [space] does not fit the base configuration",
-            path.display()
-        )
-    })?;
-    Ok((config, base))
-}
-
-/// Reads a study directory's copies of the study file and base configuration.
-pub fn load_study_dir(dir: &Path) -> Result<(StudyConfig, TrainConfig)> {
-    let study = dir.join(STUDY_FILE);
-    let config = StudyConfig::from_file(&study).with_context(|| {
-        format!(
-            "{} is not a study directory (no readable {STUDY_FILE})",
-            dir.display()
-        )
-    })?;
-    let base = TrainConfig::from_toml_file(&dir.join(BASE_FILE))?;
-    Ok((config, base))
-}
-
-fn save_copies(dir: &Path, study_file: &Path, base: &TrainConfig) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let text = std::fs::read_to_string(study_file)?;
-    std::fs::write(dir.join(STUDY_FILE), text)?;
-    std::fs::write(dir.join(BASE_FILE), base.to_toml())?;
-    Ok(())
-}
-
-/// Writes the study's outputs and `best-config.toml`; returns the files.
-pub fn write_outputs(study: &Study, base: &TrainConfig) -> Result<Vec<PathBuf>> {
-    let mut files = study.write_outputs()?;
-    if let Some(best) = study.state().best() {
-        let cfg = apply_overrides(base, &best.overrides)?;
-        let path = study.dir().join(BEST_CONFIG_FILE);
-        let header = format!(
-            "# Best trial {} of study `{}` ({}) merged into its base configuration.\n",
-            best.id,
-            study.config().name,
-            best.run_dir.display()
-        );
-        std::fs::write(&path, header + &cfg.to_toml())?;
-        files.push(path);
-    }
-    Ok(files)
-}
-
-/// One line per trial: id, status, objective, overrides.
-pub fn trial_lines(state: &StudyState) -> Vec<String> {
-    state
-        .trials
-        .iter()
-        .map(|t| {
-            format!(
-                "trial {:>3} {:<11} objective {:>7} len {:>6} after {:>9} steps  {}{}",
-                t.id,
-                t.status.name(),
-                t.score
-                    .map(|s| format!("{:.3}", s.value))
-                    .unwrap_or_else(|| "-".into()),
-                t.score
-                    .and_then(|s| s.episode_len)
-                    .map(|l| format!("{l:.1}"))
-                    .unwrap_or_else(|| "-".into()),
-                t.last.as_ref().map(|m| m.step).unwrap_or(0),
-                buridan_study::overrides::describe(&t.overrides),
-                t.error
-                    .as_ref()
-                    .map(|e| format!("  error: {e}"))
-                    .unwrap_or_default()
-            )
-        })
-        .collect()
-}
-
 /// Runs `learner tune`.
 pub fn run(args: &TuneArgs) -> Result<StudyState> {
     if let Some(command) = &args.command {
@@ -311,12 +196,13 @@ pub fn run(args: &TuneArgs) -> Result<StudyState> {
         episodes: args.eval_episodes,
         ..EvalProtocol::default()
     };
-    let bars = (!args.quiet).then(|| multi.clone());
+    let display =
+        (!args.quiet).then(|| Arc::new(TrialBars(multi.clone())) as Arc<dyn TrialDisplay>);
     let runner: Box<dyn TrialRunner> = match args.runner {
         RunnerKind::Thread => Box::new(LearnerRunner {
             base: base.clone(),
             eval,
-            bars,
+            display,
         }),
         RunnerKind::Process => {
             let exe = match &args.learner_exe {
@@ -325,7 +211,7 @@ pub fn run(args: &TuneArgs) -> Result<StudyState> {
             };
             Box::new(ProcessRunner {
                 eval,
-                bars,
+                display,
                 ..ProcessRunner::new(exe, out.join(BASE_FILE), base.clone())
             })
         }

@@ -123,8 +123,10 @@ fn space_separated<S: serde::Serializer>(values: &[u32], s: S) -> Result<S::Ok, 
     s.serialize_str(&text)
 }
 
-/// Aggregate of one evaluation: the JSON summary.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+/// Aggregate of one evaluation: the JSON summary (read back by reports;
+/// fields an older file lacks take their defaults).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct EvalSummary {
     /// Controller name.
     pub controller: String,

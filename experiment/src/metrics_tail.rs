@@ -9,7 +9,7 @@ use buridan_learner::train::MetricsRow;
 /// A reader of the rows appended to a metrics file.
 ///
 /// ```
-/// use buridan_cli::metrics_tail::MetricsTail;
+/// use buridan_experiment::metrics_tail::MetricsTail;
 /// use buridan_learner::train::{MetricsRow, MetricsWriter};
 /// let dir = tempfile::tempdir().unwrap();
 /// let path = dir.path().join("metrics.csv");

@@ -38,7 +38,7 @@ pub const NAMED_ACTIONS: [(&str, &str); 11] = [
 /// the grammar of `learner eval --controller`, [`Labelled`]).
 ///
 /// ```
-/// use buridan_cli::experiment::Actions;
+/// use buridan_experiment::plan::Actions;
 /// let a: Actions = "lanes".parse().unwrap();
 /// assert_eq!((a.name(), a.controller().to_string().as_str()), ("lanes", "shield-lanes=16:checkpoint:"));
 /// let a: Actions = "bss@backstop:sampled:shield[patience=16,settle,lanes]:checkpoint:".parse().unwrap();

@@ -83,7 +83,7 @@ pub const MAX_CELLS: usize = 100_000;
 /// An experiment file that cannot be used: the file and the problem.
 ///
 /// ```
-/// let e = buridan_cli::experiment::Experiment::from_str("[experiment]\nname = 1", "x.toml".as_ref()).unwrap_err();
+/// let e = buridan_experiment::plan::Experiment::from_str("[experiment]\nname = 1", "x.toml".as_ref()).unwrap_err();
 /// assert!(e.to_string().starts_with("x.toml: "), "{e}");
 /// ```
 #[derive(Debug, thiserror::Error)]
@@ -336,7 +336,7 @@ fn safe_name(s: &str) -> String {
 /// stem; for a mixture, each map's name and weight joined by `+`.
 ///
 /// ```
-/// use buridan_cli::experiment::layout_dir;
+/// use buridan_experiment::plan::layout_dir;
 /// assert_eq!(layout_dir("rm-2.1"), "rm-2.1");
 /// assert_eq!(layout_dir("maps/my warehouse.map"), "my_warehouse");
 /// assert_eq!(layout_dir("rm-3.1:1,maps/x.map:2"), "rm-3.1_1+x_2");
@@ -364,7 +364,7 @@ pub fn layout_dir(layout: &str) -> String {
 /// Whether a layout entry names several maps (`NAME:WEIGHT,…`).
 ///
 /// ```
-/// use buridan_cli::experiment::is_mixture;
+/// use buridan_experiment::plan::is_mixture;
 /// assert!(is_mixture("rm-3.1:1,rm-2.2:1"));
 /// assert!(!is_mixture("rm-2.1"));
 /// ```
@@ -497,7 +497,7 @@ impl Experiment {
             Some(AgentsToml::One(n)) => Some(vec![n]),
             Some(AgentsToml::List(v)) => Some(v),
             Some(AgentsToml::Text(t)) => Some(
-                crate::eval::parse_agent_counts(&t)
+                crate::agents::parse_agent_counts(&t)
                     .map_err(|err| bad(format!("[experiment.eval] agents: {err}")))?,
             ),
         };
@@ -635,7 +635,11 @@ impl Experiment {
                         agents: 0,
                     };
                     let cfg = cell.config_in(Path::new(".")).map_err(|err| {
-                        bad(format!("[[method]] '{}' on '{layout}': {err:#}", m.name))
+                        bad(format!(
+                            "[[method]] '{}' on '{layout}': {}",
+                            m.name,
+                            chain(&err)
+                        ))
                     })?;
                     let trained = cfg.agents;
                     let counts = eval.agents.clone().unwrap_or_else(|| vec![trained]);

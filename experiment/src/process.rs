@@ -18,11 +18,11 @@ use std::time::{Duration, Instant};
 
 use buridan_learner::train::{Summary, TrainConfig, METRICS_FILE, SUMMARY_FILE};
 use buridan_study::{Measurement, Reporter, TrialError, TrialRunner, TrialSpec};
-use indicatif::MultiProgress;
+use std::sync::Arc;
 
 use crate::metrics_tail::MetricsTail;
 use crate::trial::{
-    chain, clear_bar, measure, measurement, show_row, trial_bar, trial_config, EvalProtocol,
+    chain, measure, measurement, trial_config, trial_view, EvalProtocol, TrialDisplay,
     TrialRunError,
 };
 
@@ -87,15 +87,15 @@ pub struct ProcessRunner {
     /// The evaluation an `eval_*` objective runs (in this process, on the
     /// child's final checkpoint).
     pub eval: EvalProtocol,
-    /// Where to draw one bar per running trial (none: no bars).
-    pub bars: Option<MultiProgress>,
+    /// Where to show each running trial (none: nowhere).
+    pub display: Option<Arc<dyn TrialDisplay>>,
     /// How long a child asked to stop may take to checkpoint and exit
     /// before it is killed.
     pub grace: Duration,
 }
 
 impl ProcessRunner {
-    /// A runner starting `exe train --config base_file …`, without bars,
+    /// A runner starting `exe train --config base_file …`, showing nothing,
     /// with a grace period of 60 s.
     pub fn new(exe: PathBuf, base_file: PathBuf, base: TrainConfig) -> ProcessRunner {
         ProcessRunner {
@@ -103,7 +103,7 @@ impl ProcessRunner {
             base_file,
             base,
             eval: EvalProtocol::default(),
-            bars: None,
+            display: None,
             grace: Duration::from_secs(60),
         }
     }
@@ -157,15 +157,15 @@ impl ProcessRunner {
         tracing::info!(trial = spec.id, command = ?cmd, "trial starts");
         let mut child = KillOnDrop(cmd.spawn().map_err(spawn_failed)?);
         let mut stdin = child.0.stdin.take();
-        let bar = trial_bar(self.bars.as_ref(), spec);
+        let mut view = trial_view(self.display.as_ref(), spec);
         let mut last = Measurement::default();
         let mut stopped: Option<Instant> = None;
         let status = loop {
             // Exit first, then the rows: none written before the exit is missed.
             let exited = child.0.try_wait().map_err(spawn_failed)?;
             for row in metrics.poll() {
-                if let Some(bar) = &bar {
-                    show_row(bar, &row);
+                if let Some(view) = &mut view {
+                    view.row(&row);
                 }
                 last = measurement(&row);
                 if stopped.is_none() && !reporter.report(&last).keeps_going() {
@@ -186,7 +186,7 @@ impl ProcessRunner {
             }
             std::thread::sleep(POLL);
         };
-        clear_bar(self.bars.as_ref(), bar.as_ref());
+        drop(view);
         if stopped.is_some() {
             tracing::info!(trial = spec.id, step = last.step, %status, "trial stopped");
             return Ok(last);

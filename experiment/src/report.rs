@@ -12,8 +12,8 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
-use buridan_learner::train::{MetricsRow, METRICS_FILE, SUMMARY_FILE};
+use buridan_eval::EvalSummary;
+use buridan_learner::train::{MetricsRow, Summary, METRICS_FILE, SUMMARY_FILE};
 use buridan_study::figures::{
     banded_lines, grouped_bars, grouped_boxes, heatmap, Band, Bar, BoxData,
 };
@@ -21,7 +21,7 @@ use buridan_study::report::{Cell, Table};
 use buridan_study::stats::{Aggregate, Bootstrap, BoxStats};
 use serde::Serialize;
 
-use crate::experiment::{Evaluated, Experiment, PLAN_FILE};
+use crate::plan::{Evaluated, Experiment, PLAN_FILE};
 
 /// One cell's record in `cells.json`.
 #[derive(Debug, Clone, Serialize)]
@@ -61,12 +61,50 @@ pub struct CellRecord {
     pub train_seconds: Option<f64>,
 }
 
-fn read_json(path: &Path) -> Option<serde_json::Value> {
+/// Why a report cannot be written or a plan read.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// A directory without a plan.
+    #[error("{} is not an experiment directory (no {PLAN_FILE})", dir.display())]
+    NoPlan {
+        /// The directory.
+        dir: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A plan file that does not parse.
+    #[error("{} is not a plan", path.display())]
+    NotAPlan {
+        /// The plan file.
+        path: PathBuf,
+        /// Why.
+        source: serde_json::Error,
+    },
+    /// A table's files.
+    #[error(transparent)]
+    Table(#[from] buridan_study::report::ReportError),
+    /// A figure.
+    #[error(transparent)]
+    Figure(#[from] buridan_study::plot::PlotError),
+    /// The cells as JSON.
+    #[error(transparent)]
+    Json(#[from] serde_json::Error),
+    /// The cells as CSV.
+    #[error(transparent)]
+    Csv(#[from] csv::Error),
+    /// Writing a file.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+}
+
+/// A typed summary file (`summary.json` of a run or an evaluation), if it
+/// is there and reads as one.
+fn read_summary<T: serde::de::DeserializeOwned>(path: &Path) -> Option<T> {
     serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()
 }
 
-fn num(v: &serde_json::Value, key: &str) -> Option<f64> {
-    v.get(key)?.as_f64().filter(|x| x.is_finite())
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
 }
 
 /// Every evaluation cell with whatever results exist so far.
@@ -74,7 +112,7 @@ pub fn records(x: &Experiment, out: &Path) -> Vec<CellRecord> {
     x.evals
         .iter()
         .map(|cell| {
-            let eval = read_json(&out.join(&cell.dir).join("summary.json"));
+            let eval: Option<EvalSummary> = read_summary(&out.join(&cell.dir).join("summary.json"));
             let (kind, seed, actions, train) = match &cell.evaluated {
                 Evaluated::Policy { train, actions } => {
                     let t = &x.train[*train];
@@ -87,7 +125,8 @@ pub fn records(x: &Experiment, out: &Path) -> Vec<CellRecord> {
                 }
                 Evaluated::Planner => ("planner", None, None, None),
             };
-            let summary = train.and_then(|t| read_json(&out.join(&t.run_dir).join(SUMMARY_FILE)));
+            let summary: Option<Summary> =
+                train.and_then(|t| read_summary(&out.join(&t.run_dir).join(SUMMARY_FILE)));
             CellRecord {
                 layout: cell.layout.clone(),
                 trained_on: cell.trained_on.clone(),
@@ -100,11 +139,13 @@ pub fn records(x: &Experiment, out: &Path) -> Vec<CellRecord> {
                 eval_dir: out.join(&cell.dir),
                 train_command: train.map(|t| t.command(out)),
                 eval_command: x.eval_command(cell, out),
-                success_rate: eval.as_ref().and_then(|v| num(v, "success_rate")),
-                timesteps_median: eval.as_ref().and_then(|v| num(v, "timesteps_median")),
-                train_success: summary.as_ref().and_then(|v| num(v, "success_rate")),
-                env_steps: summary.as_ref().and_then(|v| v.get("env_steps")?.as_u64()),
-                train_seconds: summary.as_ref().and_then(|v| num(v, "wall_seconds")),
+                success_rate: eval.as_ref().and_then(|e| finite(e.success_rate)),
+                timesteps_median: eval
+                    .as_ref()
+                    .and_then(|e| e.timesteps_median.and_then(finite)),
+                train_success: summary.as_ref().and_then(|s| finite(s.success_rate)),
+                env_steps: summary.as_ref().map(|s| s.env_steps),
+                train_seconds: summary.as_ref().and_then(|s| finite(s.wall_seconds)),
             }
         })
         .collect()
@@ -410,7 +451,7 @@ pub fn learning_band(label: String, curves: &[Vec<(u64, f64)>], points: usize) -
 }
 
 /// Writes every report file of the experiment in `out`; returns the files.
-pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
+pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>, ReportError> {
     let bootstrap = Bootstrap::default();
     let records = records(x, out);
     let rows = rows(x, &records, &bootstrap);
@@ -591,10 +632,7 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
             })
             .collect();
         if !bands.is_empty() {
-            let path = out.join(format!(
-                "learning-{}.png",
-                crate::experiment::layout_dir(layout)
-            ));
+            let path = out.join(format!("learning-{}.png", crate::plan::layout_dir(layout)));
             banded_lines(
                 &path,
                 &format!(
@@ -631,7 +669,7 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
         if sweep.iter().any(|b| b.points.len() > 1) {
             let path = out.join(format!(
                 "scalability-{}.png",
-                crate::experiment::layout_dir(layout)
+                crate::plan::layout_dir(layout)
             ));
             banded_lines(
                 &path,
@@ -663,10 +701,7 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
                         .collect()
                 })
                 .collect();
-            let path = out.join(format!(
-                "heatmap-{}.png",
-                crate::experiment::layout_dir(layout)
-            ));
+            let path = out.join(format!("heatmap-{}.png", crate::plan::layout_dir(layout)));
             heatmap(
                 &path,
                 &format!("{layout}: success % against agents (mean over seeds)"),
@@ -683,15 +718,13 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>> {
 }
 
 /// Reads an experiment directory's plan (written by `learner study`).
-pub fn read_plan(dir: &Path) -> Result<Experiment> {
+pub fn read_plan(dir: &Path) -> Result<Experiment, ReportError> {
     let path = dir.join(PLAN_FILE);
-    let text = std::fs::read_to_string(&path).with_context(|| {
-        format!(
-            "{} is not an experiment directory (no {PLAN_FILE})",
-            dir.display()
-        )
+    let text = std::fs::read_to_string(&path).map_err(|source| ReportError::NoPlan {
+        dir: dir.to_path_buf(),
+        source,
     })?;
-    serde_json::from_str(&text).with_context(|| format!("{} is not a plan", path.display()))
+    serde_json::from_str(&text).map_err(|source| ReportError::NotAPlan { path, source })
 }
 
 #[cfg(test)]

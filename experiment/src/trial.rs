@@ -3,7 +3,7 @@
 //! scheduler, stops it on the scheduler's word (with a checkpoint), and
 //! measures the declared objective — training success, or the seed-42
 //! evaluation of the final policy with sampled or greedy actions. The
-//! child-process runner (`crate::process`) shares the configuration, the
+//! child-process runner ([`crate::process`]) shares the configuration, the
 //! checkpoint to start from and the measuring.
 
 use std::path::{Path, PathBuf};
@@ -14,12 +14,13 @@ use buridan_env::{EnvError, Map, MapError};
 use buridan_eval::output::{write_report, OutputError};
 use buridan_eval::policy::{PolicyController, PolicyLoadError};
 use buridan_eval::{evaluate, Controller, EvalReport, EvalSpec};
-use buridan_learner::train::{ConfigError, MetricsRow, Progress, Summary, TrainConfig, TrainError};
+use buridan_learner::train::{
+    ConfigError, InProcess, MetricsRow, Progress, Run, Summary, TrainConfig, TrainError,
+};
 use buridan_policy::{checkpoint, ActMode};
 use buridan_study::{
     Measurement, Objective, Overrides, Reporter, TrialError, TrialRunner, TrialSpec,
 };
-use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 
 /// Why a trial could not be trained or measured.
 #[derive(Debug, thiserror::Error)]
@@ -86,7 +87,7 @@ pub use buridan_env::error::error_chain as chain;
 /// `base` with `overrides` (dotted keys) applied, as `learner train --set` would.
 ///
 /// ```
-/// use buridan_cli::trial::apply_overrides;
+/// use buridan_experiment::trial::apply_overrides;
 /// let mut o = buridan_study::Overrides::new();
 /// o.insert("ppo.lr".into(), toml::Value::Float(5e-4));
 /// o.insert("hidden".into(), toml::Value::Array(vec![32.into(), 32.into()]));
@@ -190,7 +191,7 @@ pub fn evaluate_policy(
 ///
 /// ```
 /// let row = buridan_learner::train::MetricsRow { env_steps: 4000, success_rate: f64::NAN, ..Default::default() };
-/// let m = buridan_cli::trial::measurement(&row);
+/// let m = buridan_experiment::trial::measurement(&row);
 /// assert_eq!((m.step, m.train_success), (4000, None));
 /// ```
 pub fn measurement(row: &MetricsRow) -> Measurement {
@@ -213,27 +214,51 @@ fn summary_measurement(s: &Summary) -> Measurement {
     }
 }
 
-/// Forwards training progress to the study and to an optional bar; stops
+/// Where a runner shows its running trials (the command line draws a bar
+/// per trial).
+pub trait TrialDisplay: Send + Sync {
+    /// Trial `spec` starts: its progress goes to the view returned, which
+    /// is dropped when its training ends.
+    fn trial(&self, spec: &TrialSpec) -> Box<dyn TrialView>;
+}
+
+/// One running trial's progress, as a [`TrialDisplay`] shows it.
+pub trait TrialView: Send {
+    /// Training starts (or resumes) at `env_steps` of `total_steps`.
+    fn started(&mut self, _total_steps: u64, _env_steps: u64) {}
+    /// A metrics row was written.
+    fn row(&mut self, row: &MetricsRow);
+}
+
+/// A view of trial `spec` on `display` (none without one).
+pub fn trial_view(
+    display: Option<&Arc<dyn TrialDisplay>>,
+    spec: &TrialSpec,
+) -> Option<Box<dyn TrialView>> {
+    display.map(|d| d.trial(spec))
+}
+
+/// Forwards training progress to the study and to an optional view; stops
 /// the run when the study says so.
 struct TrialProgress<'a> {
     reporter: &'a mut dyn Reporter,
     interrupt: Arc<AtomicBool>,
     last: Measurement,
     stopped: bool,
-    bar: Option<ProgressBar>,
+    view: Option<Box<dyn TrialView>>,
 }
 
 impl Progress for TrialProgress<'_> {
     fn on_start(&mut self, _cfg: &TrainConfig, total_steps: u64, env_steps: u64) {
-        if let Some(bar) = &self.bar {
-            crate::heartbeat::start_at(bar, total_steps, env_steps);
+        if let Some(view) = &mut self.view {
+            view.started(total_steps, env_steps);
         }
     }
 
     fn on_update(&mut self, row: &MetricsRow) {
         self.last = measurement(row);
-        if let Some(bar) = &self.bar {
-            show_row(bar, row);
+        if let Some(view) = &mut self.view {
+            view.row(row);
         }
         if !self.stopped && !self.reporter.report(&self.last).keeps_going() {
             self.stopped = true;
@@ -242,37 +267,29 @@ impl Progress for TrialProgress<'_> {
     }
 }
 
-/// A bar for trial `spec` in `multi` (none without `multi`).
-pub fn trial_bar(multi: Option<&MultiProgress>, spec: &TrialSpec) -> Option<ProgressBar> {
-    let multi = multi?;
-    let bar = multi.add(ProgressBar::new(spec.steps));
-    bar.set_style(
-        ProgressStyle::with_template("{prefix} [{bar:20}] {human_pos}/{human_len} {msg}")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    bar.set_prefix(format!("trial {:>3}", spec.id));
-    crate::heartbeat::watch(&bar);
-    Some(bar)
-}
-
-/// Shows `row` on a trial's bar.
-pub fn show_row(bar: &ProgressBar, row: &MetricsRow) {
-    bar.set_position(row.env_steps);
-    bar.set_message(format!(
-        "success {:>5.1}%  len {:>5.1}  {:>6.0} steps/s",
-        100.0 * row.success_rate,
-        row.episode_len_mean,
-        row.steps_per_s
-    ));
-}
-
-/// Removes a finished trial's bar.
-pub fn clear_bar(multi: Option<&MultiProgress>, bar: Option<&ProgressBar>) {
-    if let (Some(bar), Some(multi)) = (bar, multi) {
-        bar.finish_and_clear();
-        multi.remove(bar);
+/// Trains `cfg` in this process into run directory `out`, learner and
+/// actors on threads (what `learner train` runs); stops with a checkpoint
+/// once `interrupt` is set.
+pub fn train_interruptible(
+    cfg: &TrainConfig,
+    out: &Path,
+    progress: &mut dyn Progress,
+    interrupt: Arc<AtomicBool>,
+) -> Result<Summary, Box<TrainError>> {
+    let mut run = Run::prepare(cfg, out)?;
+    let mut collectors = Vec::with_capacity(cfg.num_actors);
+    for i in 0..cfg.num_actors as u32 {
+        collectors.push(run.collector(i)?);
     }
+    let mut exchange = InProcess::spawn(
+        collectors,
+        cfg.queue_capacity(),
+        cfg.staleness(),
+        cfg.actor_nice,
+    )
+    .map_err(|e| Box::new(e.into()))?;
+    run.interrupt_on(interrupt);
+    Ok(run.learn(&mut exchange, progress)?)
 }
 
 /// Trains trials with the learner in this process.
@@ -281,17 +298,17 @@ pub struct LearnerRunner {
     pub base: TrainConfig,
     /// The evaluation an `eval_*` objective runs.
     pub eval: EvalProtocol,
-    /// Where to draw one bar per running trial (none: no bars).
-    pub bars: Option<MultiProgress>,
+    /// Where to show each running trial (none: nowhere).
+    pub display: Option<Arc<dyn TrialDisplay>>,
 }
 
 impl LearnerRunner {
-    /// A runner without progress bars.
+    /// A runner showing nothing.
     pub fn new(base: TrainConfig) -> LearnerRunner {
         LearnerRunner {
             base,
             eval: EvalProtocol::default(),
-            bars: None,
+            display: None,
         }
     }
 
@@ -312,17 +329,16 @@ impl LearnerRunner {
             "trial starts"
         );
         let interrupt = Arc::new(AtomicBool::new(false));
-        let bar = trial_bar(self.bars.as_ref(), spec);
         let mut progress = TrialProgress {
             reporter,
             interrupt: interrupt.clone(),
             last: Measurement::default(),
             stopped: false,
-            bar: bar.clone(),
+            view: trial_view(self.display.as_ref(), spec),
         };
-        let outcome =
-            crate::train::train_interruptible(&cfg, &spec.run_dir, &mut progress, interrupt);
-        clear_bar(self.bars.as_ref(), bar.as_ref());
+        let outcome = train_interruptible(&cfg, &spec.run_dir, &mut progress, interrupt);
+        // The view ends with the training, before any evaluation.
+        drop(progress.view.take());
         let summary = match outcome {
             Ok(summary) => summary,
             Err(e) if progress.stopped && matches!(*e, TrainError::Interrupted(_)) => {

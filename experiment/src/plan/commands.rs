@@ -6,7 +6,7 @@ use buridan_env::Starts;
 use buridan_eval::by_name::{Act, Controller, ControllerParseError, Portfolio};
 
 use super::{is_mixture, EvalCell, Evaluated, Experiment, TrainCell};
-use crate::train::{resolve_config, TrainArgs};
+use crate::resolve::{resolve, ResolveError, RunArgs};
 use buridan_learner::train::TrainConfig;
 
 impl Experiment {
@@ -104,40 +104,29 @@ impl Experiment {
 impl TrainCell {
     /// The `learner train` arguments of this cell in experiment directory `out`
     /// (resuming from the run directory's newest checkpoint if it has one).
-    pub fn train_args(&self, out: &Path) -> TrainArgs {
+    pub fn run_args(&self, out: &Path) -> RunArgs {
         let mixture = is_mixture(&self.layout);
-        TrainArgs {
+        RunArgs {
             map: (!mixture).then(|| self.layout.clone()),
             maps: mixture.then(|| self.layout.clone()),
-            plant: None,
-            agents: None,
-            algo: None,
-            mode: None,
-            starts: None,
-            rules: None,
             config: self.config.clone(),
             steps: self.steps,
             seed: Some(self.seed),
             resume: Some(PathBuf::from("auto")),
-            metrics: None,
             overrides: self.set.clone(),
-            no_imitation: false,
-            no_stop: false,
             out: out.join(&self.run_dir),
-            quiet: true,
-            stop_when_stdin_closes: false,
-            dashboard: Default::default(),
+            ..RunArgs::default()
         }
     }
 
     /// The resolved configuration, exactly as `learner train` resolves it.
-    pub fn config_in(&self, out: &Path) -> anyhow::Result<TrainConfig> {
-        resolve_config(&self.train_args(out))
+    pub fn config_in(&self, out: &Path) -> Result<TrainConfig, ResolveError> {
+        resolve(&self.run_args(out))
     }
 
     /// The equivalent `learner train` command line.
     pub fn command(&self, out: &Path) -> String {
-        let a = self.train_args(out);
+        let a = self.run_args(out);
         let mut args = vec!["learner".to_string(), "train".into()];
         if let Some(config) = &self.config {
             args.extend(["--config".into(), config.display().to_string()]);
@@ -171,7 +160,7 @@ impl TrainCell {
 /// Joins arguments into a shell command line, quoting where needed.
 ///
 /// ```
-/// assert_eq!(buridan_cli::experiment::shell_join(&["a".into(), "b c".into(), "x=[1, 2]".into()]), "a 'b c' 'x=[1, 2]'");
+/// assert_eq!(buridan_experiment::plan::shell_join(&["a".into(), "b c".into(), "x=[1, 2]".into()]), "a 'b c' 'x=[1, 2]'");
 /// ```
 pub fn shell_join(args: &[String]) -> String {
     args.iter()
