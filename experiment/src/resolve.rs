@@ -52,7 +52,7 @@ pub struct RunArgs {
 pub enum ResolveError {
     /// The config file, the map list or the result is out of range.
     #[error(transparent)]
-    Config(#[from] ConfigError),
+    Config(Box<ConfigError>),
     /// The checkpoint to resume from is not there.
     #[error(transparent)]
     Resume(#[from] PolicyError),
@@ -82,8 +82,14 @@ pub enum ResolveError {
         /// The plant id or file.
         plant: String,
         /// Why.
-        source: ConfigError,
+        source: Box<ConfigError>,
     },
+}
+
+impl From<ConfigError> for ResolveError {
+    fn from(e: ConfigError) -> ResolveError {
+        ResolveError::Config(Box::new(e))
+    }
 }
 
 /// Sets the dotted `key` of a TOML table to `value` (parsed as TOML, else a string).
@@ -228,7 +234,7 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
         cfg.use_plant_t_max()
             .map_err(|source| ResolveError::Plant {
                 plant: cfg.plant.clone().unwrap_or_default(),
-                source,
+                source: Box::new(source),
             })?;
     }
     cfg.validate()?;

@@ -36,7 +36,7 @@ pub enum TuneError {
         /// The study file.
         file: PathBuf,
         /// Why.
-        source: ConfigError,
+        source: Box<ConfigError>,
     },
     /// A key of the search space is no configuration key.
     #[error("{}: [space] does not fit the base configuration", file.display())]
@@ -44,7 +44,7 @@ pub enum TuneError {
         /// The study file.
         file: PathBuf,
         /// Why.
-        source: TrialRunError,
+        source: Box<TrialRunError>,
     },
     /// A directory without a readable study file.
     #[error("{} is not a study directory (no readable {STUDY_FILE})", dir.display())]
@@ -56,10 +56,10 @@ pub enum TuneError {
     },
     /// The base configuration of a study directory.
     #[error(transparent)]
-    Base(#[from] ConfigError),
+    Base(Box<ConfigError>),
     /// The best overrides do not fit the base.
     #[error(transparent)]
-    Best(#[from] TrialRunError),
+    Best(Box<TrialRunError>),
     /// The study's own files.
     #[error(transparent)]
     Study(#[from] StudyError),
@@ -100,7 +100,7 @@ pub fn load_study_file(path: &Path) -> Result<(StudyConfig, TrainConfig), TuneEr
             let p = resolve_relative(path, b);
             TrainConfig::from_toml_file(&p).map_err(|source| TuneError::BaseConfig {
                 file: path.to_path_buf(),
-                source,
+                source: Box::new(source),
             })?
         }
         None => TrainConfig::default(),
@@ -117,7 +117,7 @@ pub fn load_study_file(path: &Path) -> Result<(StudyConfig, TrainConfig), TuneEr
         .collect();
     apply_overrides(&base, &sample).map_err(|source| TuneError::Space {
         file: path.to_path_buf(),
-        source,
+        source: Box::new(source),
     })?;
     Ok((config, base))
 }
@@ -195,4 +195,16 @@ pub fn trial_lines(state: &StudyState) -> Vec<String> {
             )
         })
         .collect()
+}
+
+impl From<ConfigError> for TuneError {
+    fn from(e: ConfigError) -> TuneError {
+        TuneError::Base(Box::new(e))
+    }
+}
+
+impl From<TrialRunError> for TuneError {
+    fn from(e: TrialRunError) -> TuneError {
+        TuneError::Best(Box::new(e))
+    }
 }
