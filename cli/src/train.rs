@@ -5,17 +5,16 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
-use buridan_env::{ObsFeatures, Rules, Starts};
+use buridan_env::{Rules, Starts};
 use buridan_eval::plot::{line_chart, Series};
+use buridan_experiment::resolve::RunArgs;
 use buridan_policy::Mode;
 
 use crate::dashboard::{DashboardProgress, Live};
 use crate::signals::{stop_when_stdin_closes, watch_signals};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use buridan_learner::train::{
-    Algo, InProcess, MetricsRow, Progress, Run, Summary, TrainConfig, TrainError, WeightedMap,
-};
+use buridan_learner::train::{Algo, MetricsRow, Progress, Summary, TrainConfig};
 
 /// Arguments of `learner train`.
 #[derive(Debug, Clone, clap::Args)]
@@ -98,7 +97,8 @@ pub struct TrainArgs {
     pub dashboard: crate::dashboard::DashboardArgs,
 }
 
-/// Sets the dotted `key` of a TOML table to `value` (parsed as TOML, else a string).
+/// Sets the dotted `key` of a TOML table to `value` (parsed as TOML, else a
+/// string): [`buridan_experiment::resolve::set_key`].
 ///
 /// ```
 /// let mut t: toml::Table = toml::from_str("[ppo]\nlr = 0.001").unwrap();
@@ -107,138 +107,37 @@ pub struct TrainArgs {
 /// assert!(buridan_cli::train::set_key(&mut t, "no_equals_sign").is_err());
 /// ```
 pub fn set_key(table: &mut toml::Table, assignment: &str) -> Result<()> {
-    let (key, raw) = assignment
-        .split_once('=')
-        .with_context(|| format!("--set '{assignment}': expected KEY=VALUE"))?;
-    let value: toml::Value = toml::from_str::<toml::Table>(&format!("v = {raw}"))
-        .ok()
-        .and_then(|mut t| t.remove("v"))
-        .unwrap_or_else(|| toml::Value::String(raw.to_string()));
-    let mut parts: Vec<&str> = key.trim().split('.').collect();
-    let last = parts
-        .pop()
-        .filter(|k| !k.is_empty())
-        .with_context(|| format!("--set '{assignment}': empty key"))?;
-    let mut node = table;
-    for part in parts {
-        node = node
-            .entry(part)
-            .or_insert_with(|| toml::Value::Table(toml::Table::new()))
-            .as_table_mut()
-            .with_context(|| format!("--set '{assignment}': '{part}' is not a section"))?;
-    }
-    node.insert(last.to_string(), value);
-    Ok(())
+    Ok(buridan_experiment::resolve::set_key(table, assignment)?)
 }
 
-/// The configuration of a run: defaults, then `--config`, then flags, then `--set`.
+impl TrainArgs {
+    /// The arguments that decide the run's configuration.
+    pub fn run_args(&self) -> RunArgs {
+        RunArgs {
+            map: self.map.clone(),
+            plant: self.plant.clone(),
+            maps: self.maps.clone(),
+            agents: self.agents,
+            algo: self.algo,
+            mode: self.mode,
+            starts: self.starts,
+            rules: self.rules,
+            config: self.config.clone(),
+            steps: self.steps,
+            seed: self.seed,
+            resume: self.resume.clone(),
+            overrides: self.overrides.clone(),
+            no_imitation: self.no_imitation,
+            no_stop: self.no_stop,
+            out: self.out.clone(),
+        }
+    }
+}
+
+/// The configuration of a run: defaults, then `--config`, then flags, then
+/// `--set` ([`buridan_experiment::resolve::resolve`]).
 pub fn resolve_config(args: &TrainArgs) -> Result<TrainConfig> {
-    let mut cfg = match &args.config {
-        Some(path) => TrainConfig::from_toml_file(path)?,
-        None => TrainConfig::recipe(),
-    };
-    // Whether T_max was chosen (else a plant run takes its plant file's).
-    let mut t_max_given = match &args.config {
-        Some(path) => std::fs::read_to_string(path)
-            .ok()
-            .and_then(|text| toml::from_str::<toml::Table>(&text).ok())
-            .is_some_and(|t| t.contains_key("t_max")),
-        None => false,
-    };
-    if let Some(v) = &args.map {
-        cfg.map = v.clone();
-        cfg.maps = None;
-        cfg.plant = None;
-    }
-    if let Some(v) = &args.maps {
-        cfg.maps = Some(WeightedMap::parse_list(v)?);
-        cfg.plant = None;
-    }
-    if let Some(v) = &args.plant {
-        cfg.plant = Some(v.clone());
-        cfg.maps = None;
-    }
-    if let Some(v) = args.agents {
-        cfg.agents = v;
-    }
-    if let Some(v) = args.algo {
-        cfg.algo = v;
-    }
-    if let Some(v) = args.mode {
-        cfg.mode = v;
-    }
-    if let Some(v) = args.starts {
-        cfg.starts = v;
-    }
-    if let Some(v) = args.rules {
-        cfg.rules = v;
-        cfg.t_max = v.default_t_max();
-    }
-    if args.config.is_none() && cfg.mode == Mode::Cte {
-        // The recipe's features extend local observations; CTE's central
-        // observation already shows the whole layout.
-        cfg.features = ObsFeatures::default();
-    }
-    if let Some(v) = args.steps {
-        cfg.steps = v;
-    }
-    if let Some(v) = args.seed {
-        cfg.seed = v;
-    }
-    if let Some(v) = &args.resume {
-        cfg.resume = if v.as_os_str() == "auto" {
-            buridan_policy::checkpoint::resolve(&args.out).ok()
-        } else {
-            Some(buridan_policy::checkpoint::resolve(v)?)
-        };
-    }
-    let mut set_keys = Vec::new();
-    if !args.overrides.is_empty() {
-        let mut table: toml::Table =
-            toml::from_str(&cfg.to_toml()).context("configuration round trip")?;
-        for o in &args.overrides {
-            set_key(&mut table, o)?;
-            let key = o.split_once('=').map(|(k, _)| k.trim());
-            // Like the flags: naming one map replaces the list or the plant.
-            if key == Some("map") {
-                table.remove("maps");
-                table.remove("plant");
-            }
-            t_max_given |= key == Some("t_max");
-            set_keys.extend(key.map(str::to_string));
-        }
-        cfg = table.try_into().context("invalid --set override")?;
-    }
-    if args.no_imitation {
-        cfg.imitation = None;
-    }
-    if args.no_stop {
-        cfg.stop = None;
-    }
-    if cfg.plant.is_some() && args.config.is_none() {
-        // The recipe's features and shaping are grid ones (a plant run
-        // refuses them): left out unless set explicitly.
-        if !set_keys.iter().any(|k| k.starts_with("features")) {
-            cfg.features = ObsFeatures::default();
-        }
-        if !set_keys.iter().any(|k| k == "shaping") {
-            cfg.shaping = 0.0;
-        }
-        // Its imitation asks grid planners for labels.
-        if !set_keys.iter().any(|k| k.starts_with("imitation")) {
-            cfg.imitation = None;
-        }
-        // Plant episodes only truncate: no success for `[stop]` to hold.
-        if !set_keys.iter().any(|k| k.starts_with("stop")) {
-            cfg.stop = None;
-        }
-    }
-    if !t_max_given {
-        cfg.use_plant_t_max()
-            .with_context(|| format!("loading plant '{}'", cfg.plant.as_deref().unwrap_or("")))?;
-    }
-    cfg.validate()?;
-    Ok(cfg)
+    Ok(buridan_experiment::resolve::resolve(&args.run_args())?)
 }
 
 /// Live terminal progress: a bar with steps/s, return, success, length.
@@ -395,30 +294,7 @@ pub fn run(args: &TrainArgs) -> Result<Summary> {
     Ok(summary)
 }
 
-/// Trains as the learner's `train` does (actor threads in this process),
-/// stopping with a checkpoint (`TrainError::Interrupted`) once `interrupt`
-/// is set.
-pub fn train_interruptible(
-    cfg: &TrainConfig,
-    out: &Path,
-    progress: &mut dyn Progress,
-    interrupt: Arc<AtomicBool>,
-) -> Result<Summary, Box<TrainError>> {
-    let mut run = Run::prepare(cfg, out)?;
-    let mut collectors = Vec::with_capacity(cfg.num_actors);
-    for i in 0..cfg.num_actors as u32 {
-        collectors.push(run.collector(i)?);
-    }
-    let mut exchange = InProcess::spawn(
-        collectors,
-        cfg.queue_capacity(),
-        cfg.staleness(),
-        cfg.actor_nice,
-    )
-    .map_err(|e| Box::new(e.into()))?;
-    run.interrupt_on(interrupt);
-    Ok(run.learn(&mut exchange, progress)?)
-}
+pub use buridan_experiment::trial::train_interruptible;
 
 /// Refuses to overwrite a finished run.
 pub fn check_out(args: &TrainArgs, cfg: &TrainConfig) -> Result<()> {
