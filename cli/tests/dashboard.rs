@@ -45,18 +45,10 @@ fn same(x: f64, served: &serde_json::Value) -> bool {
     }
 }
 
-#[test]
-fn a_training_run_serves_its_dashboard() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
-    let config = common::tiny_config(dir.path());
-    let child = Command::new(env!("CARGO_BIN_EXE_learner"))
-        .args(["train", "--config"])
-        .arg(&config)
-        .args(["--steps", "3000", "--seed", "5", "--quiet"])
-        .args(["--dashboard", "127.0.0.1:0", "--dashboard-eval", "3"])
-        .args(["--dashboard-linger", "600", "--out"])
-        .arg(&out)
+/// Starts `command` with its stderr piped into a channel, line by line;
+/// the child is killed when the guard drops.
+fn spawn_logged(command: &mut Command) -> (Guard, mpsc::Receiver<String>) {
+    let child = command
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -72,6 +64,38 @@ fn a_training_run_serves_its_dashboard() {
             }
         }
     });
+    (child, rx)
+}
+
+/// The dashboard's event stream at `addr`, read past its greeting, and
+/// what it sent so far.
+fn open_events(addr: SocketAddr) -> (TcpStream, String) {
+    let mut s = TcpStream::connect(addr).unwrap();
+    write!(s, "GET /api/events HTTP/1.1\r\nHost: test\r\n\r\n").unwrap();
+    let mut seen = String::new();
+    let mut buf = [0u8; 1024];
+    while !seen.contains("event: hello") {
+        let n = s.read(&mut buf).unwrap();
+        assert!(n > 0, "the event stream closed: {seen}");
+        seen.push_str(&String::from_utf8_lossy(&buf[..n]));
+    }
+    (s, seen)
+}
+
+#[test]
+fn a_training_run_serves_its_dashboard() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let config = common::tiny_config(dir.path());
+    let (_child, rx) = spawn_logged(
+        Command::new(env!("CARGO_BIN_EXE_learner"))
+            .args(["train", "--config"])
+            .arg(&config)
+            .args(["--steps", "3000", "--seed", "5", "--quiet"])
+            .args(["--dashboard", "127.0.0.1:0", "--dashboard-eval", "3"])
+            .args(["--dashboard-linger", "600", "--out"])
+            .arg(&out),
+    );
     // "dashboard at http://ADDR" at the start; "... for 600 s more" once
     // the run, its final evaluation and its summary are done.
     let mut addr: Option<SocketAddr> = None;
@@ -130,15 +154,7 @@ fn a_training_run_serves_its_dashboard() {
     assert_eq!(&get(addr, "/api/replay.gif")[..6], b"GIF89a");
 
     // The live stream answers, starting with its greeting.
-    let mut s = TcpStream::connect(addr).unwrap();
-    write!(s, "GET /api/events HTTP/1.1\r\nHost: test\r\n\r\n").unwrap();
-    let mut seen = String::new();
-    let mut buf = [0u8; 1024];
-    while !seen.contains("event: hello") {
-        let n = s.read(&mut buf).unwrap();
-        assert!(n > 0, "the event stream closed: {seen}");
-        seen.push_str(&String::from_utf8_lossy(&buf[..n]));
-    }
+    let (_stream, seen) = open_events(addr);
     assert!(seen.contains("text/event-stream"), "{seen}");
 }
 
@@ -178,30 +194,17 @@ fn sigterm_ends_the_run_despite_an_open_page(
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
     let config = common::tiny_config(dir.path());
-    let child = Command::new(env!("CARGO_BIN_EXE_learner"))
-        .args([command, "--config"])
-        .arg(&config)
-        .args(["--steps", "100000000", "--seed", "5", "--quiet"])
-        .args(["--set", "checkpoint_every=100000"])
-        .args(["--dashboard", "127.0.0.1:0", "--dashboard-eval", "3"])
-        .args(extra)
-        .arg("--out")
-        .arg(&out)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut child = Guard(child);
-    let stderr = child.0.stderr.take().unwrap();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-            if tx.send(line).is_err() {
-                break;
-            }
-        }
-    });
+    let (mut child, rx) = spawn_logged(
+        Command::new(env!("CARGO_BIN_EXE_learner"))
+            .args([command, "--config"])
+            .arg(&config)
+            .args(["--steps", "100000000", "--seed", "5", "--quiet"])
+            .args(["--set", "checkpoint_every=100000"])
+            .args(["--dashboard", "127.0.0.1:0", "--dashboard-eval", "3"])
+            .args(extra)
+            .arg("--out")
+            .arg(&out),
+    );
     let mut log = Vec::new();
     let addr: SocketAddr = loop {
         let line = rx
@@ -213,15 +216,7 @@ fn sigterm_ends_the_run_despite_an_open_page(
         }
     };
     // The open page: its event stream stays connected through the stop.
-    let mut page = TcpStream::connect(addr).unwrap();
-    write!(page, "GET /api/events HTTP/1.1\r\nHost: test\r\n\r\n").unwrap();
-    let mut seen = String::new();
-    let mut buf = [0u8; 1024];
-    while !seen.contains("event: hello") {
-        let n = page.read(&mut buf).unwrap();
-        assert!(n > 0, "the event stream closed: {seen}");
-        seen.push_str(&String::from_utf8_lossy(&buf[..n]));
-    }
+    let (_page, _) = open_events(addr);
     let start = Instant::now();
     while !ready(&out) {
         assert!(start.elapsed() < Duration::from_secs(120), "never ready");

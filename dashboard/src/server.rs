@@ -247,40 +247,39 @@ mod tests {
         assert!(get(running.addr(), "/api/replay.gif").ends_with("GIF89a"));
     }
 
+    /// Reads `s` into `seen` until it holds `text`.
+    fn read_until(s: &mut std::net::TcpStream, seen: &mut String, text: &str) {
+        let mut buf = [0u8; 4096];
+        while !seen.contains(text) {
+            let n = s.read(&mut buf).unwrap();
+            assert!(n > 0, "closed early: {seen}");
+            seen.push_str(&String::from_utf8_lossy(&buf[..n]));
+        }
+    }
+
+    /// An event stream of the server at `addr`, past its greeting.
+    fn open_events(addr: SocketAddr) -> (std::net::TcpStream, String) {
+        let mut s = std::net::TcpStream::connect(addr).unwrap();
+        write!(s, "GET /api/events HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+        let mut seen = String::new();
+        read_until(&mut s, &mut seen, "event: hello");
+        (s, seen)
+    }
+
     #[test]
     fn events_stream_the_rows() {
         let board = Board::default();
         let running = serve("127.0.0.1:0".parse().unwrap(), board.clone()).unwrap();
-        let mut s = std::net::TcpStream::connect(running.addr()).unwrap();
-        write!(s, "GET /api/events HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
-        let mut seen = String::new();
-        let mut buf = [0u8; 4096];
-        while !seen.contains("event: hello") {
-            let n = s.read(&mut buf).unwrap();
-            assert!(n > 0, "closed early: {seen}");
-            seen.push_str(&String::from_utf8_lossy(&buf[..n]));
-        }
+        let (mut s, mut seen) = open_events(running.addr());
         board.push_row(serde_json::json!({"update": 7}));
-        while !seen.contains("{\"update\":7}") {
-            let n = s.read(&mut buf).unwrap();
-            assert!(n > 0, "closed early: {seen}");
-            seen.push_str(&String::from_utf8_lossy(&buf[..n]));
-        }
+        read_until(&mut s, &mut seen, "{\"update\":7}");
         assert!(seen.contains("event: row"), "{seen}");
     }
 
     #[test]
     fn a_stop_ends_open_event_streams() {
         let running = serve("127.0.0.1:0".parse().unwrap(), Board::default()).unwrap();
-        let mut s = std::net::TcpStream::connect(running.addr()).unwrap();
-        write!(s, "GET /api/events HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
-        let mut seen = String::new();
-        let mut buf = [0u8; 4096];
-        while !seen.contains("event: hello") {
-            let n = s.read(&mut buf).unwrap();
-            assert!(n > 0, "closed early: {seen}");
-            seen.push_str(&String::from_utf8_lossy(&buf[..n]));
-        }
+        let (mut s, _) = open_events(running.addr());
         // The page stays connected while the server stops: the stop must not
         // wait for it to leave.
         let t0 = std::time::Instant::now();
