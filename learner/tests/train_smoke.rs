@@ -387,9 +387,20 @@ fn the_first_episodes_after_imitation_succeed_as_the_imitated_policy_does() {
         minibatch: 256,
         ..Default::default()
     });
+    // A budget it does not need: `[stop]` ends the run once it has held.
+    cfg.steps = 50_000;
+    cfg.stop = Some(buridan_learner::train::StopRule {
+        success: 0.9,
+        hold: 3_000,
+    });
     let mut record = Record::default();
-    train(&cfg, dir.path(), &mut record).unwrap();
+    let summary = train(&cfg, dir.path(), &mut record).unwrap();
     let first = &record.rows[0];
     assert!(first.episodes >= 20, "{first:?}");
     assert!(first.success_rate >= 0.9, "{first:?}");
+    assert_eq!(
+        summary.stop_reason,
+        buridan_learner::train::StopReason::Learned
+    );
+    assert!(summary.env_steps < cfg.steps, "{summary:?}");
 }

@@ -670,7 +670,7 @@ impl Run {
             count_consumed(&batch);
             self.state.updates += 1;
             self.publish(exchange)?;
-            let row = self.record_update(&stats, learn_seconds, &mut since);
+            let (row, learned) = self.record_update(&stats, learn_seconds, &mut since);
             metrics.write(&row)?;
             events.row(&row)?;
             export_metrics(&row, exchange);
@@ -686,24 +686,11 @@ impl Run {
             if self.goal_reached() {
                 return Ok(StopReason::ReturnGoal);
             }
-            if self.learned(&row) {
+            if learned {
                 return Ok(StopReason::Learned);
             }
         }
         Ok(StopReason::Budget)
-    }
-
-    /// Whether the `[stop]` rule holds after the update of `row`.
-    fn learned(&mut self, row: &MetricsRow) -> bool {
-        let full = self.window.len() >= metrics::EPISODE_WINDOW;
-        let at = target::Mark {
-            update: row.update,
-            env_steps: row.env_steps,
-            wall_seconds: row.wall_seconds,
-        };
-        self.holding
-            .as_mut()
-            .is_some_and(|h| h.observe(row.success_rate, full, at))
     }
 
     fn exchange_status(&self, exchange: &dyn Exchange) -> ExchangeStatus {
@@ -762,14 +749,15 @@ impl Run {
         Ok(Some(batch))
     }
 
-    /// Books an update into the counters and returns its metrics row;
-    /// `since` holds the wall time and env steps of the previous row.
+    /// Books an update into the counters and returns its metrics row and
+    /// whether the `[stop]` rule now holds; `since` holds the wall time and
+    /// env steps of the previous row.
     fn record_update(
         &mut self,
         stats: &UpdateStats,
         learn_seconds: f64,
         since: &mut (f64, u64),
-    ) -> MetricsRow {
+    ) -> (MetricsRow, bool) {
         let wall = self.wall();
         let (lr, entropy_coeff) = self.learner.rates();
         let state = &mut self.state;
@@ -832,7 +820,9 @@ impl Run {
                 );
             }
         }
-        row
+        let learned =
+            (self.holding.as_mut()).is_some_and(|h| h.observe(row.success_rate, full, at));
+        (row, learned)
     }
 
     /// Whether the `stop_return` (and `stop_len`) goal holds over a full window.

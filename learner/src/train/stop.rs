@@ -10,7 +10,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::target::Mark;
+use super::target::{Mark, TimeToTarget};
 
 /// Stop once the training success has held a level for a stretch of env
 /// steps, TOML `[stop]`.
@@ -66,7 +66,8 @@ impl std::fmt::Display for StopReason {
     }
 }
 
-/// Follows a [`StopRule`] update by update.
+/// Follows a [`StopRule`] update by update: the stretch at or above its
+/// level is a [`TimeToTarget`]'s `held` mark.
 ///
 /// ```
 /// use buridan_learner::train::{StopRule, stop::Holding};
@@ -83,24 +84,25 @@ impl std::fmt::Display for StopReason {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Holding {
-    rule: StopRule,
-    since: Option<Mark>,
+    hold: u64,
+    level: TimeToTarget,
 }
 
 impl Holding {
     /// Nothing held yet.
     pub fn new(rule: StopRule) -> Self {
-        Self { rule, since: None }
+        Self {
+            hold: rule.hold,
+            level: TimeToTarget::new(rule.success),
+        }
     }
 
     /// Books one update's training success (`full_window`: over a full
     /// episode window); `true` once the level has held for the stretch.
     pub fn observe(&mut self, success: f64, full_window: bool, at: Mark) -> bool {
-        if !(full_window && success >= self.rule.success) {
-            self.since = None;
-            return false;
-        }
-        let since = *self.since.get_or_insert(at);
-        at.env_steps.saturating_sub(since.env_steps) >= self.rule.hold
+        self.level.observe(success, full_window, at);
+        self.level
+            .held
+            .is_some_and(|since| at.env_steps.saturating_sub(since.env_steps) >= self.hold)
     }
 }
