@@ -122,7 +122,6 @@ pub fn serve(addr: SocketAddr, board: Board) -> Result<Running, DashboardError> 
         .build()
         .map_err(DashboardError::Runtime)?;
     let (stop, stopping) = watch::channel(false);
-    let stopping_too = stopping.clone();
     let thread = std::thread::Builder::new()
         .name("dashboard".into())
         .spawn(move || {
@@ -134,7 +133,7 @@ pub fn serve(addr: SocketAddr, board: Board) -> Result<Running, DashboardError> 
                         return;
                     }
                 };
-                let mut stopped = stopping.clone();
+                let (mut stopped, mut grace) = (stopping.clone(), stopping.clone());
                 let server = axum::serve(listener, router(board, stopping)).with_graceful_shutdown(
                     async move {
                         let _ = stopped.wait_for(|&s| s).await;
@@ -143,7 +142,6 @@ pub fn serve(addr: SocketAddr, board: Board) -> Result<Running, DashboardError> 
                 // Graceful shutdown waits for open connections; a client
                 // that holds one past the grace period is dropped with the
                 // runtime.
-                let mut grace = stopping_too.clone();
                 let deadline = async move {
                     let _ = grace.wait_for(|&s| s).await;
                     tokio::time::sleep(SHUTDOWN_GRACE).await;
