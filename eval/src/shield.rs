@@ -36,7 +36,7 @@ use crate::policy::{MaskKind, PolicyController, PolicyLoadError};
 /// the reported ones: seed 7, 300 episodes, the ten intent-recipe policies
 /// of each reference layout; mean success over the four layouts for
 /// patience 4, 8, 12, 16, 24: 98.6, 99.0, 99.2, 99.2, 99.2 % (plain shield
-/// 97.9; `docs/results/recipe-shield-fallback/RUNS.md`).
+/// 97.9; `docs/results/recipe-shield-fallback/RESULTS.md`).
 pub const DEFAULT_PATIENCE: u32 = 16;
 use crate::{Controller, GiveUp};
 
