@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
-"""Fails on a broken relative link in the book (docs/src/**/*.md) or in
-README.md: a link to a file that does not exist, or to an anchor that no
-heading of the target page produces (mdBook's heading ids).
+"""Fails on a broken relative link in the book (docs/src/**/*.md), the
+results pages (docs/results/**/*.md), models/ and README.md: a link to a
+file that does not exist, or to an anchor that no heading of the target
+page produces (mdBook's heading ids).
 
     python3 scripts/check-book-links.py
 """
@@ -47,7 +48,12 @@ def anchors(page: Path) -> set:
 
 
 def main() -> int:
-    pages = sorted((ROOT / "docs" / "src").rglob("*.md")) + [ROOT / "README.md"]
+    pages = [
+        *sorted((ROOT / "docs" / "src").rglob("*.md")),
+        *sorted((ROOT / "docs" / "results").rglob("*.md")),
+        *sorted((ROOT / "models").rglob("*.md")),
+        ROOT / "README.md",
+    ]
     errors = []
     for page in pages:
         for m in LINK.finditer(prose(page.read_text())):

@@ -1,41 +1,21 @@
 #!/usr/bin/env bash
-# Keeps a finished (or partial) `learner study` directory in the repository:
-# the report (table.*, cells.*, figures, plan.json, experiment.toml) at the
-# top of DEST, and under DEST/study/ what the runner needs to resume and
-# `learner study report` needs to re-aggregate — each run's summary.json and
-# config.toml, each evaluation's summary.json and command.txt. Per-episode
-# and per-update files (episodes.csv, metrics.csv, event files) stay behind
-# for size, so a report rebuilt from the kept copy has the same tables but
-# keeps the figures that need them (learning curves, box plots) as drawn
-# from the full directory.
+# Keeps a finished `learner study` directory's report in the repository:
+# the tables (table.md/csv/json, cells.csv/json), the figures (*.png), the
+# resolved plan.json and the experiment.toml it ran, at the top of DEST.
+# Study state (per-run summaries, configs, per-episode and per-update
+# files) and checkpoints stay in the study directory, outside git: the
+# study file reruns them, and `scripts/check-tree-size.py` keeps the
+# tracked tree small. Write the study's RESULTS.md (command, seeds, budget,
+# the table) beside what this copies.
 #
-# Usage: scripts/keep-study.sh SRC DEST [--policies]
-#   --policies also keeps each run's final checkpoint (checkpoints/final),
-#   so further evaluations of the same policies need no retraining.
+# Usage: scripts/keep-study.sh SRC DEST
 set -euo pipefail
-SRC="${1:?usage: $0 SRC DEST [--policies]}"
-DEST="${2:?usage: $0 SRC DEST [--policies]}"
-POLICIES="${3:-}"
+SRC="${1:?usage: $0 SRC DEST}"
+DEST="${2:?usage: $0 SRC DEST}"
 [ -f "$SRC/plan.json" ] || { echo "$SRC is not a study directory (no plan.json)" >&2; exit 1; }
-mkdir -p "$DEST/study"
-DEST="$(cd "$DEST" && pwd)"
+mkdir -p "$DEST"
 for f in plan.json experiment.toml table.md table.csv table.json cells.csv cells.json; do
-  [ -f "$SRC/$f" ] && cp "$SRC/$f" "$DEST/"
+  if [ -f "$SRC/$f" ]; then cp "$SRC/$f" "$DEST/"; fi
 done
 cp "$SRC"/*.png "$DEST/" 2>/dev/null || true
-cp "$SRC/plan.json" "$SRC/experiment.toml" "$DEST/study/"
-# Checkpoints carry their own copy of the run's config.toml: those stay
-# behind (a checkpoint directory without weights would look resumable).
-(cd "$SRC" && find runs evals -path '*/checkpoints' -prune -o \( -name summary.json -o -name config.toml -o -name command.txt \) -print0 2>/dev/null |
-  while IFS= read -r -d '' f; do
-    mkdir -p "$DEST/study/$(dirname "$f")"
-    cp "$f" "$DEST/study/$f"
-  done)
-if [ "$POLICIES" = "--policies" ]; then
-  (cd "$SRC" && find runs -type d -path '*/checkpoints/final' -print0 |
-    while IFS= read -r -d '' d; do
-      mkdir -p "$DEST/study/$d"
-      cp -r "$d/." "$DEST/study/$d/"
-    done)
-fi
 du -sh "$DEST" | sed 's/^/kept: /'
