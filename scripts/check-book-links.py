@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Fails on a broken relative link in the book (docs/src/**/*.md), the
-results pages (docs/results/**/*.md), models/ and README.md: a link to a
+results pages (docs/results/**/*.md), models/, fixtures/ and README.md: a link to a
 file that does not exist, or to an anchor that no heading of the target
 page produces (mdBook's heading ids).
 
@@ -52,6 +52,7 @@ def main() -> int:
         *sorted((ROOT / "docs" / "src").rglob("*.md")),
         *sorted((ROOT / "docs" / "results").rglob("*.md")),
         *sorted((ROOT / "models").rglob("*.md")),
+        *sorted((ROOT / "fixtures").rglob("*.md")),
         ROOT / "README.md",
     ]
     errors = []

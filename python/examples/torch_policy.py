@@ -5,7 +5,7 @@ safetensors, so ``safetensors.torch.load_file`` reads it and a few lines of
 
     pip install torch --index-url https://download.pytorch.org/whl/cpu
     pip install safetensors
-    python python/examples/torch_policy.py docs/results/ppo-ctde-rm-2.1/checkpoint
+    python python/examples/torch_policy.py fixtures/ppo-ctde-rm-2.1/checkpoint
 
 Tensor names (``policy/src/net.rs``), per net ``k`` (one net for CTE and
 CTDE, one per agent for DTE): ``net{k}.pi.{i}.weight|bias`` (hidden layer
@@ -52,7 +52,7 @@ class TorchPolicy(nn.Module):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("checkpoint", type=Path, nargs="?",
-                    default=Path("docs/results/ppo-ctde-rm-2.1/checkpoint"))
+                    default=Path("fixtures/ppo-ctde-rm-2.1/checkpoint"))
     ap.add_argument("--map", default="rm-2.1")
     args = ap.parse_args()
 

@@ -7,8 +7,9 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 TRACE = REPO / "env" / "tests" / "data" / "reference_trace.txt"
 # A real `learner train` checkpoint (PPO-CTDE on rm-2.1, 4 agents), committed
-# with its evaluation (docs/results/ppo-ctde-rm-2.1/).
-TRAINED = REPO / "docs" / "results" / "ppo-ctde-rm-2.1"
+# with its greedy evaluation (fixtures/ppo-ctde-rm-2.1/; the run is described in
+# docs/results/ppo-ctde-rm-2.1/RESULTS.md).
+TRAINED = REPO / "fixtures" / "ppo-ctde-rm-2.1"
 
 
 def parse_trace(path: Path = TRACE):

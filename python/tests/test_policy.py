@@ -47,7 +47,7 @@ def test_act_returns_actions_logp_and_logits():
 
 def test_greedy_evaluation_reproduces_the_committed_learner_eval():
     """`learner eval --controller checkpoint:… --episodes 100 --seed 42` as
-    committed in docs/results/ppo-ctde-rm-2.1/eval-greedy/summary.json."""
+    committed in fixtures/ppo-ctde-rm-2.1/eval-greedy/summary.json."""
     want = json.loads((TRAINED / "eval-greedy" / "summary.json").read_text())
     got = buridan.evaluate("rm-2.1", f"checkpoint:{CHECKPOINT}", agents=4, episodes=100, seed=42).summary
     for key in ("controller", "success_rate", "timesteps_median", "sum_of_costs_mean", "reward_mean"):

@@ -92,7 +92,7 @@ pub enum ControllerNameError {
 /// use buridan_env::Rules;
 /// use buridan_policy::ActMode;
 /// let (g, t, p) = (ActMode::Greedy, Rules::Thesis, Rules::Pogema);
-/// let ckpt = "../docs/results/ppo-ctde-rm-2.1/checkpoint";
+/// let ckpt = "../fixtures/ppo-ctde-rm-2.1/checkpoint";
 /// let make = controller_factory(&format!("shield:checkpoint:{ckpt}"), 8, 42, Default::default(), g, t).unwrap();
 /// assert_eq!(make().name(), "ctde-policy+shield");
 /// let err = controller_factory("shield:cbs", 4, 42, Default::default(), g, t).err().unwrap();

@@ -10,7 +10,7 @@ use buridan_policy::ActMode;
 
 /// The committed PPO-CTDE checkpoint (rm-2.1, 4 agents; README "Learning").
 pub fn committed_ppo_checkpoint() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../docs/results/ppo-ctde-rm-2.1/checkpoint")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/ppo-ctde-rm-2.1/checkpoint")
 }
 
 /// The committed policy with greedy actions, for 4 agents, seed 42.
