@@ -33,7 +33,14 @@ fn a_run_directory_resolves_to_final_else_the_newest_update() {
 #[test]
 fn a_pretrained_model_resolves_by_name_and_loads() {
     let names = checkpoint::available_models();
-    for want in ["rm-2.1", "rm-2.1b", "rm-2.2", "rm-3.1", "pogema-warehouse"] {
+    for want in [
+        "rm-2.1",
+        "rm-2.1b",
+        "rm-2.2",
+        "rm-3.1",
+        "pogema-warehouse",
+        "plant-dissertation",
+    ] {
         assert!(names.iter().any(|n| n == want), "{want} not in {names:?}");
     }
     for name in &names {
