@@ -29,11 +29,12 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Context, Result};
 use buridan_actor::misbehave::{MisbehaveOptions, MisbehaveTally, Misbehaver};
 use buridan_learner::train::TrainConfig;
+use buridan_study::figures::clock;
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
-use crate::heartbeat::{clock, TARGET};
+use crate::heartbeat::TARGET;
 
 mod processes;
 use processes::{ActorCommand, Actors, KillSchedule, Learner};

@@ -6,6 +6,7 @@
 use std::io::IsTerminal;
 use std::time::Duration;
 
+use buridan_study::figures::clock;
 use indicatif::ProgressBar;
 
 /// The `tracing` target of progress lines; `main` shows it at `info`.
@@ -145,21 +146,4 @@ pub fn speed_and_eta(pos: u64, len: u64, elapsed: f64, rate: f64, eta: f64) -> (
         "-".into()
     };
     (format!("{} each", clock(each)), eta)
-}
-
-/// Seconds as `1h02m`, `3m07s` or `12s`.
-///
-/// ```
-/// use buridan_cli::heartbeat::clock;
-/// assert_eq!(clock(12.4), "12s");
-/// assert_eq!(clock(187.0), "3m07s");
-/// assert_eq!(clock(3720.0), "1h02m");
-/// ```
-pub fn clock(seconds: f64) -> String {
-    let s = seconds.max(0.0).round() as u64;
-    match s {
-        0..60 => format!("{s}s"),
-        60..3600 => format!("{}m{:02}s", s / 60, s % 60),
-        _ => format!("{}h{:02}m", s / 3600, s % 3600 / 60),
-    }
 }

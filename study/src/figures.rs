@@ -180,6 +180,23 @@ pub fn tick(v: f64) -> String {
     }
 }
 
+/// Seconds as people read a duration: `1h02m`, `3m07s` or `12s`.
+///
+/// ```
+/// use buridan_study::figures::clock;
+/// assert_eq!(clock(12.4), "12s");
+/// assert_eq!(clock(187.0), "3m07s");
+/// assert_eq!(clock(3720.0), "1h02m");
+/// ```
+pub fn clock(seconds: f64) -> String {
+    let s = seconds.max(0.0).round() as u64;
+    match s {
+        0..60 => format!("{s}s"),
+        60..3600 => format!("{}m{:02}s", s / 60, s % 60),
+        _ => format!("{}h{:02}m", s / 3600, s % 3600 / 60),
+    }
+}
+
 /// Lines with shaded confidence bands (learning curves, scalability).
 ///
 /// ```
