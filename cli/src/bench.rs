@@ -34,7 +34,8 @@ pub enum BenchCommand {
     /// minutes, a misbehaving client mixed in, actors killed and
     /// restarted at random; memory over time, the fragment books, the
     /// training target.
-    Soak(crate::bench_soak::SoakArgs),
+    #[cfg(feature = "soak")]
+    Soak(buridan_soak::SoakArgs),
 }
 
 /// Arguments of `learner bench pogema`.
@@ -133,8 +134,20 @@ pub fn run(command: &BenchCommand) -> Result<()> {
     match command {
         BenchCommand::Pogema(args) => run_pogema(args).map(|_| ()),
         BenchCommand::Train(args) => crate::bench_train::run(args).map(|_| ()),
-        BenchCommand::Soak(args) => crate::bench_soak::run(args).map(|_| ()),
+        #[cfg(feature = "soak")]
+        BenchCommand::Soak(args) => run_soak(args),
     }
+}
+
+/// Runs `learner bench soak` on this executable's `serve`.
+#[cfg(feature = "soak")]
+fn run_soak(args: &buridan_soak::SoakArgs) -> Result<()> {
+    let host = buridan_soak::Host {
+        learner_exe: std::env::current_exe().context("finding the learner executable")?,
+        watch: crate::heartbeat::watch,
+    };
+    buridan_soak::run(args, &host)?;
+    Ok(())
 }
 
 /// Runs `learner bench pogema`; returns the table's rows.
@@ -235,4 +248,12 @@ pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
     tracing::info!(files = ?files, "benchmark table written");
     println!("{}", markdown(&rows));
     Ok(rows)
+}
+
+#[cfg(all(test, feature = "soak"))]
+mod tests {
+    #[test]
+    fn the_soaks_progress_lines_are_shown_as_progress() {
+        assert_eq!(buridan_soak::TARGET, crate::heartbeat::TARGET);
+    }
 }

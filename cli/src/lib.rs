@@ -5,7 +5,6 @@
 //! the trial drivers); this crate only parses, calls and presents.
 
 pub mod bench;
-pub mod bench_soak;
 pub mod bench_train;
 pub mod dashboard;
 pub mod eval;

@@ -2,6 +2,10 @@
 //! `--help` of every `learner` command, so it cannot drift from clap: this
 //! test renders it and compares. After changing an argument, rewrite the
 //! page with `BURIDAN_BLESS=1 cargo test -p buridan-cli --test cli_reference`.
+//!
+//! The page is the default build's: with the dev-only `soak` feature,
+//! `learner bench` has one more command, and this test stands aside.
+#![cfg(not(feature = "soak"))]
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -59,7 +63,10 @@ fn the_books_cli_reference_is_the_help_of_every_command() {
          Every command's `--help`. Run them as `cargo run --release -p buridan-cli \
          --bin learner -- COMMAND ...` or `target/release/learner COMMAND ...`. \
          The `actor` binary (`actor --help`) joins a `learner serve` run; see \
-         [Distributed training](../guide/distributed.md).\n\n",
+         [Distributed training](../guide/distributed.md). `learner bench soak` is \
+         built only with the dev-only `soak` feature (`cargo build --release -p \
+         buridan-cli -p buridan-actor --features buridan-cli/soak`), as that \
+         guide's soak section says.\n\n",
     );
     render(&mut Vec::new(), &mut page);
     let file = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../docs/src/reference/cli.md");

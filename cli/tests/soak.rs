@@ -1,11 +1,11 @@
-//! `learner bench soak` for 30 seconds. Ignored by default: it needs the
-//! `actor` binary beside `learner` (build it first), runs three processes
-//! on two cores for over half a minute, and learns rm-2.1 only in release
-//! builds in that time. Run it with
+//! `learner bench soak` (the `soak` feature) for 30 seconds. Ignored by
+//! default: it needs the `actor` binary beside `learner` (build it first),
+//! runs three processes on two cores for over half a minute, and learns
+//! rm-2.1 only in release builds in that time. Run it with
 //!
 //! ```sh
 //! cargo build --release -p buridan-actor
-//! cargo test --release -p buridan-cli --test soak -- --ignored
+//! cargo test --release -p buridan-cli --features soak --test soak -- --ignored
 //! ```
 
 use std::path::PathBuf;
