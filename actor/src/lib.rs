@@ -10,11 +10,13 @@
 //! - [`remote_env`]: [`remote_env::RemoteEnv`], envs stepped on an external
 //!   simulator over the env API (`env.proto`), behind the same
 //!   [`buridan_env::BatchedEnv`] as the built-in envs (`actor --env URL`).
-//! - [`misbehave`]: a client that sends what a learner must refuse and
-//!   checks the answers (`learner bench soak`).
+//! - `misbehave` (the non-default `misbehave` feature): a client that sends
+//!   what a learner must refuse and checks the answers (the soak harness,
+//!   `buridan-soak`, and the learner's hardening tests).
 
 pub mod client;
 pub mod collector;
+#[cfg(feature = "misbehave")]
 pub mod misbehave;
 pub mod remote_env;
 pub mod shield;

@@ -22,7 +22,8 @@
 //! died, a book does not balance, the misbehaving client got anything but
 //! the refusals it expected, or training success never reached `--target`.
 //!
-//! A dev-only crate: the production `learner` build leaves it out.
+//! A dev-only crate: the production `learner` and `actor` builds leave it,
+//! and the misbehaving client it needs, out.
 
 use std::path::PathBuf;
 
