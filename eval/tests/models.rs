@@ -4,58 +4,80 @@
 //! 100 episodes, 4 agents, through `shield-lanes=16`), scores the manifest's
 //! success, median timesteps and mean sum of costs.
 
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use buridan_env::{Map, Rules};
 use buridan_eval::by_name::controller_factory;
 use buridan_eval::{evaluate, EvalSpec};
-use buridan_policy::ActMode;
+use buridan_policy::{checkpoint, ActMode};
 
-fn models_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../models")
+/// A model's `manifest.toml`, as the test reads it: the evaluation's
+/// episodes, seed and fleet size, and its figures.
+struct Manifest {
+    name: String,
+    table: toml::Table,
+    agents: usize,
+    episodes: usize,
+    seed: u64,
 }
 
-/// `[evaluation]` and `[training]` of a model's manifest.
-fn manifest(name: &str) -> toml::Table {
-    let path = models_dir().join(name).join("manifest.toml");
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    text.parse()
-        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
+impl Manifest {
+    /// Reads model `name`'s manifest (where `model:NAME` resolves) and
+    /// checks that its `[evaluation] command` runs `controller`.
+    fn read(name: &str, controller: &str) -> Self {
+        let path = checkpoint::model_dir(name)
+            .unwrap()
+            .join(checkpoint::MANIFEST_FILE);
+        let text =
+            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let table: toml::Table = text
+            .parse()
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let evaluation = &table["evaluation"];
+        assert!(
+            evaluation["command"]
+                .as_str()
+                .unwrap()
+                .contains(&format!("--controller {controller} ")),
+            "{name}: the manifest's command is not the one this test runs"
+        );
+        Self {
+            name: name.to_string(),
+            agents: table["training"]["agents"].as_integer().unwrap() as usize,
+            episodes: evaluation["episodes"].as_integer().unwrap() as usize,
+            seed: evaluation["episode_seed"].as_integer().unwrap() as u64,
+            table,
+        }
+    }
 
-fn number(table: &toml::Table, section: &str, key: &str) -> f64 {
-    let v = &table[section][key];
-    v.as_float()
-        .or_else(|| v.as_integer().map(|i| i as f64))
-        .unwrap_or_else(|| panic!("[{section}] {key}: {v}"))
+    /// A `[training]` text value.
+    fn training(&self, key: &str) -> &str {
+        self.table["training"][key].as_str().unwrap()
+    }
+
+    /// An `[evaluation]` figure.
+    fn figure(&self, key: &str) -> f64 {
+        let v = &self.table["evaluation"][key];
+        v.as_float()
+            .or_else(|| v.as_integer().map(|i| i as f64))
+            .unwrap_or_else(|| panic!("{}: [evaluation] {key}: {v}", self.name))
+    }
 }
 
 fn reproduces(name: &str) {
-    let m = manifest(name);
-    let training = m["training"].as_table().unwrap();
-    let evaluation = m["evaluation"].as_table().unwrap();
-    let map_name = training["map"].as_str().unwrap();
-    let agents = training["agents"].as_integer().unwrap() as usize;
-    assert!(
-        evaluation["command"]
-            .as_str()
-            .unwrap()
-            .contains(&format!("shield-lanes=16:checkpoint:model:{name}")),
-        "{name}: the manifest's command is not the one this test runs"
-    );
-    let map = Arc::new(Map::load(map_name).unwrap());
+    let controller = format!("shield-lanes=16:checkpoint:model:{name}");
+    let m = Manifest::read(name, &controller);
+    let map = Arc::new(Map::load(m.training("map")).unwrap());
     let spec = EvalSpec {
-        agents,
-        episodes: evaluation["episodes"].as_integer().unwrap() as usize,
-        seed: evaluation["episode_seed"].as_integer().unwrap() as u64,
+        agents: m.agents,
+        episodes: m.episodes,
+        seed: m.seed,
         rules: Rules::Thesis,
         ..EvalSpec::default()
     };
-    let controller = format!("shield-lanes=16:checkpoint:model:{name}");
     let make = controller_factory(
         &controller,
-        agents,
+        m.agents,
         spec.seed,
         Default::default(),
         ActMode::Greedy,
@@ -65,16 +87,16 @@ fn reproduces(name: &str) {
     let s = evaluate(&map, &spec, &make, &|_| {}).unwrap().summary;
     assert_eq!(
         s.success_rate,
-        number(&m, "evaluation", "shield_lanes_success"),
+        m.figure("shield_lanes_success"),
         "{name}: success"
     );
     assert_eq!(
         s.timesteps_median,
-        Some(number(&m, "evaluation", "shield_lanes_timesteps_median")),
+        Some(m.figure("shield_lanes_timesteps_median")),
         "{name}: median timesteps"
     );
     let soc = s.sum_of_costs_mean.unwrap();
-    let want = number(&m, "evaluation", "shield_lanes_sum_of_costs_mean");
+    let want = m.figure("shield_lanes_sum_of_costs_mean");
     assert!(
         (soc - want).abs() < 0.005,
         "{name}: mean sum of costs {soc}, manifest {want}"
@@ -105,26 +127,16 @@ fn the_rm_3_1_model_reproduces_its_manifest() {
 fn the_plant_model_reproduces_its_manifest() {
     use buridan_eval::plant::{evaluate_plant, load_plant, PlantController, PlantEvalSpec};
     let name = "plant-dissertation";
-    let m = manifest(name);
-    let training = m["training"].as_table().unwrap();
-    let evaluation = m["evaluation"].as_table().unwrap();
-    let agents = training["agents"].as_integer().unwrap() as usize;
     let controller = format!("checkpoint:model:{name}");
-    assert!(
-        evaluation["command"]
-            .as_str()
-            .unwrap()
-            .contains(&format!("--controller {controller} ")),
-        "{name}: the manifest's command is not the one this test runs"
-    );
-    let plant = Arc::new(load_plant(training["plant"].as_str().unwrap(), None).unwrap());
+    let m = Manifest::read(name, &controller);
+    let plant = Arc::new(load_plant(m.training("plant"), None).unwrap());
     let spec = PlantEvalSpec {
-        agents,
-        episodes: evaluation["episodes"].as_integer().unwrap() as usize,
-        seed: evaluation["episode_seed"].as_integer().unwrap() as u64,
+        agents: m.agents,
+        episodes: m.episodes,
+        seed: m.seed,
     };
-    let mut c =
-        PlantController::by_name(&controller, &plant, agents, spec.seed, ActMode::Greedy).unwrap();
+    let mut c = PlantController::by_name(&controller, &plant, m.agents, spec.seed, ActMode::Greedy)
+        .unwrap();
     let s = evaluate_plant(&plant, &spec, &mut c, &|_| {})
         .unwrap()
         .summary;
@@ -133,7 +145,7 @@ fn the_plant_model_reproduces_its_manifest() {
         (s.reward_per_agent_mean, "reward_per_agent_mean"),
         (s.collisions_mean, "collisions_mean"),
     ] {
-        let want = number(&m, "evaluation", key);
+        let want = m.figure(key);
         assert!(
             (got - want).abs() < 0.005,
             "{name}: {key} {got}, manifest {want}"
