@@ -85,6 +85,24 @@ pub fn failure_replay(env_seed: u64) -> u64 {
     env_seed ^ 0x7265_706c_6179 // "replay"
 }
 
+/// Episode seed of the `check`-th held-out greedy check of a run seeded
+/// `run` (the learner's `[stop.greedy]`): a stream apart from the run's
+/// training envs (`run + actor`, shifted on resume) and from the
+/// evaluation protocol's seed 42, new episodes at every check.
+///
+/// ```
+/// use buridan_env::seed::{actor_env, greedy_check};
+/// assert_ne!(greedy_check(0, 0), greedy_check(0, 1));
+/// assert_ne!(greedy_check(0, 0), greedy_check(1, 0));
+/// for run in 0..100 {
+///     assert!(greedy_check(run, 0) > 1 << 40, "far from small seeds such as 42 and run + actor");
+///     assert_ne!(greedy_check(run, 0), actor_env(run, 0, 0));
+/// }
+/// ```
+pub fn greedy_check(run: u64, check: u64) -> u64 {
+    (run ^ 0x6772_6565_6479_0000).wrapping_add(check.wrapping_mul(GOLDEN)) // "greedy"
+}
+
 /// Seed of the random controller's action draws for evaluation seed `seed`.
 pub fn random_controller(seed: u64) -> u64 {
     seed ^ 0x7261_6e64_6f6d // "random"

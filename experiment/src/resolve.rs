@@ -212,6 +212,15 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
     if args.no_stop {
         cfg.stop = None;
     }
+    if cfg.maps.is_some()
+        && args.config.is_none()
+        && !set_keys.iter().any(|k| k.starts_with("stop"))
+    {
+        // The recipe's greedy check plays one map's held-out episodes.
+        if let Some(stop) = &mut cfg.stop {
+            stop.greedy = None;
+        }
+    }
     if cfg.plant.is_some() && args.config.is_none() {
         // The recipe's features and shaping are grid ones (a plant run
         // refuses them): left out unless set explicitly.

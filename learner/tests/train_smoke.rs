@@ -392,6 +392,7 @@ fn the_first_episodes_after_imitation_succeed_as_the_imitated_policy_does() {
     cfg.stop = Some(buridan_learner::train::StopRule {
         success: 0.9,
         hold: 3_000,
+        greedy: None,
     });
     let mut record = Record::default();
     let summary = train(&cfg, dir.path(), &mut record).unwrap();
@@ -403,4 +404,78 @@ fn the_first_episodes_after_imitation_succeed_as_the_imitated_policy_does() {
         buridan_learner::train::StopReason::Learned
     );
     assert!(summary.env_steps < cfg.steps, "{summary:?}");
+}
+
+/// `[stop.greedy]`: once the greedy policy solves the held-out episodes the
+/// run stops, says why, and books every check in `greedy.csv`; a level no
+/// policy reaches (a stretch longer than the budget for the training rule)
+/// leaves the run to its budget, one check per `every` env steps.
+#[test]
+fn a_greedy_check_on_held_out_episodes_stops_a_run_that_has_learned() {
+    use buridan_learner::train::stop::{GreedyCheck, GreedyRecord};
+    use buridan_learner::train::{StopReason, StopRule, GREEDY_FILE};
+    buridan_policy::threads::pin_threads(1);
+    let mut cfg = tiny(Algo::Ppo, Mode::Ctde);
+    cfg.hidden = vec![64, 64];
+    cfg.ppo.train_batch = 1000;
+    cfg.ppo.minibatch = 500;
+    cfg.fragment_len = 50;
+    cfg.imitation = Some(buridan_imitate::ImitationConfig {
+        expert: vec!["lacam".into(), "od-astar".into()],
+        rounds: 2,
+        steps_per_round: 2_000,
+        envs: 4,
+        epochs: 10,
+        minibatch: 256,
+        ..Default::default()
+    });
+    cfg.steps = 20_000;
+    let check = GreedyCheck {
+        success: 1.0,
+        episodes: 8,
+        every: 4_000,
+    };
+    // The training rule cannot fire: only the greedy check can stop it.
+    let rule = |greedy| StopRule {
+        success: 1.0,
+        hold: 1_000_000,
+        greedy: Some(greedy),
+    };
+    let records = |dir: &std::path::Path| -> Vec<GreedyRecord> {
+        csv::Reader::from_path(dir.join(GREEDY_FILE))
+            .unwrap()
+            .deserialize()
+            .collect::<Result<_, _>>()
+            .unwrap()
+    };
+
+    // The imitated policy solves rm-1.1 (fixed starts) greedily: the first
+    // check, right after the first update, stops the run.
+    let dir = tempfile::tempdir().unwrap();
+    cfg.stop = Some(rule(check));
+    let summary = train(&cfg, dir.path(), &mut Record::default()).unwrap();
+    assert_eq!(summary.stop_reason, StopReason::Greedy, "{summary:?}");
+    assert_eq!(summary.updates, 1, "stopped after the first update");
+    let rows = records(dir.path());
+    assert_eq!(rows.len(), 1, "{rows:?}");
+    assert_eq!(
+        (rows[0].update, rows[0].episodes, rows[0].solved),
+        (1, 8, 8)
+    );
+
+    // Without imitation the first updates' greedy policy solves nothing:
+    // no check passes, one runs every 4,000 env steps, the budget ends it.
+    let dir = tempfile::tempdir().unwrap();
+    cfg.imitation = None;
+    cfg.steps = 9_000;
+    let summary = train(&cfg, dir.path(), &mut Record::default()).unwrap();
+    assert_eq!(summary.stop_reason, StopReason::Budget, "{summary:?}");
+    let rows = records(dir.path());
+    assert_eq!(rows[0].update, 1, "{rows:?}");
+    assert!(rows.len() >= 2, "{rows:?}");
+    for pair in rows.windows(2) {
+        let gap = pair[1].env_steps - pair[0].env_steps;
+        assert!((4_000..5_000).contains(&gap), "{rows:?}");
+    }
+    assert!(rows.iter().all(|r| r.solved < r.episodes), "{rows:?}");
 }

@@ -38,6 +38,13 @@ pub enum TrainError {
     /// Imitating the planner failed.
     #[error("imitation")]
     Imitation(#[source] Box<buridan_imitate::ImitationError>),
+    /// The held-out greedy check of `[stop.greedy]` could not play its
+    /// episodes.
+    #[error("the greedy check on held-out episodes failed")]
+    GreedyCheck {
+        /// Why.
+        source: CollectError,
+    },
     /// A learner update failed.
     #[error("learner update")]
     Update(#[from] AlgoError),

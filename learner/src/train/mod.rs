@@ -44,7 +44,7 @@ use buridan_env::{seed, BatchedEnv, EnvConfig, Map, Shaping, VecEnv, WeightedLay
 use buridan_imitate::ImitationConfig;
 use buridan_plant::{Plant, PlantEnv, PlantVecEnv};
 use buridan_policy::checkpoint::{self, CONFIG_FILE, OPTIMIZER_FILE, TRAINER_FILE};
-use buridan_policy::{Fragment, Inference, ModelSpec, Policy, Weights};
+use buridan_policy::{ActMode, Fragment, Inference, ModelSpec, Policy, Weights};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -263,6 +263,23 @@ pub fn env_config(cfg: &TrainConfig, seed: u64) -> EnvConfig {
     }
 }
 
+/// The `[stop.greedy]` checks of a run, one CSV row each
+/// ([`stop::GreedyRecord`]).
+pub const GREEDY_FILE: &str = "greedy.csv";
+
+/// `greedy.csv` of a run, appended to on resume.
+fn open_greedy_log(path: &Path) -> Result<csv::Writer<std::fs::File>, TrainError> {
+    let fresh = !path.exists();
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+        .map_err(|e| TrainError::io("cannot open", path, e))?;
+    Ok(csv::WriterBuilder::new()
+        .has_headers(fresh)
+        .from_writer(file))
+}
+
 /// The imitation rounds of a run, one CSV row each.
 pub const IMITATION_FILE: &str = "imitation.csv";
 
@@ -389,6 +406,9 @@ pub struct Run {
     interrupt: Option<Arc<AtomicBool>>,
     /// The `[stop]` rule's progress (it starts afresh on resume).
     holding: Option<stop::Holding>,
+    /// `[stop.greedy]`: env steps of the next check and checks so far.
+    greedy_next: u64,
+    greedy_checks: u64,
 }
 
 impl Run {
@@ -478,6 +498,8 @@ impl Run {
             t_start,
             interrupt: None,
             holding: cfg.stop.map(stop::Holding::new),
+            greedy_next: 0,
+            greedy_checks: 0,
         })
     }
 
@@ -651,6 +673,7 @@ impl Run {
     ) -> Result<StopReason, TrainError> {
         let mut metrics = MetricsWriter::open(&self.out.join(METRICS_FILE))?;
         let mut events = tensorboard::EventWriter::create(&self.out)?;
+        let mut greedy_log = None;
         let shuffle_seed = seed::learner_shuffle(self.cfg.seed, self.state.updates);
         let mut rng = ChaCha8Rng::seed_from_u64(shuffle_seed);
         progress.on_start(&self.cfg, self.cfg.steps, self.state.env_steps);
@@ -688,6 +711,9 @@ impl Run {
             }
             if learned {
                 return Ok(StopReason::Learned);
+            }
+            if self.greedy_check(&mut greedy_log)? {
+                return Ok(StopReason::Greedy);
             }
         }
         Ok(StopReason::Budget)
@@ -823,6 +849,59 @@ impl Run {
         let learned =
             (self.holding.as_mut()).is_some_and(|h| h.observe(row.success_rate, full, at));
         (row, learned)
+    }
+
+    /// `[stop.greedy]`, when one is due: plays the check's held-out
+    /// episodes greedily, books them in `greedy.csv` (opened into `log`
+    /// at the first check) and says whether they reach the level.
+    fn greedy_check(
+        &mut self,
+        log: &mut Option<csv::Writer<std::fs::File>>,
+    ) -> Result<bool, TrainError> {
+        let Some(check) = self.cfg.stop.and_then(|s| s.greedy) else {
+            return Ok(false);
+        };
+        let Some((map, _)) = self.layouts.first() else {
+            return Ok(false); // a plant run: refused by the config's validation
+        };
+        if self.state.env_steps < self.greedy_next {
+            return Ok(false);
+        }
+        self.greedy_next = self.state.env_steps + check.every;
+        let seed = seed::greedy_check(self.cfg.seed, self.greedy_checks);
+        self.greedy_checks += 1;
+        let started = Instant::now();
+        let env = env_config(&self.cfg, seed);
+        let n = check.episodes;
+        let episodes =
+            rollout::rollout(&self.policy, map.clone(), env, n, n, ActMode::Greedy, seed)
+                .map_err(|source| TrainError::GreedyCheck { source })?;
+        let solved = episodes.iter().filter(|e| e.success).count();
+        let record = stop::GreedyRecord {
+            update: self.state.updates,
+            env_steps: self.state.env_steps,
+            wall_seconds: self.wall(),
+            episodes: n,
+            solved,
+            seconds: started.elapsed().as_secs_f64(),
+        };
+        tracing::info!(
+            env_steps = record.env_steps,
+            solved,
+            episodes = n,
+            seconds = record.seconds,
+            "greedy check on held-out episodes: {solved} of {n} solved"
+        );
+        let path = self.out.join(GREEDY_FILE);
+        let writer = match log {
+            Some(w) => w,
+            None => log.insert(open_greedy_log(&path)?),
+        };
+        writer
+            .serialize(record)
+            .and_then(|()| writer.flush().map_err(csv::Error::from))
+            .map_err(|e| TrainError::io("cannot write", &path, std::io::Error::other(e)))?;
+        Ok(check.passes(solved, n))
     }
 
     /// Whether the `stop_return` (and `stop_len`) goal holds over a full window.

@@ -7,9 +7,11 @@ use buridan_actor::CollectError;
 use buridan_env::{BatchedEnv, EnvConfig, EpisodeStats, Map, VecEnv};
 use buridan_policy::{ActMode, Inference, Policy};
 
-/// Plays `episodes` episodes of `policy` on `num_envs` parallel envs of
-/// `map` (episode indices 0, 1, … of `env`'s seed), choosing actions with
-/// `mode`; returns the statistics of the first `episodes` episodes that end.
+/// Plays episodes 0, 1, …, `episodes` − 1 of `env`'s seed with `policy`
+/// on `num_envs` parallel envs of `map`, choosing actions with `mode`;
+/// returns their statistics in the order they end. Exactly those episodes
+/// count, whichever order they end in, so short (solved) episodes are not
+/// over-represented when envs run in parallel.
 ///
 /// ```
 /// use buridan_env::{EnvConfig, Map, Starts};
@@ -40,6 +42,7 @@ pub fn rollout(
     let mut row_rewards = vec![0f32; rows];
     let mut row_done = vec![0u8; rows];
     let mut out = Vec::with_capacity(episodes);
+    let wanted = episodes as u64;
     while out.len() < episodes {
         inf.act(venv.obs(), venv.masks(), mode, &mut actions, &mut logp)?;
         venv.step(&actions)?;
@@ -48,8 +51,11 @@ pub fn rollout(
             venv.write_row_done(&mut row_done);
             st.observe(&actions, &row_rewards, &row_done);
         }
-        out.extend(venv.drain_episodes());
+        out.extend(
+            venv.drain_episodes()
+                .into_iter()
+                .filter(|e| e.episode < wanted),
+        );
     }
-    out.truncate(episodes);
     Ok(out)
 }

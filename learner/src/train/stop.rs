@@ -7,18 +7,34 @@
 //! [`EPISODE_WINDOW`](super::metrics::EPISODE_WINDOW) episodes) has stayed
 //! at or above `success` for `hold` env steps in a row; `steps` stays the
 //! cap. The summary says which of these ended the run ([`StopReason`]).
+//!
+//! Training success is a sampled policy's, on the episodes it trains on;
+//! what a user deploys is the greedy policy on episodes it has not seen.
+//! `[stop.greedy]` ([`GreedyCheck`]) measures that directly: every `every`
+//! env steps the learner plays `episodes` held-out episodes greedily (a
+//! seed stream of their own, [`buridan_env::seed::greedy_check`], apart
+//! from the training envs' and the seed-42 evaluation's) and stops once
+//! their success reaches its level. Each check draws new episodes, so a
+//! policy that passed once by luck is as likely to be caught as any other.
 
 use serde::{Deserialize, Serialize};
 
 use super::target::{Mark, TimeToTarget};
 
 /// Stop once the training success has held a level for a stretch of env
-/// steps, TOML `[stop]`.
+/// steps, TOML `[stop]`; or, with `[stop.greedy]`, once the greedy policy
+/// solves enough held-out episodes.
 ///
 /// ```
-/// let rule: buridan_learner::train::StopRule = toml::from_str("success = 0.98\nhold = 50000").unwrap();
-/// assert_eq!((rule.success, rule.hold), (0.98, 50_000));
+/// use buridan_learner::train::StopRule;
+/// let rule: StopRule = toml::from_str("success = 0.98\nhold = 50000").unwrap();
+/// assert_eq!((rule.success, rule.hold, rule.greedy), (0.98, 50_000, None));
 /// rule.validate().unwrap();
+/// let rule: StopRule = toml::from_str(
+///     "success = 0.99\nhold = 200000\n[greedy]\nsuccess = 0.99\nepisodes = 200\nevery = 20000",
+/// )
+/// .unwrap();
+/// assert_eq!(rule.greedy.map(|g| (g.success, g.episodes, g.every)), Some((0.99, 200, 20_000)));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -28,10 +44,14 @@ pub struct StopRule {
     /// Env steps the level must hold, every update at or above it, before
     /// the run stops.
     pub hold: u64,
+    /// Also stop once a greedy evaluation on held-out episodes reaches its
+    /// level, TOML `[stop.greedy]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub greedy: Option<GreedyCheck>,
 }
 
 impl StopRule {
-    /// Checks the level and the stretch; the message names the bad key.
+    /// Checks the levels and the stretches; the message names the bad key.
     pub fn validate(&self) -> Result<(), &'static str> {
         if !(self.success > 0.0 && self.success <= 1.0) {
             return Err("stop.success must lie in (0, 1]");
@@ -39,8 +59,72 @@ impl StopRule {
         if self.hold == 0 {
             return Err("stop.hold must be at least 1 env step");
         }
+        if let Some(g) = &self.greedy {
+            g.validate()?;
+        }
         Ok(())
     }
+}
+
+/// A greedy evaluation on held-out episodes between updates, TOML
+/// `[stop.greedy]`: the run stops once the share of `episodes` episodes
+/// the greedy policy solves reaches `success`.
+///
+/// ```
+/// use buridan_learner::train::stop::GreedyCheck;
+/// let check = GreedyCheck { success: 0.99, episodes: 200, every: 20_000 };
+/// check.validate().unwrap();
+/// assert!(check.passes(198, 200) && !check.passes(197, 200));
+/// assert!(GreedyCheck { episodes: 0, ..check }.validate().is_err());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GreedyCheck {
+    /// The level (0..=1): the share of the held-out episodes solved.
+    pub success: f64,
+    /// Held-out episodes per check (all played at once, one env each).
+    pub episodes: usize,
+    /// Env steps between checks; the first follows the first update.
+    pub every: u64,
+}
+
+impl GreedyCheck {
+    /// Checks the level, the episode count and the interval.
+    pub fn validate(&self) -> Result<(), &'static str> {
+        if !(self.success > 0.0 && self.success <= 1.0) {
+            return Err("stop.greedy.success must lie in (0, 1]");
+        }
+        if self.episodes == 0 {
+            return Err("stop.greedy.episodes must be at least 1");
+        }
+        if self.every == 0 {
+            return Err("stop.greedy.every must be at least 1 env step");
+        }
+        Ok(())
+    }
+
+    /// Whether `solved` of `played` episodes reach the level (counted in
+    /// episodes, so 0.99 of 200 is 198 and no rounding lets 197 through).
+    pub fn passes(&self, solved: usize, played: usize) -> bool {
+        played > 0 && solved as f64 >= (self.success * played as f64 - 1e-9).ceil()
+    }
+}
+
+/// One greedy check of a run, a row of `greedy.csv`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GreedyRecord {
+    /// Updates done when the check ran.
+    pub update: u64,
+    /// Env steps sampled by then.
+    pub env_steps: u64,
+    /// The run's wall seconds by then.
+    pub wall_seconds: f64,
+    /// Held-out episodes played.
+    pub episodes: usize,
+    /// Of these, solved.
+    pub solved: usize,
+    /// Seconds the check took.
+    pub seconds: f64,
 }
 
 /// Why a run ended.
@@ -54,6 +138,8 @@ pub enum StopReason {
     Learned,
     /// The mean return reached `stop_return` (and the length `stop_len`).
     ReturnGoal,
+    /// The greedy policy solved `[stop.greedy]`'s share of held-out episodes.
+    Greedy,
 }
 
 impl std::fmt::Display for StopReason {
@@ -62,6 +148,7 @@ impl std::fmt::Display for StopReason {
             StopReason::Budget => "the step budget was used",
             StopReason::Learned => "the training success held its target",
             StopReason::ReturnGoal => "the return goal was reached",
+            StopReason::Greedy => "the greedy policy solved its share of held-out episodes",
         })
     }
 }
@@ -73,7 +160,7 @@ impl std::fmt::Display for StopReason {
 /// use buridan_learner::train::{StopRule, stop::Holding};
 /// use buridan_learner::train::target::Mark;
 /// let at = |k: u64| Mark { update: k, env_steps: 1000 * k, wall_seconds: k as f64 };
-/// let mut h = Holding::new(StopRule { success: 0.9, hold: 2000 });
+/// let mut h = Holding::new(StopRule { success: 0.9, hold: 2000, greedy: None });
 /// assert!(!h.observe(0.95, true, at(1))); // held from 1000 steps on
 /// assert!(!h.observe(0.85, true, at(2))); // fell: starts over
 /// assert!(!h.observe(0.92, true, at(3)));
