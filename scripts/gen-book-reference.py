@@ -16,11 +16,13 @@ OUT = ROOT / "docs" / "src" / "reference" / "config.md"
 
 # (TOML table, source file, struct name)
 SECTIONS = [
-    ("top level", "learner/src/train/config.rs", "TrainConfig"),
-    ("[[maps]]", "learner/src/train/config.rs", "WeightedMap"),
+    ("top level", "learner/src/train/config/mod.rs", "TrainConfig"),
+    ("[[maps]]", "learner/src/train/config/layouts.rs", "WeightedMap"),
     ("[features]", "env/src/recipe.rs", "ObsFeatures"),
-    ("[ppo]", "learner/src/train/config.rs", "PpoConfig"),
-    ("[impala]", "learner/src/train/config.rs", "ImpalaConfig"),
+    ("[ppo]", "learner/src/train/config/algo.rs", "PpoConfig"),
+    ("[impala]", "learner/src/train/config/algo.rs", "ImpalaConfig"),
+    ("[stop]", "learner/src/train/stop.rs", "StopRule"),
+    ("[stop.greedy]", "learner/src/train/stop.rs", "GreedyCheck"),
     ("[replay]", "env/src/replay.rs", "ReplayConfig"),
     ("[imitation] and [polish]", "imitate/src/config.rs", "ImitationConfig"),
     ("lr_schedule / entropy_schedule", "learner/src/algo/schedule.rs", "Schedule"),

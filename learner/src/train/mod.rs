@@ -26,9 +26,13 @@ pub mod config;
 pub mod cores;
 pub mod error;
 pub mod exchange;
+mod export;
 pub mod gate;
+mod learner;
 pub mod metrics;
+mod phases;
 pub mod rollout;
+mod state;
 pub mod stop;
 pub mod target;
 pub mod tensorboard;
@@ -41,24 +45,26 @@ use std::time::{Duration, Instant};
 use buridan_actor::shield::RolloutShield;
 use buridan_actor::Collector;
 use buridan_env::{seed, BatchedEnv, EnvConfig, Map, Shaping, VecEnv, WeightedLayout};
-use buridan_imitate::ImitationConfig;
 use buridan_plant::{Plant, PlantEnv, PlantVecEnv};
 use buridan_policy::checkpoint::{self, CONFIG_FILE, OPTIMIZER_FILE, TRAINER_FILE};
-use buridan_policy::{ActMode, Fragment, Inference, ModelSpec, Policy, Weights};
+use buridan_policy::{Fragment, Inference, ModelSpec, Policy, Weights};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
-use crate::algo::impala::Impala;
-use crate::algo::optim::ClippedAdam;
-use crate::algo::ppo::Ppo;
-use crate::algo::{AlgoError, UpdateStats};
+use crate::algo::UpdateStats;
+use export::{count_consumed, export_metrics};
+use learner::Learner;
+use phases::{imitate, Phase};
+use state::{read_trainer_state, restore_layout_windows};
 
 pub use config::{Algo, ConfigError, ImpalaConfig, PpoConfig, TrainConfig, WeightedMap};
 pub use error::{ExchangeError, Interrupted, TrainError};
 pub use exchange::{Exchange, InProcess, Shared, Ticket};
 pub use metrics::{EpisodeWindow, LayoutWindows, MetricsError, MetricsRow, MetricsWriter, Summary};
-pub use stop::{StopReason, StopRule};
+pub use phases::{IMITATION_FILE, POLISH_FILE};
+pub use state::{LayoutRecord, TrainerState};
+pub use stop::{StopReason, StopRule, GREEDY_FILE};
 
 /// The run's metrics file inside its output directory.
 pub const METRICS_FILE: &str = "metrics.csv";
@@ -98,153 +104,6 @@ pub struct NoProgress;
 
 impl Progress for NoProgress {}
 
-/// Counters saved with a checkpoint (`trainer.json`).
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct TrainerState {
-    /// Learner updates (= policy version).
-    pub updates: u64,
-    /// Env steps sampled.
-    pub env_steps: u64,
-    /// Agent steps sampled.
-    pub agent_steps: u64,
-    /// Episodes finished.
-    pub episodes: u64,
-    /// Wall seconds spent so far.
-    pub wall_seconds: f64,
-    /// Adam steps taken.
-    pub adam_steps: u64,
-    /// PPO KL coefficients per weight set.
-    pub kl_coeffs: Vec<f64>,
-    /// Fragments dropped as stale.
-    pub stale_fragments: u64,
-    /// The last episodes (the metrics window), so a resumed run reports
-    /// from its first update on.
-    #[serde(default)]
-    pub recent_episodes: Vec<buridan_env::EpisodeStats>,
-    /// Runs on several layouts: each layout's episode count and window.
-    #[serde(default)]
-    pub layouts: Vec<LayoutRecord>,
-    /// When the training success reached each [`target::TARGET_SUCCESS`]
-    /// level (empty in checkpoints of older versions: filled on resume).
-    #[serde(default)]
-    pub time_to_target: Vec<target::TimeToTarget>,
-}
-
-/// One training layout's counters in a checkpoint: a resumed run picks
-/// them up by map name (so a resume on other layouts starts those afresh).
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct LayoutRecord {
-    /// The map.
-    pub map: String,
-    /// Episodes finished on it.
-    pub episodes: u64,
-    /// Its last episodes (its metrics window).
-    pub recent: Vec<buridan_env::EpisodeStats>,
-}
-
-enum Learner {
-    Ppo(Ppo),
-    Impala(Impala),
-}
-
-impl Learner {
-    fn new(cfg: &TrainConfig, policy: &Policy) -> Self {
-        match cfg.algo {
-            Algo::Ppo => Learner::Ppo(Ppo::new(policy, cfg.into())),
-            Algo::Impala => Learner::Impala(Impala::new(policy, cfg.into())),
-        }
-    }
-
-    fn optim(&mut self) -> &mut ClippedAdam {
-        match self {
-            Learner::Ppo(p) => &mut p.optim,
-            Learner::Impala(i) => &mut i.optim,
-        }
-    }
-
-    /// Sizes the update to the cores this run may use now
-    /// ([`cores::share`] unless `update_threads` fixes it).
-    fn follow_cores(&mut self, cfg: &TrainConfig) {
-        match self {
-            Learner::Ppo(p) => {
-                p.settings.update_threads = cores::update_threads(cfg.ppo.update_threads)
-            }
-            Learner::Impala(i) => {
-                i.settings.update_threads = cores::update_threads(cfg.impala.update_threads)
-            }
-        }
-    }
-
-    /// Sets the learning rate and entropy coefficient the config's
-    /// schedules give at `env_steps` (unscheduled ones stay as configured).
-    fn follow_schedules(&mut self, cfg: &TrainConfig, env_steps: u64) {
-        let (lr, entropy) = match cfg.algo {
-            Algo::Ppo => (&cfg.ppo.lr_schedule, &cfg.ppo.entropy_schedule),
-            Algo::Impala => (&cfg.impala.lr_schedule, &cfg.impala.entropy_schedule),
-        };
-        if let Some(lr) = lr {
-            self.optim().adam.lr = lr.value(env_steps);
-        }
-        if let Some(entropy) = entropy {
-            *self.entropy_coeff() = entropy.value(env_steps) as f32;
-        }
-    }
-
-    fn entropy_coeff(&mut self) -> &mut f32 {
-        match self {
-            Learner::Ppo(p) => &mut p.settings.entropy_coeff,
-            Learner::Impala(i) => &mut i.settings.entropy_coeff,
-        }
-    }
-
-    /// The learning rate and entropy coefficient of the next update.
-    fn rates(&mut self) -> (f64, f64) {
-        let entropy = *self.entropy_coeff() as f64;
-        (self.optim().adam.lr, entropy)
-    }
-
-    fn kl_coeffs(&self) -> Vec<f64> {
-        match self {
-            Learner::Ppo(p) => p.kl_coeffs.clone(),
-            Learner::Impala(_) => Vec::new(),
-        }
-    }
-
-    fn update(
-        &mut self,
-        policy: &Policy,
-        batch: &[Fragment],
-        rng: &mut ChaCha8Rng,
-    ) -> Result<UpdateStats, AlgoError> {
-        match self {
-            Learner::Ppo(p) => p.update(policy, batch, rng),
-            Learner::Impala(i) => i.update(policy, batch),
-        }
-    }
-
-    /// Restores the optimiser moments and KL coefficients of a checkpoint.
-    fn restore(&mut self, dir: &Path, state: &TrainerState) -> Result<(), TrainError> {
-        let path = dir.join(OPTIMIZER_FILE);
-        if path.is_file() {
-            self.optim()
-                .adam
-                .load(&path, state.adam_steps)
-                .map_err(|source| TrainError::Optimizer { path, source })?;
-        } else {
-            tracing::warn!(
-                "{} lacks {OPTIMIZER_FILE}: fresh optimiser state",
-                dir.display()
-            );
-        }
-        if let Learner::Ppo(p) = self {
-            if state.kl_coeffs.len() == p.kl_coeffs.len() {
-                p.kl_coeffs = state.kl_coeffs.clone();
-            }
-        }
-        Ok(())
-    }
-}
-
 /// The env configuration of a training config.
 pub fn env_config(cfg: &TrainConfig, seed: u64) -> EnvConfig {
     EnvConfig {
@@ -261,94 +120,6 @@ pub fn env_config(cfg: &TrainConfig, seed: u64) -> EnvConfig {
         }),
         ..EnvConfig::default()
     }
-}
-
-/// The `[stop.greedy]` checks of a run, one CSV row each
-/// ([`stop::GreedyRecord`]).
-pub const GREEDY_FILE: &str = "greedy.csv";
-
-/// `greedy.csv` of a run, appended to on resume.
-fn open_greedy_log(path: &Path) -> Result<csv::Writer<std::fs::File>, TrainError> {
-    let fresh = !path.exists();
-    let file = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(path)
-        .map_err(|e| TrainError::io("cannot open", path, e))?;
-    Ok(csv::WriterBuilder::new()
-        .has_headers(fresh)
-        .from_writer(file))
-}
-
-/// The imitation rounds of a run, one CSV row each.
-pub const IMITATION_FILE: &str = "imitation.csv";
-
-/// The polish rounds of a run (`[polish]`, after learning from rewards),
-/// one CSV row each.
-pub const POLISH_FILE: &str = "polish.csv";
-
-/// When a run imitates its planners: which phase, its CSV and env stream.
-#[derive(Debug, Clone, Copy)]
-enum Phase {
-    /// `[imitation]`: a fresh policy, before learning from rewards.
-    Warmup,
-    /// `[polish]`: the trained policy, before the final checkpoint.
-    Polish,
-}
-
-impl Phase {
-    fn file(self) -> &'static str {
-        match self {
-            Phase::Warmup => IMITATION_FILE,
-            Phase::Polish => POLISH_FILE,
-        }
-    }
-
-    /// A pseudo-actor index no real actor has, so the phase's episodes
-    /// replay neither the actors' nor the other phase's.
-    fn stream(self) -> u64 {
-        match self {
-            Phase::Warmup => u64::from(u32::MAX),
-            Phase::Polish => u64::from(u32::MAX) - 1,
-        }
-    }
-}
-
-/// Fits `policy` to the planner's actions by DAgger on the run's layouts
-/// (envs and seeds of the phase's own), logging each round to the phase's
-/// CSV in `out`.
-fn imitate(
-    cfg: &TrainConfig,
-    im: &ImitationConfig,
-    phase: Phase,
-    layouts: &[WeightedLayout],
-    policy: &Policy,
-    out: &Path,
-) -> Result<(), TrainError> {
-    let seed = seed::actor_env(cfg.seed, phase.stream(), 0);
-    let env = env_config(cfg, seed);
-    let kind = cfg.mode.obs_kind();
-    let imitated = match layouts {
-        [(map, _)] => {
-            let mut venv = VecEnv::new(map.clone(), env, im.envs, kind, 1)?;
-            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut |_| {})
-        }
-        _ => {
-            let mut venv = VecEnv::with_layouts(layouts, env, im.envs, kind, 1)?;
-            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut |_| {})
-        }
-    };
-    let rounds = imitated.map_err(|e| TrainError::Imitation(Box::new(e)))?;
-    let path = out.join(phase.file());
-    let mut csv = csv::Writer::from_writer(Vec::new());
-    for round in &rounds {
-        csv.serialize(round)
-            .map_err(|e| TrainError::io("cannot write", &path, std::io::Error::other(e)))?;
-    }
-    let bytes = csv
-        .into_inner()
-        .map_err(|e| TrainError::io("cannot write", &path, e.into_error()))?;
-    std::fs::write(&path, bytes).map_err(|e| TrainError::io("cannot write", &path, e))
 }
 
 fn write_file(path: &Path, text: &str) -> Result<(), TrainError> {
@@ -406,9 +177,8 @@ pub struct Run {
     interrupt: Option<Arc<AtomicBool>>,
     /// The `[stop]` rule's progress (it starts afresh on resume).
     holding: Option<stop::Holding>,
-    /// `[stop.greedy]`: env steps of the next check and checks so far.
-    greedy_next: u64,
-    greedy_checks: u64,
+    /// `[stop.greedy]`'s checks (they start afresh on resume).
+    greedy: Option<stop::GreedyProbe>,
 }
 
 impl Run {
@@ -498,8 +268,8 @@ impl Run {
             t_start,
             interrupt: None,
             holding: cfg.stop.map(stop::Holding::new),
-            greedy_next: 0,
-            greedy_checks: 0,
+            greedy: (cfg.stop.and_then(|s| s.greedy))
+                .map(|check| stop::GreedyProbe::new(check, out)),
         })
     }
 
@@ -673,7 +443,6 @@ impl Run {
     ) -> Result<StopReason, TrainError> {
         let mut metrics = MetricsWriter::open(&self.out.join(METRICS_FILE))?;
         let mut events = tensorboard::EventWriter::create(&self.out)?;
-        let mut greedy_log = None;
         let shuffle_seed = seed::learner_shuffle(self.cfg.seed, self.state.updates);
         let mut rng = ChaCha8Rng::seed_from_u64(shuffle_seed);
         progress.on_start(&self.cfg, self.cfg.steps, self.state.env_steps);
@@ -712,7 +481,7 @@ impl Run {
             if learned {
                 return Ok(StopReason::Learned);
             }
-            if self.greedy_check(&mut greedy_log)? {
+            if self.greedy_check()? {
                 return Ok(StopReason::Greedy);
             }
         }
@@ -851,57 +620,22 @@ impl Run {
         (row, learned)
     }
 
-    /// `[stop.greedy]`, when one is due: plays the check's held-out
-    /// episodes greedily, books them in `greedy.csv` (opened into `log`
-    /// at the first check) and says whether they reach the level.
-    fn greedy_check(
-        &mut self,
-        log: &mut Option<csv::Writer<std::fs::File>>,
-    ) -> Result<bool, TrainError> {
-        let Some(check) = self.cfg.stop.and_then(|s| s.greedy) else {
-            return Ok(false);
-        };
-        let Some((map, _)) = self.layouts.first() else {
-            return Ok(false); // a plant run: refused by the config's validation
-        };
-        if self.state.env_steps < self.greedy_next {
-            return Ok(false);
-        }
-        self.greedy_next = self.state.env_steps + check.every;
-        let seed = seed::greedy_check(self.cfg.seed, self.greedy_checks);
-        self.greedy_checks += 1;
-        let started = Instant::now();
-        let env = env_config(&self.cfg, seed);
-        let n = check.episodes;
-        let episodes =
-            rollout::rollout(&self.policy, map.clone(), env, n, n, ActMode::Greedy, seed)
-                .map_err(|source| TrainError::GreedyCheck { source })?;
-        let solved = episodes.iter().filter(|e| e.success).count();
-        let record = stop::GreedyRecord {
+    /// `[stop.greedy]`, when a check is due: whether the greedy policy
+    /// now solves its share of held-out episodes of the run's map.
+    fn greedy_check(&mut self) -> Result<bool, TrainError> {
+        let at = target::Mark {
             update: self.state.updates,
             env_steps: self.state.env_steps,
             wall_seconds: self.wall(),
-            episodes: n,
-            solved,
-            seconds: started.elapsed().as_secs_f64(),
         };
-        tracing::info!(
-            env_steps = record.env_steps,
-            solved,
-            episodes = n,
-            seconds = record.seconds,
-            "greedy check on held-out episodes: {solved} of {n} solved"
-        );
-        let path = self.out.join(GREEDY_FILE);
-        let writer = match log {
-            Some(w) => w,
-            None => log.insert(open_greedy_log(&path)?),
+        let (Some(probe), Some((map, _))) = (self.greedy.as_mut(), self.layouts.first()) else {
+            return Ok(false);
         };
-        writer
-            .serialize(record)
-            .and_then(|()| writer.flush().map_err(csv::Error::from))
-            .map_err(|e| TrainError::io("cannot write", &path, std::io::Error::other(e)))?;
-        Ok(check.passes(solved, n))
+        if !probe.due(at.env_steps) {
+            return Ok(false);
+        }
+        let env = env_config(&self.cfg, self.cfg.seed);
+        probe.run(&self.policy, map.clone(), env, self.cfg.seed, at)
     }
 
     /// Whether the `stop_return` (and `stop_len`) goal holds over a full window.
@@ -957,76 +691,6 @@ impl Run {
     }
 }
 
-/// The per-layout windows of a run over `names`, with the counters of the
-/// checkpoint's layouts of the same names.
-fn restore_layout_windows(names: &[String], saved: &[LayoutRecord]) -> LayoutWindows {
-    let found: Vec<Option<&LayoutRecord>> = names
-        .iter()
-        .map(|n| saved.iter().find(|r| r.map == *n))
-        .collect();
-    let totals: Vec<u64> = found.iter().map(|r| r.map_or(0, |r| r.episodes)).collect();
-    let recent: Vec<Vec<buridan_env::EpisodeStats>> = found
-        .iter()
-        .map(|r| r.map_or_else(Vec::new, |r| r.recent.clone()))
-        .collect();
-    LayoutWindows::restore(names.len(), &totals, &recent)
-}
-
-/// The trainer counters of checkpoint `dir`.
-fn read_trainer_state(dir: &Path) -> Result<TrainerState, TrainError> {
-    let path = dir.join(TRAINER_FILE);
-    let text =
-        std::fs::read_to_string(&path).map_err(|e| TrainError::io("cannot read", &path, e))?;
-    serde_json::from_str(&text).map_err(|source| TrainError::TrainerState { path, source })
-}
-
-/// Counts the fragments an update consumed, and their env steps as the
-/// buffers handed to the update hold them (`rewards` is `[T, B]`, `B` =
-/// envs × rows per env), in `buridan_fragments_consumed_total` and
-/// `buridan_fragment_steps_consumed_total` (`learner bench soak` checks
-/// that every consumed fragment was whole: steps = fragments × fragment
-/// length × envs).
-fn count_consumed(batch: &[Fragment]) {
-    let steps: usize = batch
-        .iter()
-        .map(|f| f.rewards.len() / f.rows_per_env.max(1))
-        .sum();
-    ::metrics::counter!("buridan_fragments_consumed_total").increment(batch.len() as u64);
-    ::metrics::counter!("buridan_fragment_steps_consumed_total").increment(steps as u64);
-}
-
-/// Publishes one update's figures as Prometheus metrics (no-ops unless an
-/// exporter is installed).
-fn export_metrics(row: &MetricsRow, exchange: &dyn Exchange) {
-    ::metrics::gauge!("buridan_policy_version").set(row.update as f64);
-    ::metrics::gauge!("buridan_env_steps").set(row.env_steps as f64);
-    ::metrics::gauge!("buridan_env_steps_per_second").set(row.steps_per_s);
-    ::metrics::gauge!("buridan_queue_depth").set(exchange.queue_depth() as f64);
-    ::metrics::gauge!("buridan_connected_actors").set(exchange.connected_actors() as f64);
-    ::metrics::gauge!("buridan_episodes").set(row.episodes as f64);
-    for (name, v) in [
-        ("buridan_episode_return_mean", row.episode_return_mean),
-        ("buridan_success_rate", row.success_rate),
-        ("buridan_episode_length_mean", row.episode_len_mean),
-    ] {
-        if v.is_finite() {
-            ::metrics::gauge!(name).set(v);
-        }
-    }
-    for (term, v) in [
-        ("total", row.total_loss),
-        ("policy", row.policy_loss),
-        ("value", row.vf_loss),
-        ("entropy", row.entropy),
-        ("kl", row.kl),
-    ] {
-        ::metrics::gauge!("buridan_loss", "term" => term).set(v);
-    }
-    ::metrics::gauge!("buridan_grad_norm").set(row.grad_norm);
-    ::metrics::gauge!("buridan_learning_rate").set(row.lr);
-    ::metrics::gauge!("buridan_entropy_coeff").set(row.entropy_coeff);
-    ::metrics::histogram!("buridan_learn_seconds").record(row.learn_seconds);
-}
 /// The final checkpoint directory of a finished run in `out`.
 pub fn final_checkpoint(out: &Path) -> PathBuf {
     checkpoint::final_dir(out)

@@ -17,9 +17,16 @@
 //! their success reaches its level. Each check draws new episodes, so a
 //! policy that passed once by luck is as likely to be caught as any other.
 
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use buridan_env::{seed, EnvConfig, Map};
+use buridan_policy::{ActMode, Policy};
 use serde::{Deserialize, Serialize};
 
 use super::target::{Mark, TimeToTarget};
+use super::{rollout, TrainError};
 
 /// Stop once the training success has held a level for a stretch of env
 /// steps, TOML `[stop]`; or, with `[stop.greedy]`, once the greedy policy
@@ -107,6 +114,103 @@ impl GreedyCheck {
     /// episodes, so 0.99 of 200 is 198 and no rounding lets 197 through).
     pub fn passes(&self, solved: usize, played: usize) -> bool {
         played > 0 && solved as f64 >= (self.success * played as f64 - 1e-9).ceil()
+    }
+}
+
+/// The `[stop.greedy]` checks of a run, one CSV row each ([`GreedyRecord`]).
+pub const GREEDY_FILE: &str = "greedy.csv";
+
+/// A [`GreedyCheck`] through a run: when the next check is due, the seed
+/// of each, and their log `greedy.csv` in the run's directory (appended
+/// to on resume; the checks themselves start afresh).
+#[derive(Debug)]
+pub struct GreedyProbe {
+    check: GreedyCheck,
+    next: u64,
+    done: u64,
+    path: PathBuf,
+    log: Option<csv::Writer<std::fs::File>>,
+}
+
+impl GreedyProbe {
+    /// No check done yet; the first is due at once.
+    pub fn new(check: GreedyCheck, out: &Path) -> Self {
+        Self {
+            check,
+            next: 0,
+            done: 0,
+            path: out.join(GREEDY_FILE),
+            log: None,
+        }
+    }
+
+    /// Whether a check is due after `env_steps` env steps.
+    pub fn due(&self, env_steps: u64) -> bool {
+        env_steps >= self.next
+    }
+
+    /// Plays the check at `at`: `episodes` episodes of `map` under `env`'s
+    /// rules, greedily, from the check's own seed
+    /// ([`seed::greedy_check`] of `run_seed`, put into `env`); books them
+    /// in `greedy.csv` and says whether they reach the level.
+    pub fn run(
+        &mut self,
+        policy: &Policy,
+        map: Arc<Map>,
+        env: EnvConfig,
+        run_seed: u64,
+        at: Mark,
+    ) -> Result<bool, TrainError> {
+        self.next = at.env_steps + self.check.every;
+        let seed = seed::greedy_check(run_seed, self.done);
+        self.done += 1;
+        let started = Instant::now();
+        let n = self.check.episodes;
+        let env = EnvConfig { seed, ..env };
+        let episodes = rollout::rollout(policy, map, env, n, n, ActMode::Greedy, seed)
+            .map_err(|source| TrainError::GreedyCheck { source })?;
+        let solved = episodes.iter().filter(|e| e.success).count();
+        let record = GreedyRecord {
+            update: at.update,
+            env_steps: at.env_steps,
+            wall_seconds: at.wall_seconds,
+            episodes: n,
+            solved,
+            seconds: started.elapsed().as_secs_f64(),
+        };
+        tracing::info!(
+            env_steps = record.env_steps,
+            solved,
+            episodes = n,
+            seconds = record.seconds,
+            "greedy check on held-out episodes: {solved} of {n} solved"
+        );
+        self.book(&record)?;
+        Ok(self.check.passes(solved, n))
+    }
+
+    fn book(&mut self, record: &GreedyRecord) -> Result<(), TrainError> {
+        let path = &self.path;
+        let failed = |e: csv::Error| TrainError::io("cannot write", path, std::io::Error::other(e));
+        let log = match &mut self.log {
+            Some(log) => log,
+            None => {
+                let fresh = !path.exists();
+                let file = std::fs::OpenOptions::new()
+                    .create(true)
+                    .append(true)
+                    .open(path)
+                    .map_err(|e| TrainError::io("cannot open", path, e))?;
+                self.log.insert(
+                    csv::WriterBuilder::new()
+                        .has_headers(fresh)
+                        .from_writer(file),
+                )
+            }
+        };
+        log.serialize(record).map_err(failed)?;
+        log.flush()
+            .map_err(|e| TrainError::io("cannot write", path, e))
     }
 }
 

@@ -1,0 +1,464 @@
+//! Training configuration: every hyperparameter of SPEC §4, with the
+//! dissertation's comparison settings as defaults, loadable from TOML.
+
+use std::path::{Path, PathBuf};
+
+use buridan_env::replay::ReplayConfig;
+use buridan_env::{ObsFeatures, Rules, Starts};
+use buridan_imitate::ImitationConfig;
+use buridan_policy::{ActMode, LstmSpec, Mode, ModelSpec, ValueHead};
+use serde::{Deserialize, Serialize};
+
+use super::stop::{GreedyCheck, StopRule};
+use crate::algo::impala::ImpalaSettings;
+use crate::algo::ppo::PpoSettings;
+use crate::algo::vtrace::VTraceParams;
+use crate::train::gate::Staleness;
+
+mod algo;
+mod error;
+mod layouts;
+#[cfg(test)]
+mod tests;
+mod validate;
+
+pub use algo::{Algo, ImpalaConfig, PpoConfig};
+pub use error::ConfigError;
+pub use layouts::WeightedMap;
+
+/// Whether failure replay is off (then `[replay]` is left out of a saved config).
+fn is_zero(n: &u8) -> bool {
+    *n == 0
+}
+
+fn replay_off(replay: &ReplayConfig) -> bool {
+    *replay == ReplayConfig::default()
+}
+
+/// Everything a training run needs.
+///
+/// Env steps are *vectorised* env steps: one step of one env instance
+/// counts 1 whatever the number of agents (RLlib's default
+/// `count_steps_by="env_steps"`); `train_batch`, `steps` and every reported
+/// step count use this unit.
+///
+/// ```
+/// use buridan_learner::train::TrainConfig;
+/// let cfg: TrainConfig = toml::from_str(r#"
+///     algo = "ppo"
+///     mode = "ctde"
+///     map = "rm-1.1"
+///     agents = 2
+///     starts = "fixed"
+///     steps = 200000
+///     [ppo]
+///     clip = 0.1
+/// "#).unwrap();
+/// assert_eq!(cfg.ppo.clip, 0.1);
+/// assert_eq!(cfg.ppo.epochs, 12);
+/// cfg.validate().unwrap();
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrainConfig {
+    /// PPO or IMPALA.
+    pub algo: Algo,
+    /// CTE, CTDE or DTE.
+    pub mode: Mode,
+    /// Reference model id (`rm-2.1`) or a MovingAI `.map` path.
+    pub map: String,
+    /// Several layouts with weights, instead of `map`: each env draws the
+    /// layout of every episode from them (a file sets one of `map` and
+    /// `maps`; when `maps` is set, `map` is not used). CTDE and DTE only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub maps: Option<Vec<WeightedMap>>,
+    /// Train on an AGV plant instead of a grid map: a bundled plant id
+    /// (`dissertation`, `hall`) or a plant file path ([`Plant::load`]).
+    /// Excludes `maps` (a file sets at most one of `map`, `maps` and
+    /// `plant`), `[imitation]`, `features` and `shaping`; `starts`,
+    /// `rules` and `sensor_range` do not apply. The run's label is
+    /// `plant:ID` ([`TrainConfig::map_label`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plant: Option<String>,
+    /// Agents per env.
+    pub agents: usize,
+    /// Fixed (`.scen`) or random starts and goals.
+    pub starts: Starts,
+    /// The rule set agents move by: `thesis` (sequential moves in index
+    /// order, the dissertation's) or `pogema` (simultaneous moves,
+    /// POGEMA's repair). Recorded in checkpoints.
+    pub rules: Rules,
+    /// Episode truncation `T_max` (in a file without it: the rule set's,
+    /// 100 for thesis, 128 for pogema). With `plant`: the plant episode's
+    /// length in steps, replacing the plant file's `episode.t_max`; a file
+    /// (or `learner train --plant`) that leaves `t_max` out takes the plant
+    /// file's ([`TrainConfig::use_plant_t_max`]).
+    pub t_max: u32,
+    /// Sensor range R of local observations.
+    pub sensor_range: usize,
+    /// Extra local-observation features, TOML `[features] path = true`
+    /// (the recipe's; none by default: the dissertation's observation).
+    pub features: ObsFeatures,
+    /// Potential-based shaping on the goal distance: reward per step gained
+    /// (0 = off, the dissertation's rewards). Uses `gamma`.
+    pub shaping: f32,
+    /// Seed of weights, sampling and the env episodes (actor `i` uses env seed `seed + i`).
+    pub seed: u64,
+    /// Env-step budget.
+    pub steps: u64,
+    /// Actor threads.
+    pub num_actors: usize,
+    /// Envs per actor (one VecEnv each).
+    pub envs_per_actor: usize,
+    /// Niceness of the embedded actor threads (0–19; 0: the learner's
+    /// priority), as `actor --nice` sets it for an actor process. Measured
+    /// on 2 cores it leaves an embedded IMPALA run's speed unchanged (0.99)
+    /// while it speeds up an actor process beside the learner; the
+    /// transport bench sets both alike (README, "Measured on this 2-core
+    /// machine").
+    #[serde(skip_serializing_if = "is_zero")]
+    pub actor_nice: u8,
+    /// Rollout fragment length T (50).
+    pub fragment_len: usize,
+    /// Rollouts through the PIBT collision shield, as a shielded policy is
+    /// deployed (`buridan_actor::shield`; CS-PIBT): the policy acts under
+    /// wall masks, so asking for a neighbour's cell is legal, and the env
+    /// executes the shield's conflict-free joint move. Grid runs only; off
+    /// by default.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub shield_rollouts: bool,
+    /// Replay of failed training episodes, TOML `[replay]`
+    /// ([`buridan_env::replay`], prioritized level replay in its simplest
+    /// form): with probability `share` a reset plays a failed episode again
+    /// (at most `tries` times, until it succeeds) instead of a fresh one.
+    /// The training success and return count fresh episodes only; remote
+    /// actors get the settings with their join reply. Grid runs only; off
+    /// by default (`share = 0`).
+    #[serde(skip_serializing_if = "replay_off")]
+    pub replay: ReplayConfig,
+    /// Discount γ (0.99).
+    pub gamma: f32,
+    /// Hidden layer sizes ([64, 64]).
+    pub hidden: Vec<usize>,
+    /// LSTM after the hidden layers (the comparison runs used one; off by
+    /// default here because the feed-forward net trains several times faster).
+    pub lstm: bool,
+    /// LSTM cells (64).
+    pub lstm_cells: usize,
+    /// Truncated-BPTT length (RLlib `max_seq_len` 32).
+    pub max_seq_len: usize,
+    /// Save a checkpoint every this many updates (0: only the final one).
+    pub checkpoint_every: u64,
+    /// Stop early once the mean return of the last 100 episodes reaches this.
+    pub stop_return: Option<f64>,
+    /// …and (if set) their mean length is at most this.
+    pub stop_len: Option<f64>,
+    /// Stop once the policy has learned, TOML `[stop]`: the training
+    /// success has held `success` for `hold` env steps, or (`[stop.greedy]`)
+    /// the greedy policy solves a share of held-out episodes (`steps` stays
+    /// the cap; [`super::stop`]). Off by default; the recipe sets it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stop: Option<StopRule>,
+    /// Continue from this checkpoint directory (weights, optimiser, counters).
+    pub resume: Option<PathBuf>,
+    /// PPO settings.
+    pub ppo: PpoConfig,
+    /// IMPALA settings.
+    pub impala: ImpalaConfig,
+    /// Imitate a planner before learning from rewards, TOML `[imitation]`
+    /// (DAgger, `buridan_imitate`): a fresh run's policy is first fitted
+    /// to the planner's actions on the states it visits, then trained by
+    /// `algo` for `steps` env steps (0: imitation only). Off by default.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub imitation: Option<ImitationConfig>,
+    /// Imitate a planner after learning from rewards, TOML `[polish]`: the
+    /// trained policy's own rollouts (greedy by default) get the planner's
+    /// next steps as labels, DAgger on the states deterministic execution
+    /// reaches, before the final checkpoint. With `expert_first = false`
+    /// every round follows the policy. Off by default.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub polish: Option<ImitationConfig>,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        Self {
+            algo: Algo::Ppo,
+            mode: Mode::Ctde,
+            map: "rm-2.1".into(),
+            maps: None,
+            plant: None,
+            agents: 4,
+            starts: Starts::Random,
+            rules: Rules::Thesis,
+            t_max: Rules::Thesis.default_t_max(),
+            sensor_range: 2,
+            features: ObsFeatures::default(),
+            shaping: 0.0,
+            seed: 0,
+            steps: 2_000_000,
+            num_actors: 1,
+            envs_per_actor: 16,
+            actor_nice: 0,
+            fragment_len: 50,
+            shield_rollouts: false,
+            replay: ReplayConfig::default(),
+            gamma: 0.99,
+            hidden: vec![64, 64],
+            lstm: false,
+            lstm_cells: 64,
+            max_seq_len: 32,
+            checkpoint_every: 50,
+            stop_return: None,
+            stop_len: None,
+            stop: None,
+            resume: None,
+            ppo: PpoConfig::default(),
+            impala: ImpalaConfig::default(),
+            imitation: None,
+            polish: None,
+        }
+    }
+}
+
+impl TrainConfig {
+    /// The default recipe: what `learner train --map LAYOUT` runs without a
+    /// config. PPO-CTDE with the dissertation's 64-cell LSTM, warm-started
+    /// by imitation: DAgger on the planners' next steps (4 rounds of 20k env
+    /// steps labelled by LaCAM, then OD-A\*, 10 ms per call), then PPO with
+    /// the comparison settings (lr 1e-3, 12 epochs, clip 0.05, entropy
+    /// 0.001, batch = minibatch = 4000), the path and intent features and
+    /// potential-based shaping 0.05; one update thread, so two runs share
+    /// two cores. PPO runs until the greedy policy solves 99 % of 200
+    /// held-out episodes (checked every 20k env steps, `[stop.greedy]`) or
+    /// the training success has stayed at 99 % or more for 200k env steps
+    /// (`[stop]`), at most 1M env steps.
+    ///
+    /// Chosen by measurement: the book's recipe chapter and
+    /// `docs/results/recipe-lstm-imitation*/RESULTS.md` give its figures per
+    /// layout (10 seeds each) and the feed-forward IMPALA recipe it
+    /// replaced, kept as `learner/configs/recipe-impala-feedforward.toml`.
+    ///
+    /// ```
+    /// use buridan_learner::train::{Algo, TrainConfig};
+    /// let r = TrainConfig::recipe();
+    /// assert_eq!(r.algo, Algo::Ppo);
+    /// assert!(r.lstm && r.features.path && r.features.intent && r.shaping > 0.0);
+    /// let imitation = r.imitation.as_ref().unwrap();
+    /// assert_eq!((imitation.rounds, imitation.expert.as_slice()), (4, &["lacam".to_string(), "od-astar".into()][..]));
+    /// assert_eq!(r.stop.map(|s| (s.success, s.hold)), Some((0.99, 200_000)));
+    /// let greedy = r.stop.and_then(|s| s.greedy).unwrap();
+    /// assert_eq!((greedy.success, greedy.episodes, greedy.every), (0.99, 200, 20_000));
+    /// r.validate().unwrap();
+    /// ```
+    pub fn recipe() -> Self {
+        Self {
+            algo: Algo::Ppo,
+            features: ObsFeatures {
+                path: true,
+                intent: true,
+                ..ObsFeatures::default()
+            },
+            shaping: 0.05,
+            steps: 1_000_000,
+            stop: Some(StopRule {
+                success: 0.99,
+                hold: 200_000,
+                greedy: Some(GreedyCheck {
+                    success: 0.99,
+                    episodes: 200,
+                    every: 20_000,
+                }),
+            }),
+            lstm: true,
+            ppo: PpoConfig {
+                update_threads: 1,
+                ..PpoConfig::default()
+            },
+            imitation: Some(ImitationConfig {
+                expert: vec!["lacam".into(), "od-astar".into()],
+                expert_time: 0.01,
+                rounds: 4,
+                ..ImitationConfig::default()
+            }),
+            ..Self::default()
+        }
+    }
+
+    /// Reads a TOML file (which sets at most one of `map` and `maps`).
+    pub fn from_toml_file(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let parse_error = |source| ConfigError::Parse {
+            path: path.to_path_buf(),
+            source,
+        };
+        let table: toml::Table = toml::from_str(&text).map_err(parse_error)?;
+        if table.contains_key("map") && table.contains_key("maps") {
+            return Err(ConfigError::MapAndMaps {
+                path: path.to_path_buf(),
+            });
+        }
+        if table.contains_key("plant") && (table.contains_key("map") || table.contains_key("maps"))
+        {
+            return Err(ConfigError::PlantAndMap {
+                path: path.to_path_buf(),
+            });
+        }
+        let t_max_given = table.contains_key("t_max");
+        let mut cfg: Self = table.try_into().map_err(parse_error)?;
+        if !t_max_given {
+            cfg.t_max = cfg.rules.default_t_max();
+            cfg.use_plant_t_max()?;
+        }
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// The config as TOML (without the unused `map` when `maps` or `plant`
+    /// is set, so that the text reads back with [`Self::from_toml_file`]).
+    pub fn to_toml(&self) -> String {
+        if self.maps.is_none() && self.plant.is_none() {
+            return toml::to_string_pretty(self).expect("config serialises");
+        }
+        let mut table = toml::Table::try_from(self).expect("config serialises");
+        table.remove("map");
+        toml::to_string_pretty(&table).expect("config serialises")
+    }
+
+    /// How rollouts choose actions: samples, mixed with greedy steps when
+    /// IMPALA's `greedy_mix` is set (PPO always samples: its clipped ratio
+    /// assumes the behaviour is the policy itself).
+    ///
+    /// ```
+    /// use buridan_learner::train::{Algo, TrainConfig};
+    /// use buridan_policy::ActMode;
+    /// let mut cfg = TrainConfig::default();
+    /// assert_eq!(cfg.behaviour(), ActMode::Sample);
+    /// cfg.algo = Algo::Impala;
+    /// cfg.impala.greedy_mix = 0.5;
+    /// assert_eq!(cfg.behaviour(), ActMode::GreedyMix(0.5));
+    /// ```
+    pub fn behaviour(&self) -> ActMode {
+        match self.algo {
+            Algo::Impala => ActMode::rollout(self.impala.greedy_mix),
+            Algo::Ppo => ActMode::Sample,
+        }
+    }
+
+    /// Whether the algorithm learns only from the newest policy's
+    /// experience (PPO), so actors wait after each train batch.
+    pub fn on_policy(&self) -> bool {
+        self.algo == Algo::Ppo
+    }
+
+    /// How old experience may be: on-policy for PPO, `impala.max_policy_lag`
+    /// versions for IMPALA.
+    pub fn staleness(&self) -> Staleness {
+        match self.algo {
+            Algo::Ppo => Staleness::OnPolicy,
+            Algo::Impala => Staleness::MaxLag(self.impala.max_policy_lag),
+        }
+    }
+
+    /// Env steps per train batch of the configured algorithm.
+    pub fn train_batch(&self) -> u64 {
+        match self.algo {
+            Algo::Ppo => self.ppo.train_batch as u64,
+            Algo::Impala => self.impala.train_batch as u64,
+        }
+    }
+
+    /// Env steps one fragment holds: `fragment_len · envs_per_actor`.
+    pub fn fragment_env_steps(&self) -> usize {
+        self.fragment_len * self.envs_per_actor
+    }
+
+    /// Fragments per train batch (rounded up).
+    pub fn fragments_per_batch(&self) -> usize {
+        (self.train_batch() as usize)
+            .div_ceil(self.fragment_env_steps())
+            .max(1)
+    }
+
+    /// Fragments the actor→learner queue holds: `impala.queue_capacity` if
+    /// set (IMPALA), else one train batch.
+    pub fn queue_capacity(&self) -> usize {
+        match self.algo {
+            Algo::Impala if self.impala.queue_capacity > 0 => self.impala.queue_capacity,
+            _ => self.fragments_per_batch(),
+        }
+    }
+
+    /// The network architecture for observations of `obs_dim` floats.
+    pub fn model_spec(&self, obs_dim: usize) -> ModelSpec {
+        let value = if self.lstm {
+            ValueHead::Shared
+        } else {
+            match self.algo {
+                Algo::Ppo if !self.ppo.vf_share_layers => ValueHead::Separate,
+                _ => ValueHead::Shared,
+            }
+        };
+        ModelSpec {
+            hidden: self.hidden.clone(),
+            value,
+            lstm: self.lstm.then_some(LstmSpec {
+                cells: self.lstm_cells,
+                prev_action: true,
+                prev_reward: true,
+            }),
+            features: self.features,
+            sensor_range: self.sensor_range,
+            maps: self.layout_names(),
+            rules: self.rules,
+            ..ModelSpec::new(self.mode, self.agents, obs_dim)
+        }
+    }
+}
+
+impl From<&TrainConfig> for PpoSettings {
+    fn from(cfg: &TrainConfig) -> Self {
+        let p = &cfg.ppo;
+        Self {
+            lr: p.lr,
+            epochs: p.epochs,
+            minibatch_size: p.minibatch,
+            clip: p.clip,
+            vf_coeff: p.vf_coeff,
+            vf_clip: p.vf_clip,
+            entropy_coeff: p.entropy_coeff,
+            kl_coeff: p.kl_coeff,
+            kl_target: p.kl_target,
+            gamma: cfg.gamma,
+            lambda: p.lambda,
+            grad_clip: p.grad_clip,
+            standardize_advantages: p.standardize_advantages,
+            max_seq_len: cfg.max_seq_len,
+            update_threads: super::cores::update_threads(p.update_threads),
+        }
+    }
+}
+
+impl From<&TrainConfig> for ImpalaSettings {
+    fn from(cfg: &TrainConfig) -> Self {
+        let i = &cfg.impala;
+        Self {
+            lr: i.lr,
+            vf_coeff: i.vf_coeff,
+            entropy_coeff: i.entropy_coeff,
+            grad_clip: i.grad_clip,
+            vtrace: VTraceParams {
+                gamma: cfg.gamma,
+                lambda: i.lambda,
+                rho_bar: i.rho_bar,
+                c_bar: i.c_bar,
+                pg_rho_bar: i.pg_rho_bar,
+            },
+            max_seq_len: cfg.max_seq_len,
+            update_threads: super::cores::update_threads(i.update_threads),
+        }
+    }
+}

@@ -1,0 +1,200 @@
+use super::*;
+
+/// The default config with one field changed, validated.
+fn with(change: impl Fn(&mut TrainConfig)) -> Result<(), ConfigError> {
+    let mut cfg = TrainConfig::default();
+    change(&mut cfg);
+    cfg.validate()
+}
+
+fn plant_run(change: impl Fn(&mut TrainConfig)) -> Result<(), ConfigError> {
+    with(|c| {
+        c.plant = Some("dissertation".into());
+        change(c)
+    })
+}
+
+#[test]
+fn a_plant_run_refuses_maps_imitation_and_grid_options() {
+    plant_run(|_| {}).unwrap();
+    plant_run(|c| c.mode = Mode::Cte).unwrap();
+    let err = plant_run(|c| c.maps = Some(WeightedMap::parse_list("rm-2.2").unwrap()));
+    assert!(matches!(err, Err(ConfigError::PlantAndMaps)), "{err:?}");
+    let msg = err.unwrap_err().to_string();
+    assert!(msg.contains("plant and maps are both set"), "{msg}");
+    let err = plant_run(|c| c.imitation = Some(ImitationConfig::default()));
+    assert!(
+        matches!(err, Err(ConfigError::PlantWithImitation { .. })),
+        "{err:?}"
+    );
+    assert!(err
+        .unwrap_err()
+        .to_string()
+        .contains("DAgger imitates grid planners"));
+    let err = plant_run(|c| c.polish = Some(ImitationConfig::default()));
+    let msg = err.unwrap_err().to_string();
+    assert!(
+        msg.contains("[polish] cannot be used with a plant"),
+        "{msg}"
+    );
+    let err = plant_run(|c| c.shaping = 0.05);
+    assert!(
+        matches!(err, Err(ConfigError::GridOnlyOption { what: "shaping" })),
+        "{err:?}"
+    );
+    let err = plant_run(|c| c.features = TrainConfig::recipe().features);
+    assert!(
+        matches!(err, Err(ConfigError::GridOnlyOption { what: "features" })),
+        "{err:?}"
+    );
+    let err = plant_run(|c| c.shield_rollouts = true);
+    assert!(
+        matches!(
+            err,
+            Err(ConfigError::GridOnlyOption {
+                what: "shield_rollouts"
+            })
+        ),
+        "{err:?}"
+    );
+    let err = plant_run(|c| c.replay.share = 0.5);
+    assert!(
+        matches!(err, Err(ConfigError::GridOnlyOption { what: "replay" })),
+        "{err:?}"
+    );
+    let err = plant_run(|c| c.t_max = 0);
+    assert!(matches!(err, Err(ConfigError::Invalid(_))), "{err:?}");
+}
+
+#[test]
+fn failure_replay_is_written_only_when_on_and_its_ranges_are_checked() {
+    let mut cfg = TrainConfig::default();
+    assert!(!cfg.to_toml().contains("[replay]"));
+    cfg.replay.share = 0.5;
+    let text = cfg.to_toml();
+    assert!(text.contains("[replay]\nshare = 0.5"), "{text}");
+    let back: TrainConfig = toml::from_str(&text).unwrap();
+    assert_eq!(back, cfg);
+    back.validate().unwrap();
+    for bad in [
+        ReplayConfig {
+            share: 1.5,
+            ..ReplayConfig::default()
+        },
+        ReplayConfig {
+            share: f64::NAN,
+            ..ReplayConfig::default()
+        },
+        ReplayConfig {
+            share: 0.5,
+            tries: 0,
+            capacity: 8,
+        },
+        ReplayConfig {
+            share: 0.5,
+            tries: 2,
+            capacity: 0,
+        },
+    ] {
+        let cfg = TrainConfig {
+            replay: bad,
+            ..TrainConfig::default()
+        };
+        let err = cfg.validate().unwrap_err().to_string();
+        assert!(err.contains("replay."), "{bad:?}: {err}");
+    }
+}
+
+#[test]
+fn shield_rollouts_are_written_only_when_on() {
+    let mut cfg = TrainConfig::default();
+    assert!(
+        !cfg.to_toml().contains("shield_rollouts"),
+        "older runs' configs stay as they were"
+    );
+    cfg.shield_rollouts = true;
+    let text = cfg.to_toml();
+    assert!(text.contains("shield_rollouts = true"), "{text}");
+    let back: TrainConfig = toml::from_str(&text).unwrap();
+    assert_eq!(back, cfg);
+}
+#[test]
+fn a_plant_file_takes_the_plant_t_max_unless_it_sets_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let read = |text: &str| {
+        let path = dir.path().join("run.toml");
+        std::fs::write(&path, text).unwrap();
+        TrainConfig::from_toml_file(&path)
+    };
+    let cfg = read("plant = \"dissertation\"\nagents = 2\n").unwrap();
+    assert_eq!(
+        (cfg.t_max, cfg.map_label()),
+        (1000, "plant:dissertation".into())
+    );
+    assert_eq!(cfg.layout_names(), ["plant:dissertation"]);
+    assert_eq!(cfg.model_spec(11).maps, ["plant:dissertation"]);
+    let cfg = read("plant = \"dissertation\"\nt_max = 64\n").unwrap();
+    assert_eq!(cfg.t_max, 64);
+    assert_eq!(cfg.load_plant().unwrap().unwrap().episode.t_max, 64);
+    // The config a run writes reads back as the same config.
+    let again = read(&cfg.to_toml()).unwrap();
+    assert_eq!(again, cfg);
+    let err = read("plant = \"dissertation\"\nmap = \"rm-2.1\"\n").unwrap_err();
+    assert!(matches!(err, ConfigError::PlantAndMap { .. }), "{err:?}");
+    let err = read("plant = \"atlantis\"\n").unwrap_err();
+    assert!(
+        matches!(&err, ConfigError::UnknownPlant { plant, .. } if plant == "atlantis"),
+        "{err:?}"
+    );
+    let chain = format!("{err}: {}", std::error::Error::source(&err).unwrap());
+    assert!(chain.contains("unknown plant 'atlantis'"), "{chain}");
+    // The dissertation's plant has starts for 4 AGVs.
+    let err = read("plant = \"dissertation\"\nagents = 5\n").unwrap_err();
+    assert!(
+        matches!(err, ConfigError::AgentsDoNotFit { agents: 5, .. }),
+        "{err:?}"
+    );
+}
+
+#[test]
+fn hyperparameters_outside_their_range_are_refused_by_name() {
+    type Change = fn(&mut TrainConfig);
+    let bad: [(&str, &str, Change); 7] = [
+        ("ppo.lr", "finite and positive", |c| c.ppo.lr = f64::NAN),
+        ("ppo.lr", "finite and positive", |c| c.ppo.lr = 0.0),
+        ("impala.lr", "finite and positive", |c| {
+            c.impala.lr = f64::INFINITY
+        }),
+        ("ppo.entropy_coeff", "finite and at least 0", |c| {
+            c.ppo.entropy_coeff = -0.01
+        }),
+        ("impala.rho_bar", "finite and positive", |c| {
+            c.impala.rho_bar = -1.0
+        }),
+        ("ppo.lambda", "in [0, 1]", |c| c.ppo.lambda = 1.5),
+        ("ppo.grad_clip", "finite and positive", |c| {
+            c.ppo.grad_clip = Some(f64::NAN)
+        }),
+    ];
+    for (key, range, change) in bad {
+        match with(change) {
+            Err(ConfigError::OutOfRange {
+                key: k, range: r, ..
+            }) => {
+                assert_eq!((k, r), (key, range));
+            }
+            other => panic!("{key}: expected OutOfRange, got {other:?}"),
+        }
+    }
+    // The legal edges stay legal.
+    let edges: [Change; 5] = [
+        |c| c.ppo.entropy_coeff = 0.0,
+        |c| c.ppo.kl_coeff = 0.0,
+        |c| c.ppo.lambda = 1.0,
+        |c| c.impala.lambda = 0.0,
+        |c| c.ppo.lr = 1e-8,
+    ];
+    for (i, change) in edges.into_iter().enumerate() {
+        assert!(with(change).is_ok(), "edge {i} refused");
+    }
+}

@@ -1,0 +1,184 @@
+//! Checks of a training configuration: every key in its range, the
+//! combinations a run can train, each refusal naming the key.
+
+use buridan_imitate::ImitationConfig;
+use buridan_policy::Mode;
+
+use super::{Algo, ConfigError, TrainConfig};
+
+fn ensure(ok: bool, why: &'static str) -> Result<(), ConfigError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(ConfigError::Invalid(why))
+    }
+}
+
+impl TrainConfig {
+    /// Checks ranges.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        ensure(self.agents >= 1, "agents must be at least 1")?;
+        ensure(
+            self.shaping.is_finite() && self.shaping >= 0.0,
+            "shaping must be finite and at least 0",
+        )?;
+        ensure(
+            self.features.is_none() || self.mode != Mode::Cte,
+            "observation features apply to local observations (CTDE, DTE), not CTE's central one",
+        )?;
+        ensure(self.num_actors >= 1, "num_actors must be at least 1")?;
+        ensure(
+            self.envs_per_actor >= 1,
+            "envs_per_actor must be at least 1",
+        )?;
+        ensure(self.actor_nice <= 19, "actor_nice must be at most 19")?;
+        ensure(self.fragment_len >= 1, "fragment_len must be at least 1")?;
+        ensure(
+            !self.hidden.is_empty() && !self.hidden.contains(&0),
+            "hidden sizes must be positive",
+        )?;
+        ensure((0.0..=1.0).contains(&self.gamma), "gamma must be in [0, 1]")?;
+        ensure(self.ppo.epochs >= 1, "ppo.epochs must be at least 1")?;
+        ensure(
+            self.ppo.train_batch >= 1 && self.ppo.minibatch >= 1,
+            "ppo batch sizes must be positive",
+        )?;
+        ensure(
+            self.impala.train_batch >= 1,
+            "impala.train_batch must be positive",
+        )?;
+        ensure(
+            (0.0..1.0).contains(&self.impala.greedy_mix),
+            "impala.greedy_mix must be in [0, 1)",
+        )?;
+        ensure(
+            self.impala.greedy_mix == 0.0 || self.algo == Algo::Impala,
+            "impala.greedy_mix needs algo = \"impala\" (PPO's ratio assumes sampled rollouts)",
+        )?;
+        ensure(self.lstm_cells >= 1, "lstm_cells must be positive")?;
+        self.replay.validate().map_err(ConfigError::Replay)?;
+        if let Some(stop) = &self.stop {
+            stop.validate().map_err(ConfigError::Invalid)?;
+            ensure(
+                stop.greedy.is_none() || (self.maps.is_none() && self.plant.is_none()),
+                "stop.greedy needs one grid map (`map`): it plays held-out episodes of that map",
+            )?;
+        }
+        self.validate_hyperparameters()?;
+        for (section, im) in self.imitation_phases() {
+            im.validate().map_err(|e| ConfigError::Imitation {
+                section,
+                source: Box::new(e),
+            })?;
+        }
+        self.validate_plant()?;
+        self.validate_maps()
+    }
+
+    /// Checks the `maps` list without loading maps.
+    fn validate_maps(&self) -> Result<(), ConfigError> {
+        let Some(maps) = &self.maps else {
+            return Ok(());
+        };
+        if maps.is_empty() {
+            return Err(ConfigError::NoMaps);
+        }
+        for (i, m) in maps.iter().enumerate() {
+            if !(m.weight.is_finite() && m.weight > 0.0) {
+                return Err(ConfigError::BadWeight {
+                    map: m.name.clone(),
+                    weight: m.weight,
+                });
+            }
+            if maps[..i].iter().any(|o| o.name == m.name) {
+                return Err(ConfigError::DuplicateMap {
+                    map: m.name.clone(),
+                });
+            }
+        }
+        if maps.len() > 1 && self.mode == Mode::Cte {
+            return Err(ConfigError::CentralOnSeveralMaps);
+        }
+        Ok(())
+    }
+
+    /// Checks that every real-valued hyperparameter is a finite number in
+    /// its range: a NaN learning rate would otherwise train on, silently
+    /// turning every weight into NaN.
+    fn validate_hyperparameters(&self) -> Result<(), ConfigError> {
+        let (p, i) = (&self.ppo, &self.impala);
+        let positive = [
+            ("ppo.lr", p.lr),
+            ("ppo.clip", p.clip.into()),
+            ("ppo.vf_clip", p.vf_clip.into()),
+            ("ppo.kl_target", p.kl_target),
+            ("ppo.grad_clip", p.grad_clip.unwrap_or(1.0)),
+            ("impala.lr", i.lr),
+            ("impala.grad_clip", i.grad_clip.unwrap_or(1.0)),
+            ("impala.rho_bar", i.rho_bar.into()),
+            ("impala.c_bar", i.c_bar.into()),
+            ("impala.pg_rho_bar", i.pg_rho_bar.into()),
+        ];
+        let non_negative = [
+            ("ppo.entropy_coeff", p.entropy_coeff.into()),
+            ("ppo.vf_coeff", p.vf_coeff.into()),
+            ("ppo.kl_coeff", p.kl_coeff),
+            ("impala.vf_coeff", i.vf_coeff.into()),
+            ("impala.entropy_coeff", i.entropy_coeff.into()),
+        ];
+        let unit = [
+            ("ppo.lambda", p.lambda.into()),
+            ("impala.lambda", i.lambda.into()),
+        ];
+        let in_range = |keys: &[(&'static str, f64)], range, ok: fn(f64) -> bool| match keys
+            .iter()
+            .find(|(_, value)| !ok(*value))
+        {
+            Some(&(key, value)) => Err(ConfigError::OutOfRange { key, value, range }),
+            None => Ok(()),
+        };
+        in_range(&positive, "finite and positive", |v| {
+            v.is_finite() && v > 0.0
+        })?;
+        in_range(&non_negative, "finite and at least 0", |v| {
+            v.is_finite() && v >= 0.0
+        })?;
+        in_range(&unit, "in [0, 1]", |v| (0.0..=1.0).contains(&v))
+    }
+
+    /// The run's imitation phases with their TOML section names: `imitation`
+    /// before learning from rewards, `polish` after.
+    fn imitation_phases(&self) -> impl Iterator<Item = (&'static str, &ImitationConfig)> {
+        [("imitation", &self.imitation), ("polish", &self.polish)]
+            .into_iter()
+            .filter_map(|(section, im)| im.as_ref().map(|im| (section, im)))
+    }
+
+    /// Checks that a plant run sets nothing that only a grid run has.
+    fn validate_plant(&self) -> Result<(), ConfigError> {
+        if self.plant.is_none() {
+            return Ok(());
+        }
+        if self.maps.is_some() {
+            return Err(ConfigError::PlantAndMaps);
+        }
+        if let Some((section, _)) = self.imitation_phases().next() {
+            return Err(ConfigError::PlantWithImitation { section });
+        }
+        if !self.features.is_none() {
+            return Err(ConfigError::GridOnlyOption { what: "features" });
+        }
+        if self.shaping != 0.0 {
+            return Err(ConfigError::GridOnlyOption { what: "shaping" });
+        }
+        if self.shield_rollouts {
+            return Err(ConfigError::GridOnlyOption {
+                what: "shield_rollouts",
+            });
+        }
+        if self.replay.enabled() {
+            return Err(ConfigError::GridOnlyOption { what: "replay" });
+        }
+        ensure(self.t_max >= 1, "t_max must be at least 1")
+    }
+}
