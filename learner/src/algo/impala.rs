@@ -12,9 +12,9 @@ use buridan_policy::{dist, Policy};
 use candle_core::{Device, Tensor};
 
 use crate::algo::batch::{build_net_batches, evaluate, BatchTensors, NetBatch};
-use crate::algo::optim::{collect_grads, ClippedAdam};
+use crate::algo::optim::ClippedAdam;
 use crate::algo::ppo::LossTerms;
-use crate::algo::shards::{add_grads, on_threads, share_count, share_range};
+use crate::algo::shards::{sharded_gradient, share_count, share_range};
 use crate::algo::vtrace::{vtrace, VTraceParams};
 use crate::algo::{add_loss, Result, UpdateStats};
 
@@ -76,14 +76,6 @@ pub struct ImpalaSettings {
     pub update_threads: usize,
 }
 
-/// One share's gradient (none if it held no rows), its weighted loss terms
-/// per weight set and weighted mean ρ sum.
-struct BatchGrads {
-    grads: Option<Vec<Vec<f32>>>,
-    terms: Vec<LossTerms>,
-    rho_sum: f64,
-}
-
 /// IMPALA learner state.
 pub struct Impala {
     /// Settings.
@@ -119,50 +111,36 @@ impl Impala {
     pub fn update_batches(&mut self, policy: &Policy, batches: &[NetBatch]) -> Result<UpdateStats> {
         let samples = batches.iter().map(NetBatch::len).sum();
         let shares = share_count(self.settings.update_threads, samples);
-        let share = |i: usize| -> Result<BatchGrads> {
-            let mut total = None;
-            let mut terms = Vec::with_capacity(batches.len());
-            let mut rho_sum = 0.0;
-            for (k, b) in batches.iter().enumerate() {
-                let rows = share_range(i, shares, b.rows);
-                if rows.is_empty() {
-                    terms.push(LossTerms::default());
-                    continue;
+        let (grads, (terms, rho_sum)) = sharded_gradient(
+            shares,
+            self.optim.adam.vars(),
+            |i| {
+                let mut total = None;
+                let mut terms = Vec::with_capacity(batches.len());
+                let mut rho_sum = 0.0;
+                for (k, b) in batches.iter().enumerate() {
+                    let rows = share_range(i, shares, b.rows);
+                    if rows.is_empty() {
+                        terms.push(LossTerms::default());
+                        continue;
+                    }
+                    let weight = rows.len() as f64 / b.rows as f64;
+                    let (loss, t, mean_rho) = if shares == 1 {
+                        self.net_loss(policy, k, b)?
+                    } else {
+                        self.net_loss(policy, k, &b.select_rows(rows))?
+                    };
+                    terms.push(t.scaled(weight));
+                    rho_sum += mean_rho * weight;
+                    total = add_loss(total, (loss * weight)?)?;
                 }
-                let weight = rows.len() as f64 / b.rows as f64;
-                let (loss, t, mean_rho) = if shares == 1 {
-                    self.net_loss(policy, k, b)?
-                } else {
-                    self.net_loss(policy, k, &b.select_rows(rows))?
-                };
-                terms.push(t.scaled(weight));
-                rho_sum += mean_rho * weight;
-                total = add_loss(total, (loss * weight)?)?;
-            }
-            let grads = match total {
-                Some(total) => Some(collect_grads(&total.backward()?, self.optim.adam.vars())?),
-                None => None,
-            };
-            Ok(BatchGrads {
-                grads,
-                terms,
-                rho_sum,
-            })
-        };
-        let mut grads: Option<Vec<Vec<f32>>> = None;
-        let mut terms = vec![LossTerms::default(); batches.len()];
-        let mut rho_sum = 0.0;
-        for part in on_threads(shares, share)? {
-            match (&mut grads, part.grads) {
-                (Some(sum), Some(g)) => add_grads(sum, g),
-                (sum @ None, g) => *sum = g,
-                (Some(_), None) => {}
-            }
-            for (sum, t) in terms.iter_mut().zip(part.terms) {
-                *sum = sum.plus(&t);
-            }
-            rho_sum += part.rho_sum;
-        }
+                Ok((total, (terms, rho_sum)))
+            },
+            |(sums, rho), (parts, part_rho)| {
+                let terms = sums.iter().zip(&parts).map(|(a, b)| a.plus(b)).collect();
+                (terms, rho + part_rho)
+            },
+        )?;
         let mut stats = UpdateStats::default();
         if let Some(mut grads) = grads {
             let grad_norm = self.optim.step_grads(&mut grads)?;

@@ -17,8 +17,8 @@ use rand::Rng;
 
 use crate::algo::batch::{build_net_batches, evaluate, BatchTensors, NetBatch};
 use crate::algo::gae::{gae, standardize, GaeParams};
-use crate::algo::optim::{collect_grads, zeros_like, ClippedAdam};
-use crate::algo::shards::{add_grads, on_threads, share_count, share_range};
+use crate::algo::optim::{zeros_like, ClippedAdam};
+use crate::algo::shards::{sharded_gradient, share_count, share_range};
 use crate::algo::{add_loss, AlgoError, Result, UpdateStats};
 
 /// Coefficients of the PPO loss.
@@ -310,44 +310,41 @@ impl Ppo {
             return Ok(None);
         }
         let shares = share_count(self.settings.update_threads, samples);
-        let share = |i: usize| -> Result<MinibatchGrads> {
-            let mut total = None;
-            let mut terms = Vec::with_capacity(units.len());
-            for (k, u) in units.iter().enumerate() {
-                let Some(u) = u else {
-                    terms.push(None);
-                    continue;
-                };
-                let part = share_range(i, shares, u.len());
-                if part.is_empty() {
-                    terms.push(None);
-                    continue;
+        let vars = self.optim.adam.vars();
+        let (grads, terms) = sharded_gradient(
+            shares,
+            vars,
+            |i| {
+                let mut total = None;
+                let mut terms = Vec::with_capacity(units.len());
+                for (k, u) in units.iter().enumerate() {
+                    let Some(u) = u else {
+                        terms.push(None);
+                        continue;
+                    };
+                    let part = share_range(i, shares, u.len());
+                    if part.is_empty() {
+                        terms.push(None);
+                        continue;
+                    }
+                    let weight = part.len() as f64 / u.len() as f64;
+                    let (loss, t) = self.minibatch_loss(policy, k, &prepared[k], &u[part])?;
+                    terms.push(Some(t.scaled(weight)));
+                    total = add_loss(total, (loss * weight)?)?;
                 }
-                let weight = part.len() as f64 / u.len() as f64;
-                let (loss, t) = self.minibatch_loss(policy, k, &prepared[k], &u[part])?;
-                terms.push(Some(t.scaled(weight)));
-                total = add_loss(total, (loss * weight)?)?;
-            }
-            let grads = match total {
-                Some(total) => collect_grads(&total.backward()?, self.optim.adam.vars())?,
-                None => zeros_like(self.optim.adam.vars()),
-            };
-            Ok(MinibatchGrads { grads, terms })
-        };
-        let mut results = on_threads(shares, share)?.into_iter();
-        let MinibatchGrads {
-            mut grads,
-            mut terms,
-        } = results.next().expect("at least one share");
-        for MinibatchGrads { grads: g, terms: t } in results {
-            add_grads(&mut grads, g);
-            for (sum, part) in terms.iter_mut().zip(t) {
-                *sum = match (*sum, part) {
-                    (Some(a), Some(b)) => Some(a.plus(&b)),
-                    (a, b) => a.or(b),
-                };
-            }
-        }
+                Ok((total, terms))
+            },
+            |sums, parts| {
+                sums.into_iter()
+                    .zip(parts)
+                    .map(|pair| match pair {
+                        (Some(a), Some(b)) => Some(a.plus(&b)),
+                        (a, b) => a.or(b),
+                    })
+                    .collect()
+            },
+        )?;
+        let grads = grads.unwrap_or_else(|| zeros_like(vars));
         Ok(Some(MinibatchGrads { grads, terms }))
     }
 
