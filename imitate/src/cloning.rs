@@ -1,7 +1,7 @@
 //! Behaviour cloning: the negative log-likelihood of the expert's actions
 //! under the masked policy, minimised by Adam over minibatches.
 
-use candle_core::{DType, Device, Tensor, D};
+use candle_core::{DType, Tensor, D};
 use candle_nn::{AdamW, Optimizer, ParamsAdamW};
 use rand::seq::SliceRandom;
 use rand::Rng;
@@ -146,7 +146,7 @@ impl Cloner {
         epochs: usize,
         rng: &mut R,
     ) -> Result<FitStats, ImitationError> {
-        let device = Device::Cpu;
+        let device = policy.device().clone();
         let (d, w, h) = (data.obs_dim(), data.mask_dim(), data.heads());
         let (minibatch, net) = (self.minibatch, policy.net(self.net));
         self.descend(data.len(), minibatch, epochs, rng, |chunk| {
@@ -248,7 +248,7 @@ pub fn replay_windows(
     data: &Windows,
     windows: &[usize],
 ) -> Result<WindowReplay, ImitationError> {
-    let device = Device::Cpu;
+    let device = policy.device().clone();
     let (t, d, w, k) = (
         data.steps(),
         data.obs_dim(),

@@ -110,8 +110,15 @@ impl Policy {
     /// layers, normc(0.01) logits and value heads, zero biases; PyTorch's
     /// uniform init for the LSTM), deterministic in `seed`.
     pub fn new(spec: ModelSpec, seed: u64) -> Result<Self, PolicyError> {
+        Self::new_on(spec, seed, &Device::Cpu)
+    }
+
+    /// [`Self::new`] with its weights on `device`: the same initial values
+    /// (drawn on the host from `seed`) wherever they live, and every
+    /// tensor a learner builds for it follows [`Self::device`].
+    pub fn new_on(spec: ModelSpec, seed: u64, device: &Device) -> Result<Self, PolicyError> {
         spec.validate()?;
-        let device = Device::Cpu;
+        let device = device.clone();
         let varmap = VarMap::new();
         let mut store = SeededStore {
             map: &varmap,
@@ -134,7 +141,7 @@ impl Policy {
         &self.spec
     }
 
-    /// The device (CPU).
+    /// The device its weights live on.
     pub fn device(&self) -> &Device {
         &self.device
     }

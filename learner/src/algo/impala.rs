@@ -9,7 +9,7 @@
 //! Adam (RLlib IMPALA's default `opt_type="adam"`; the paper used RMSProp).
 
 use buridan_policy::{dist, Policy};
-use candle_core::{Device, Tensor};
+use candle_core::Tensor;
 
 use crate::algo::batch::{build_net_batches, evaluate, BatchTensors, NetBatch};
 use crate::algo::optim::ClippedAdam;
@@ -162,7 +162,7 @@ impl Impala {
         b: &NetBatch,
     ) -> Result<(Tensor, LossTerms, f64)> {
         let s = &self.settings;
-        let dev = Device::Cpu;
+        let dev = policy.device().clone();
         let bt = BatchTensors::new(b, &dev)?;
         let ev = evaluate(policy.net(k), b, &bt, s.max_seq_len, &dev)?;
         let lp_all = dist::masked_log_probs(&ev.logits.detach(), &bt.mask_bias, bt.heads)?;

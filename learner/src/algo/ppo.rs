@@ -11,7 +11,7 @@
 //! 0.5 if it fell below `kl_target / 2` (RLlib's `update_kl`).
 
 use buridan_policy::{dist, Policy};
-use candle_core::{Device, Tensor};
+use candle_core::Tensor;
 use rand::seq::SliceRandom;
 use rand::Rng;
 
@@ -352,7 +352,7 @@ impl Ppo {
     /// weight set `k`'s batch, from the current weights.
     fn prepare(&self, policy: &Policy, k: usize, b: &NetBatch) -> Result<Prepared> {
         let s = &self.settings;
-        let dev = Device::Cpu;
+        let dev = policy.device().clone();
         let bt = BatchTensors::new(b, &dev)?;
         let ev = evaluate(policy.net(k), b, &bt, s.max_seq_len, &dev)?;
         let g = gae(
@@ -384,7 +384,7 @@ impl Ppo {
         units: &[u32],
     ) -> Result<(Tensor, LossTerms)> {
         let s = &self.settings;
-        let idx = Tensor::from_slice(units, units.len(), &Device::Cpu)?;
+        let idx = Tensor::from_slice(units, units.len(), policy.device())?;
         let net = policy.net(k);
         let (sub, advantages, targets, logits, values) = if p.bt.recurrent.is_some() {
             let sub = p.bt.select_rows(&idx)?;
