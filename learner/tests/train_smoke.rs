@@ -361,20 +361,11 @@ fn schedules_set_each_updates_learning_rate_and_entropy_coefficient() {
         .all(|r| r.entropy_coeff == cfg.ppo.entropy_coeff as f64));
 }
 
-/// Right after imitation the RL phase's rollouts do what the imitated
-/// policy does: on rm-1.1's corridor with one niche (fixed starts, the
-/// simplest conflict) the first training batch succeeds as the planner's
-/// episodes do. (Labels that only the env could follow — entering a cell as
-/// its holder leaves, which the policy's mask forbids — once taught a
-/// policy that solved every DAgger episode with the expert's help and none
-/// on its own.)
-#[test]
-fn the_first_episodes_after_imitation_succeed_as_the_imitated_policy_does() {
-    buridan_policy::threads::pin_threads(1);
-    let dir = tempfile::tempdir().unwrap();
+/// A small PPO run on rm-1.1 (fixed starts) that imitates LaCAM and
+/// OD-A* for two short DAgger rounds first.
+fn imitating_rm_1_1() -> TrainConfig {
     let mut cfg = tiny(Algo::Ppo, Mode::Ctde);
     cfg.hidden = vec![64, 64];
-    cfg.steps = 1000;
     cfg.ppo.train_batch = 1000;
     cfg.ppo.minibatch = 500;
     cfg.fragment_len = 50;
@@ -387,6 +378,21 @@ fn the_first_episodes_after_imitation_succeed_as_the_imitated_policy_does() {
         minibatch: 256,
         ..Default::default()
     });
+    cfg
+}
+
+/// Right after imitation the RL phase's rollouts do what the imitated
+/// policy does: on rm-1.1's corridor with one niche (fixed starts, the
+/// simplest conflict) the first training batch succeeds as the planner's
+/// episodes do. (Labels that only the env could follow — entering a cell as
+/// its holder leaves, which the policy's mask forbids — once taught a
+/// policy that solved every DAgger episode with the expert's help and none
+/// on its own.)
+#[test]
+fn the_first_episodes_after_imitation_succeed_as_the_imitated_policy_does() {
+    buridan_policy::threads::pin_threads(1);
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = imitating_rm_1_1();
     // A budget it does not need: `[stop]` ends the run once it has held.
     cfg.steps = 50_000;
     cfg.stop = Some(buridan_learner::train::StopRule {
@@ -415,20 +421,7 @@ fn a_greedy_check_on_held_out_episodes_stops_a_run_that_has_learned() {
     use buridan_learner::train::stop::{GreedyCheck, GreedyRecord};
     use buridan_learner::train::{StopReason, StopRule, GREEDY_FILE};
     buridan_policy::threads::pin_threads(1);
-    let mut cfg = tiny(Algo::Ppo, Mode::Ctde);
-    cfg.hidden = vec![64, 64];
-    cfg.ppo.train_batch = 1000;
-    cfg.ppo.minibatch = 500;
-    cfg.fragment_len = 50;
-    cfg.imitation = Some(buridan_imitate::ImitationConfig {
-        expert: vec!["lacam".into(), "od-astar".into()],
-        rounds: 2,
-        steps_per_round: 2_000,
-        envs: 4,
-        epochs: 10,
-        minibatch: 256,
-        ..Default::default()
-    });
+    let mut cfg = imitating_rm_1_1();
     cfg.steps = 20_000;
     let check = GreedyCheck {
         success: 1.0,
