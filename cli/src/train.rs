@@ -357,6 +357,12 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
             100.0 * success
         );
     }
+    if let Some(g) = &summary.greedy_check {
+        eprintln!(
+            "  greedy check: {} of {} held-out episodes solved after {} env steps",
+            g.solved, g.episodes, g.env_steps
+        );
+    }
     for t in &summary.time_to_target {
         let mark = |m: Option<buridan_learner::train::target::Mark>| {
             m.map_or("not reached".to_string(), |m| {

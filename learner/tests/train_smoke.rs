@@ -455,6 +455,11 @@ fn a_greedy_check_on_held_out_episodes_stops_a_run_that_has_learned() {
         (rows[0].update, rows[0].episodes, rows[0].solved),
         (1, 8, 8)
     );
+    assert_eq!(
+        summary.greedy_check,
+        Some(rows[0]),
+        "the summary names the last check"
+    );
 
     // Without imitation the first updates' greedy policy solves nothing:
     // no check passes, one runs every 4,000 env steps, the budget ends it.

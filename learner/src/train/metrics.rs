@@ -356,6 +356,9 @@ pub struct Summary {
     /// when on it stayed there ([`super::target`]).
     #[serde(default)]
     pub time_to_target: Vec<super::target::TimeToTarget>,
+    /// The last `[stop.greedy]` check, if the run made any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub greedy_check: Option<super::stop::GreedyRecord>,
     /// Directory of the final checkpoint.
     pub final_checkpoint: PathBuf,
 }

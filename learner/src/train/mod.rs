@@ -686,6 +686,7 @@ impl Run {
             stopped_early: reason != StopReason::Budget,
             stop_reason: reason,
             time_to_target: state.time_to_target.clone(),
+            greedy_check: self.greedy.as_ref().and_then(|g| g.last()),
             final_checkpoint,
         }
     }

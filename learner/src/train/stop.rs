@@ -128,6 +128,7 @@ pub struct GreedyProbe {
     check: GreedyCheck,
     next: u64,
     done: u64,
+    last: Option<GreedyRecord>,
     path: PathBuf,
     log: Option<csv::Writer<std::fs::File>>,
 }
@@ -139,9 +140,15 @@ impl GreedyProbe {
             check,
             next: 0,
             done: 0,
+            last: None,
             path: out.join(GREEDY_FILE),
             log: None,
         }
+    }
+
+    /// The latest check, if any ran.
+    pub fn last(&self) -> Option<GreedyRecord> {
+        self.last
     }
 
     /// Whether a check is due after `env_steps` env steps.
@@ -186,6 +193,7 @@ impl GreedyProbe {
             "greedy check on held-out episodes: {solved} of {n} solved"
         );
         self.book(&record)?;
+        self.last = Some(record);
         Ok(self.check.passes(solved, n))
     }
 
