@@ -32,6 +32,7 @@
 //! mask is the `5n` per-agent masks in agent order.
 
 use crate::error::EnvError;
+use crate::recipe::Feature;
 use crate::world::{GridEnv, NUM_ACTIONS};
 
 /// Number of cell codes in the local window.
@@ -219,31 +220,17 @@ impl GridEnv {
         tail[1] = p.col as f32 / sx;
         tail[2] = (g.row as f32 - p.row as f32) / sy;
         tail[3] = (g.col as f32 - p.col as f32) / sx;
-        let features_on = self.config().features;
-        if features_on.path {
-            let (path, rest) = features.split_at_mut(crate::PATH_FEATURE_DIM);
-            self.write_path_feature(agent, path);
+        let sensor_range = self.config().sensor_range;
+        for feature in self.config().features.on() {
+            let (slot, rest) = features.split_at_mut(feature.dim(sensor_range));
+            match feature {
+                Feature::Path => self.write_path_feature(agent, slot),
+                Feature::Priority => self.write_priority_feature(agent, slot),
+                Feature::Pressure => self.write_pressure_feature(agent, slot),
+                Feature::Intent => self.write_intent_feature(agent, slot),
+                Feature::Order => self.write_order_feature(agent, slot),
+            }
             features = rest;
-        }
-        if features_on.priority {
-            let (priority, rest) =
-                features.split_at_mut(crate::priority_feature_dim(self.config().sensor_range));
-            self.write_priority_feature(agent, priority);
-            features = rest;
-        }
-        if features_on.pressure {
-            let (pressure, rest) = features.split_at_mut(crate::PRESSURE_FEATURE_DIM);
-            self.write_pressure_feature(agent, pressure);
-            features = rest;
-        }
-        if features_on.intent {
-            let (intent, rest) =
-                features.split_at_mut(crate::intent_feature_dim(self.config().sensor_range));
-            self.write_intent_feature(agent, intent);
-            features = rest;
-        }
-        if features_on.order {
-            self.write_order_feature(agent, features);
         }
         Ok(())
     }

@@ -162,25 +162,114 @@ pub struct ObsFeatures {
     pub order: bool,
 }
 
+/// One observation feature: the registry of what the recipe can add to a
+/// local observation, in observation order ([`Feature::ALL`]). Each
+/// feature's size, name and switch in [`ObsFeatures`] are written here
+/// once; the observation writer appends the features that are on in this
+/// order.
+///
+/// ```
+/// use buridan_env::recipe::Feature;
+/// let names: Vec<_> = Feature::ALL.iter().map(|f| f.name()).collect();
+/// assert_eq!(names, ["path", "priority", "pressure", "intent", "order"]);
+/// assert_eq!(Feature::Intent.dim(2), 125);
+/// assert_eq!("order".parse::<Feature>(), Ok(Feature::Order));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Feature {
+    /// The shortest-path direction field and the cost-to-go.
+    Path,
+    /// PIBT's priorities of the agents in the window.
+    Priority,
+    /// Which neighbours the observer stands in the way of.
+    Pressure,
+    /// Where the agents in the window are headed.
+    Intent,
+    /// Whose goal lies on whose way, for the agents in the window.
+    Order,
+}
+
+impl Feature {
+    /// Every feature, in observation order.
+    pub const ALL: [Feature; 5] = [
+        Feature::Path,
+        Feature::Priority,
+        Feature::Pressure,
+        Feature::Intent,
+        Feature::Order,
+    ];
+
+    /// Its name in configs and the Python package.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Feature::Path => "path",
+            Feature::Priority => "priority",
+            Feature::Pressure => "pressure",
+            Feature::Intent => "intent",
+            Feature::Order => "order",
+        }
+    }
+
+    /// Floats it adds to one local observation with sensor range
+    /// `sensor_range`.
+    pub const fn dim(self, sensor_range: usize) -> usize {
+        match self {
+            Feature::Path => PATH_FEATURE_DIM,
+            Feature::Priority => priority_feature_dim(sensor_range),
+            Feature::Pressure => PRESSURE_FEATURE_DIM,
+            Feature::Intent => intent_feature_dim(sensor_range),
+            Feature::Order => order_feature_dim(sensor_range),
+        }
+    }
+}
+
+impl std::str::FromStr for Feature {
+    type Err = UnknownFeature;
+    fn from_str(name: &str) -> Result<Self, Self::Err> {
+        Feature::ALL
+            .into_iter()
+            .find(|f| f.name() == name)
+            .ok_or_else(|| UnknownFeature(name.to_string()))
+    }
+}
+
 impl ObsFeatures {
+    /// Whether `feature` is on.
+    pub const fn has(&self, feature: Feature) -> bool {
+        match feature {
+            Feature::Path => self.path,
+            Feature::Priority => self.priority,
+            Feature::Pressure => self.pressure,
+            Feature::Intent => self.intent,
+            Feature::Order => self.order,
+        }
+    }
+
+    fn switch(&mut self, feature: Feature) -> &mut bool {
+        match feature {
+            Feature::Path => &mut self.path,
+            Feature::Priority => &mut self.priority,
+            Feature::Pressure => &mut self.pressure,
+            Feature::Intent => &mut self.intent,
+            Feature::Order => &mut self.order,
+        }
+    }
+
+    /// The features that are on, in observation order.
+    pub fn on(&self) -> impl Iterator<Item = Feature> + '_ {
+        Feature::ALL.into_iter().filter(|&f| self.has(f))
+    }
+
     /// Floats these features add to one local observation with sensor range
     /// `sensor_range`.
     pub const fn extra_dim(&self, sensor_range: usize) -> usize {
         let mut dim = 0;
-        if self.path {
-            dim += PATH_FEATURE_DIM;
-        }
-        if self.priority {
-            dim += priority_feature_dim(sensor_range);
-        }
-        if self.pressure {
-            dim += PRESSURE_FEATURE_DIM;
-        }
-        if self.intent {
-            dim += intent_feature_dim(sensor_range);
-        }
-        if self.order {
-            dim += order_feature_dim(sensor_range);
+        let mut k = 0;
+        while k < Feature::ALL.len() {
+            if self.has(Feature::ALL[k]) {
+                dim += Feature::ALL[k].dim(sensor_range);
+            }
+            k += 1;
         }
         dim
     }
@@ -192,7 +281,13 @@ impl ObsFeatures {
 
     /// Every feature's name, in observation order: the names a Python user
     /// passes and [`Self::names`] returns.
-    pub const NAMES: [&'static str; 5] = ["path", "priority", "pressure", "intent", "order"];
+    pub const NAMES: [&'static str; 5] = [
+        Feature::Path.name(),
+        Feature::Priority.name(),
+        Feature::Pressure.name(),
+        Feature::Intent.name(),
+        Feature::Order.name(),
+    ];
 
     /// The features named (any order, repeats allowed).
     ///
@@ -208,16 +303,7 @@ impl ObsFeatures {
     ) -> Result<Self, UnknownFeature> {
         let mut f = Self::default();
         for name in names {
-            let name = name.as_ref();
-            let flag = match name {
-                "path" => &mut f.path,
-                "priority" => &mut f.priority,
-                "pressure" => &mut f.pressure,
-                "intent" => &mut f.intent,
-                "order" => &mut f.order,
-                _ => return Err(UnknownFeature(name.to_string())),
-            };
-            *flag = true;
+            *f.switch(name.as_ref().parse()?) = true;
         }
         Ok(f)
     }
@@ -225,18 +311,7 @@ impl ObsFeatures {
     /// The names of the features that are on, in observation order (the
     /// inverse of [`Self::from_names`]).
     pub fn names(&self) -> Vec<&'static str> {
-        let on = [
-            self.path,
-            self.priority,
-            self.pressure,
-            self.intent,
-            self.order,
-        ];
-        Self::NAMES
-            .into_iter()
-            .zip(on)
-            .filter_map(|(name, on)| on.then_some(name))
-            .collect()
+        self.on().map(Feature::name).collect()
     }
 }
 
