@@ -19,8 +19,8 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use buridan_actor::remote_env::{RemoteEnv, RemoteEnvOptions};
 use buridan_env::{BatchedEnv, ObsKind};
-use buridan_plant::serve::{EnvServer, ServeConfig};
 use buridan_plant::{PlantConfig, PlantVecEnv, FORWARD, HOLD, NUM_ACTIONS};
+use buridan_plant_server::{EnvServer, ServeConfig};
 
 struct Args {
     plant: String,

@@ -1,4 +1,4 @@
-//! `RemoteEnv` against the reference env server (`buridan_plant::serve`)
+//! `RemoteEnv` against the reference env server (`buridan_plant_server`)
 //! over loopback TCP: the same steps as a local plant batch through the
 //! `BatchedEnv` trait (masks widened to the policy's heads), bad input
 //! answered with the right status, and a server that stops and restarts.
@@ -8,8 +8,8 @@ use std::time::Duration;
 use buridan_actor::misbehave::RawCodec;
 use buridan_actor::remote_env::{RemoteEnv, RemoteEnvError, RemoteEnvOptions};
 use buridan_env::{BatchedEnv, EnvError, ObsKind};
-use buridan_plant::serve::{EnvServer, ServeConfig};
 use buridan_plant::{PlantConfig, PlantVecEnv};
+use buridan_plant_server::{EnvServer, ServeConfig};
 use buridan_proto::v1;
 use buridan_proto::v1::environment_client::EnvironmentClient;
 use tonic::Code;

@@ -9,8 +9,6 @@
 //! - [`vec_env`]: [`PlantVecEnv`], a batch with auto-reset.
 //! - [`kpi`]: [`Kpis`], what an episode achieved.
 //! - [`controllers`]: the reservation and random baselines.
-//! - [`serve`] (feature `server`, on by default): the plant behind the env
-//!   API (`env.proto`), the reference server of `plant-server`.
 //!
 //! # The model's choices
 //!
@@ -83,8 +81,6 @@ pub mod env;
 pub mod error;
 pub mod kpi;
 pub mod plant;
-#[cfg(feature = "server")]
-pub mod serve;
 pub mod vec_env;
 
 pub use env::{

@@ -1,6 +1,6 @@
 //! `actor --env URL` end to end: `learner serve` on a plant run (in
 //! process, in-memory gRPC) and actors that step the reference env server
-//! (`buridan_plant::serve`, loopback TCP) — a short training run whose
+//! (`buridan_plant_server`, loopback TCP) — a short training run whose
 //! fragments the learner accepts, the actor that has no env server and the
 //! one whose server does not fit the run refused with a clear error, and an
 //! env server that stops and restarts mid-run while the actor reconnects.
@@ -12,7 +12,7 @@ use std::time::Duration;
 use buridan_actor::client::{run, ActorError, ActorOptions, SetupError};
 use buridan_learner::serve::{serve, Listener, ServeError, ServeOptions};
 use buridan_learner::train::{Algo, MetricsRow, Progress, Summary, TrainConfig};
-use buridan_plant::serve::{EnvServer, ServeConfig};
+use buridan_plant_server::{EnvServer, ServeConfig};
 use buridan_policy::Mode;
 use buridan_tests::InMemoryNet;
 

@@ -3,11 +3,10 @@
 //! actions (observations, masks, rewards, flags, final observations,
 //! finished episodes and their KPIs), episodes end at T_max, and sessions
 //! beyond the limit evict the least recently used.
-#![cfg(feature = "server")]
 
 use buridan_env::{BatchedEnv, ObsKind};
-use buridan_plant::serve::{EnvServer, ServeConfig};
 use buridan_plant::{PlantConfig, PlantVecEnv};
+use buridan_plant_server::{EnvServer, ServeConfig};
 use buridan_proto::env_convert::{ended, spec_from_message};
 use buridan_proto::v1;
 use buridan_proto::v1::environment_client::EnvironmentClient;

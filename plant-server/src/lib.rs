@@ -1,7 +1,10 @@
 //! The reference env server: the native AGV plant ([`PlantVecEnv`]) behind
 //! the env API (`proto/buridan/v1/env.proto`), so that the path an external
 //! simulator takes — `actor --env URL` → gRPC → a simulator — is exercised
-//! end to end with a model whose every step is known.
+//! end to end with a model whose every step is known. The `plant-server`
+//! binary runs it as a process (`plant-server --plant ID --agents N --envs E
+//! --listen ADDR`); [`EnvServer`] runs it on a thread of its own, for
+//! tests and benchmarks.
 //!
 //! ```text
 //! client ──Spec──▶ EnvSpec (envs, agents, obs kind/dim, 3 actions, T_max, "plant:ID")
@@ -22,29 +25,27 @@
 //! its session again; an evicted client gets `NOT_FOUND` and resets).
 //!
 //! ```no_run
-//! use buridan_plant::serve::{EnvServer, ServeConfig};
+//! use buridan_plant_server::{EnvServer, ServeConfig};
 //! let cfg = ServeConfig::load("dissertation", 2, 8, None).unwrap();
 //! let server = EnvServer::start(cfg, "127.0.0.1:50061".parse().unwrap()).unwrap();
 //! println!("serving on {}", server.url());
 //! server.stop();
 //! ```
 
+#![warn(missing_docs)]
+
 use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use buridan_env::{BatchedEnv, EnvError, ObsKind};
+use buridan_plant::{Plant, PlantConfig, PlantError, PlantVecEnv, NUM_ACTIONS};
 use buridan_proto::env_convert::{
     check_actions, ended, finished_episode, reset_reply, spec_to_message, step_reply, EnvSpec,
 };
 use buridan_proto::v1;
 use buridan_proto::v1::environment_server::{Environment, EnvironmentServer};
 use tonic::{Request, Response, Status};
-
-use crate::env::{PlantConfig, NUM_ACTIONS};
-use crate::plant::Plant;
-use crate::vec_env::PlantVecEnv;
-use crate::PlantError;
 
 /// Sessions kept by default.
 pub const DEFAULT_MAX_SESSIONS: usize = 64;

@@ -5,7 +5,7 @@ use std::net::SocketAddr;
 
 use anyhow::{Context, Result};
 use buridan_env::ObsKind;
-use buridan_plant::serve::{serve, PlantEnvService, ServeConfig, DEFAULT_MAX_SESSIONS};
+use buridan_plant_server::{serve, PlantEnvService, ServeConfig, DEFAULT_MAX_SESSIONS};
 use clap::Parser;
 
 /// Serves the native AGV plant as an external env (buridan.v1.Environment):
