@@ -457,6 +457,7 @@ impl<'a> Search<'a> {
         self.open.push(root);
         let mut constraints: Vec<(u32, u32)> = Vec::with_capacity(n);
         let mut next = Vec::with_capacity(n);
+        // High-level search over configurations, depth-first on `Open`.
         while let Some(&top) = self.open.last() {
             let bytes = self.bytes + self.open.len() * 4;
             if let Err(e) = self.budget.on_expand(|| bytes) {
@@ -469,6 +470,7 @@ impl<'a> Search<'a> {
                     }
                 }
             }
+            // 1. Goal check on the node on top of `Open`.
             let node = &self.nodes[top as usize];
             if self.goal_node.is_none() && node.config[..] == self.setup.goals[..] {
                 self.goal_node = Some(top);
@@ -477,16 +479,20 @@ impl<'a> Search<'a> {
                     return Ok(self.outcome(false));
                 }
             }
+            // (LaCAM*) Prune nodes that cannot beat the best solution.
             if let Some(goal) = self.goal_node {
                 if self.nodes[goal as usize].g <= node.g + node.h {
                     self.open.pop();
                     continue;
                 }
             }
+            // 2. Low-level search: the next constraint set from the node's
+            // constraint tree (exhausted: the node leaves `Open`) ...
             let Some(c) = self.nodes[top as usize].tree.pop_front() else {
                 self.open.pop();
                 continue;
             };
+            // ... and its children, one per cell of the next agent in order.
             let low = self.low[c as usize];
             if (low.depth as usize) < n {
                 let node = &self.nodes[top as usize];
@@ -507,6 +513,7 @@ impl<'a> Search<'a> {
                     self.bytes += std::mem::size_of::<LNode>() + 4;
                 }
             }
+            // 3. Successor generation: PIBT under the constraints.
             constraints.clear();
             let mut k = c;
             while self.low[k as usize].depth > 0 {
@@ -525,6 +532,8 @@ impl<'a> Search<'a> {
                 continue;
             }
             self.budget.generated += 1;
+            // 4. Duplicate detection: a known configuration is re-inserted,
+            // a new one becomes a new high-level node.
             if let Some(&known) = self.explored.get(&next[..]) {
                 if !self.nodes[top as usize].neighbours.contains(&known) {
                     self.nodes[top as usize].neighbours.push(known);

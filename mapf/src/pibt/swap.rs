@@ -1,0 +1,360 @@
+//! LaCAM3's *swap* operation for the generator (see the
+//! [module docs](super#swap)): when two agents must pass each other in a
+//! lane, the one with priority backs away and pulls the other along.
+
+use crate::graph::NONE;
+
+use super::generator::Generator;
+
+/// A swap decision: pull `partner` into `to`; `wait`: the puller waits
+/// (rather than backing away).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Swap {
+    pub partner: u32,
+    pub to: u32,
+    pub wait: bool,
+}
+
+/// What the *swap* operation (see [`Generator::with_swap`]) needs to know:
+/// each agent's distance table and goal.
+#[derive(Clone, Copy)]
+pub(crate) struct SwapInfo<'a> {
+    dist: &'a [Vec<u32>],
+    goals: &'a [u32],
+    /// Only these agents start a swap (all when `None`).
+    only: Option<&'a [bool]>,
+}
+
+impl<'a> Generator<'a> {
+    /// Enables the *swap* operation (see [the module docs](super#swap)),
+    /// judged with the distance tables `dist` to the agents' `goals`.
+    pub fn with_swap(mut self, dist: &'a [Vec<u32>], goals: &'a [u32]) -> Self {
+        self.swap = Some(SwapInfo {
+            dist,
+            goals,
+            only: None,
+        });
+        self
+    }
+
+    /// Enables the swap operation for the agents marked in `only` (the
+    /// collision shield's stalled agents): only they start a swap.
+    pub fn with_swap_for(
+        mut self,
+        dist: &'a [Vec<u32>],
+        goals: &'a [u32],
+        only: &'a [bool],
+    ) -> Self {
+        self.swap = Some(SwapInfo {
+            dist,
+            goals,
+            only: Some(only),
+        });
+        self
+    }
+
+    /// The swap decision for `i`, whose best cell is `best` (see the
+    /// [module docs](super#swap)), or `None`. Three situations, tried in turn:
+    ///
+    /// 1. **adjacent**: `best` is held by an undecided `j`, pushing `j`
+    ///    ahead would not let the two pass ([`Generator::swap_required`])
+    ///    and backing away leads to a place where they can
+    ///    ([`Generator::swap_possible`]): `i` backs away and pulls `j` into
+    ///    its cell — in the env only if `j > i`; under the thesis rules a
+    ///    lower `j` cannot follow in the same step, `i` backs away alone and
+    ///    the two stand one cell apart at the next step;
+    /// 2. **one cell apart** (thesis rules): `best` is empty and an undecided
+    ///    `j` stands beyond it with the same verdict for `i` on `best`; `j`
+    ///    is pulled into `best` (free at `t`, whatever the index order)
+    ///    while `i` backs away, so the pair keeps moving at full speed. If
+    ///    `best` is where the lane branches, `i` waits instead: the two are
+    ///    then adjacent at the branching cell, `j` on it;
+    /// 3. **clear**: `i`, about to enter a lane, would be followed by its
+    ///    neighbour `k` and pushed ahead although `k` must pass it
+    ///    (the swap would be required one step later): `i` steps aside and
+    ///    pulls `k` into its cell, so that `k` enters first.
+    pub(super) fn swap_partner(
+        &self,
+        info: SwapInfo<'_>,
+        i: u32,
+        best: u32,
+        cur: &[u32],
+    ) -> Option<Swap> {
+        let here = cur[i as usize];
+        if best == here || info.only.is_some_and(|only| !only[i as usize]) {
+            return None;
+        }
+        let undecided = |j: u32| j != NONE && j != i && self.next[j as usize] == NONE;
+        let swap = |partner, to, wait| Some(Swap { partner, to, wait });
+        let j = self.occ_now[best as usize];
+        if j != NONE {
+            if undecided(j)
+                && self.swap_required(info, i, j, here, best)
+                && self.swap_possible(info, best, here)
+            {
+                return swap(j, here, false);
+            }
+        } else if self.rules.forbid_following {
+            for &w in &self.topo.moves(best)[1..] {
+                if w == NONE || w == here {
+                    continue;
+                }
+                let j = self.occ_now[w as usize];
+                if undecided(j)
+                    && self.swap_required(info, i, j, best, w)
+                    && self.swap_possible(info, best, here)
+                {
+                    let branching = self.passing_neighbours(info, best).1 >= 3;
+                    return swap(j, best, branching);
+                }
+            }
+        }
+        for &u in &self.topo.moves(here)[1..] {
+            if u == NONE || u == best {
+                continue;
+            }
+            let k = self.occ_now[u as usize];
+            if k != NONE
+                && self.swap_required(info, k, i, here, best)
+                && self.swap_possible(info, best, here)
+            {
+                return swap(k, here, false);
+            }
+        }
+        None
+    }
+
+    /// Moves `j` into `to` if `j` is undecided, `to` is free at `t + 1` and
+    /// the rules let `j` enter it (a pull that the env cannot execute is
+    /// simply not made).
+    pub(super) fn pull(&mut self, j: u32, to: u32, cur: &[u32]) {
+        if self.next[j as usize] == NONE
+            && self.occ_next[to as usize] == NONE
+            && self.topo.moves(cur[j as usize]).contains(&to)
+            && self.may_enter(j, to, cur)
+        {
+            self.reserve(j, to);
+        }
+    }
+
+    /// The neighbours of `v` the two agents could use to pass each other:
+    /// every neighbour except dead ends where an agent rests on its goal.
+    fn passing_neighbours(&self, info: SwapInfo<'_>, v: u32) -> ([u32; 4], usize) {
+        let mut out = [NONE; 4];
+        let mut n = 0;
+        for &u in &self.topo.moves(v)[1..] {
+            if u == NONE {
+                continue;
+            }
+            let k = self.occ_now[u as usize];
+            let dead_end = self.topo.moves(u)[1..]
+                .iter()
+                .filter(|&&x| x != NONE)
+                .count()
+                == 1;
+            if dead_end && k != NONE && info.goals[k as usize] == u {
+                continue;
+            }
+            out[n] = u;
+            n += 1;
+        }
+        (out, n)
+    }
+
+    /// Whether `pusher` at `vp` and `puller` at `vq` (adjacent) need a swap:
+    /// simulate `pusher` pushing `puller` ahead along a single lane while
+    /// that brings `pusher` closer to its goal. If the lane branches on the
+    /// way, they can pass there (no swap). Otherwise a swap is required if,
+    /// at the end (a dead end, or `pusher` no longer gains), `puller` wants
+    /// to go back past `pusher` while `pusher` still wants to go on (or
+    /// rests on its goal).
+    pub(crate) fn swap_required(
+        &self,
+        info: SwapInfo<'_>,
+        pusher: u32,
+        puller: u32,
+        mut vp: u32,
+        mut vq: u32,
+    ) -> bool {
+        let (dp, dq) = (&info.dist[pusher as usize], &info.dist[puller as usize]);
+        while dp[vq as usize] < dp[vp as usize] {
+            let (nbrs, n) = self.passing_neighbours(info, vq);
+            if n >= 3 {
+                return false;
+            }
+            if n <= 1 {
+                break; // a dead end
+            }
+            let Some(&ahead) = nbrs[..n].iter().find(|&&u| u != vp) else {
+                break;
+            };
+            vp = vq;
+            vq = ahead;
+        }
+        dq[vp as usize] < dq[vq as usize]
+            && (dp[vp as usize] == 0 || dp[vq as usize] < dp[vp as usize])
+    }
+
+    /// Whether the agent at `puller` can back away from the one at `pusher`
+    /// (adjacent), pulling it along a single lane, to a cell where the lane
+    /// branches (where the two can pass each other).
+    pub(crate) fn swap_possible(
+        &self,
+        info: SwapInfo<'_>,
+        mut pusher: u32,
+        mut puller: u32,
+    ) -> bool {
+        let origin = pusher;
+        for _ in 0..self.topo.cells() {
+            if puller == origin {
+                return false;
+            }
+            let (nbrs, n) = self.passing_neighbours(info, puller);
+            if n >= 3 {
+                return true;
+            }
+            let back = nbrs[..n].iter().find(|&&u| u != pusher);
+            match (n, back) {
+                (2, Some(&back)) => {
+                    pusher = puller;
+                    puller = back;
+                }
+                _ => return false,
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use buridan_env::{Cell, Grid};
+
+    use super::*;
+    use crate::pibt::Setup;
+    use crate::rules::Rules;
+
+    /// A dead-end aisle `(1, 1..=4)` off a junction `(1, 0)`.
+    const AISLE: [&str; 3] = [".@@@@", ".....", ".@@@@"];
+
+    /// One generator step from `starts` towards `goals`, agents in
+    /// `order`, with or without the swap operation.
+    fn step(
+        rows: &[&str],
+        starts: &[(usize, usize)],
+        goals: &[(usize, usize)],
+        order: &[u32],
+        swap: bool,
+    ) -> Vec<(usize, usize)> {
+        let grid = Grid::from_rows(rows).unwrap();
+        let cells =
+            |v: &[(usize, usize)]| v.iter().map(|&(r, c)| Cell::new(r, c)).collect::<Vec<_>>();
+        let setup = Setup::new(&grid, &cells(starts), &cells(goals)).unwrap();
+        let mut gen = Generator::new(&setup.topo, Rules::ENV_EXECUTABLE, 0);
+        if swap {
+            gen = gen.with_swap(&setup.dist, &setup.goals);
+        }
+        let mut next = Vec::new();
+        assert!(gen.generate(&setup.dist, &setup.starts, order, &[], &mut next));
+        next.iter()
+            .map(|&v| setup.topo.cell(v))
+            .map(|c| (c.row, c.col))
+            .collect()
+    }
+
+    /// A generator with the swap on and every agent of `setup` on its start,
+    /// no move chosen yet: the state the swap decisions are asked in.
+    fn placed_swap_generator(setup: &Setup) -> Generator<'_> {
+        let mut gen = Generator::new(&setup.topo, Rules::ENV_EXECUTABLE, 0)
+            .with_swap(&setup.dist, &setup.goals);
+        for (i, &v) in setup.starts.iter().enumerate() {
+            gen.occ_now[v as usize] = i as u32;
+        }
+        gen.next = vec![NONE; setup.starts.len()];
+        gen
+    }
+
+    #[test]
+    fn swap_required_and_possible_in_a_dead_end_aisle() {
+        let grid = Grid::from_rows(&AISLE).unwrap();
+        let c = Cell::new;
+        // Agent 0 at (1, 2) bound for the end (1, 4); agent 1 rests on (1, 3).
+        let setup = Setup::new(&grid, &[c(1, 2), c(1, 3)], &[c(1, 4), c(1, 3)]).unwrap();
+        let gen = placed_swap_generator(&setup);
+        let info = gen.swap.unwrap();
+        let (a, b, junction) = (setup.starts[0], setup.starts[1], setup.topo.index(c(1, 0)));
+        // Pushing 1 to the end leaves it behind its goal: swap required,
+        // and backing out reaches the junction: possible.
+        assert!(gen.swap_required(info, 0, 1, a, b));
+        assert!(gen.swap_possible(info, b, a));
+        // Agent 0 below the junction pushing 1 into it: the lane branches
+        // there, they can pass without a swap.
+        assert!(!gen.swap_required(info, 0, 1, setup.topo.index(c(2, 0)), junction));
+        let entrance = setup.topo.index(c(1, 1));
+        // Backing into the dead end leads nowhere.
+        assert!(!gen.swap_possible(info, a, b));
+        // At the junction itself the lane branches.
+        assert!(gen.swap_possible(info, entrance, junction));
+        let decision = gen.swap_partner(info, 0, b, &setup.starts);
+        assert_eq!(
+            decision,
+            Some(Swap {
+                partner: 1,
+                to: a,
+                wait: false
+            })
+        );
+        // Without a branching cell anywhere (a plain corridor) no swap.
+        let line = Grid::from_rows(&["....."]).unwrap();
+        let setup = Setup::new(&line, &[c(0, 2), c(0, 3)], &[c(0, 4), c(0, 3)]).unwrap();
+        let gen = placed_swap_generator(&setup);
+        let info = gen.swap.unwrap();
+        assert!(gen.swap_required(info, 0, 1, setup.starts[0], setup.starts[1]));
+        assert!(!gen.swap_possible(info, setup.starts[1], setup.starts[0]));
+        assert_eq!(
+            gen.swap_partner(info, 0, setup.starts[1], &setup.starts),
+            None
+        );
+    }
+
+    #[test]
+    fn the_swap_pulls_a_higher_index_agent_out_in_the_same_step() {
+        let (s, g) = ([(1, 2), (1, 3)], [(1, 4), (1, 3)]);
+        // Without swap agent 0 waits while agent 1 is pushed to the end.
+        assert_eq!(step(&AISLE, &s, &g, &[0, 1], false), [(1, 2), (1, 4)]);
+        // With it, 0 backs out and pulls 1 (which moves after it) along.
+        assert_eq!(step(&AISLE, &s, &g, &[0, 1], true), [(1, 1), (1, 2)]);
+    }
+
+    #[test]
+    fn a_queue_whose_indices_rise_towards_its_head_moves_from_the_head() {
+        // Agent 2 at the end of the aisle must get out past 0 and 1, both
+        // resting on their goals. 0 cannot enter 1's cell in the step in
+        // which 1 leaves it (1 moves after 0), so pushing the queue fails.
+        let (s, g) = ([(1, 3), (1, 2), (1, 4)], [(1, 3), (1, 2), (0, 0)]);
+        assert_eq!(
+            step(&AISLE, &s, &g, &[2, 0, 1], false),
+            [(1, 3), (1, 2), (1, 4)]
+        );
+        // As a waiting chain: 2 and 0 wait, the head 1 steps out.
+        assert_eq!(
+            step(&AISLE, &s, &g, &[2, 0, 1], true),
+            [(1, 3), (1, 1), (1, 4)]
+        );
+    }
+
+    #[test]
+    fn under_the_index_order_a_lower_index_partner_follows_one_cell_behind() {
+        // The same aisle with the indices exchanged: agent 0 rests on
+        // (1, 3), agent 1 at (1, 2) is bound for the end.
+        let (s, g) = ([(1, 3), (1, 2)], [(1, 3), (1, 4)]);
+        // 0 moves before 1 in the env, so it cannot follow in this step:
+        // 1 backs out alone.
+        assert_eq!(step(&AISLE, &s, &g, &[1, 0], true), [(1, 3), (1, 1)]);
+        // One cell apart, 1 keeps backing out and pulls 0 into the gap.
+        let s = [(1, 3), (1, 1)];
+        assert_eq!(step(&AISLE, &s, &g, &[1, 0], true), [(1, 2), (1, 0)]);
+        // Without swap 1 walks back in instead.
+        assert_eq!(step(&AISLE, &s, &g, &[1, 0], false), [(1, 3), (1, 2)]);
+    }
+}
