@@ -1,0 +1,197 @@
+//! Who gives way before PIBT runs: the dead-end order and the one-way lane
+//! rule re-rank a yielding agent's moves and drop its priority.
+
+use buridan_env::NUM_ACTIONS;
+
+use crate::dead_ends::DeadEnds;
+use crate::graph::{Topology, NONE};
+use crate::lanes::Lanes;
+
+use super::preference::ActionOrder;
+
+/// Re-ranks one agent's actions (`rank[a]`: 0 for the most preferred) by
+/// `key`, the current ranks breaking ties: the progress fallback and the
+/// dead-end order each put their own criterion ahead of the policy's.
+pub(super) fn rerank<K: Ord>(rank: &mut [u8; NUM_ACTIONS], key: impl Fn(u8) -> K) {
+    let mut order: ActionOrder = [0, 1, 2, 3, 4];
+    order.sort_by_key(|&a| (key(a), rank[usize::from(a)]));
+    for (r, &a) in order.iter().enumerate() {
+        rank[usize::from(a)] = r as u8;
+    }
+}
+
+/// The dead-end order of [`Shield::with_dead_end_order`](super::Shield::with_dead_end_order): every agent
+/// outside the branch of its goal that must let another agent pass its
+/// goal first ranks the moves into that branch last (`ranks`, one table
+/// per agent) and drops to the lowest priority (its tie-breaker alone).
+pub(super) fn yield_to_deeper_goals(
+    dead_ends: &DeadEnds,
+    topo: &Topology,
+    cur: &[u32],
+    goals: &[u32],
+    ranks: &mut [[u8; NUM_ACTIONS]],
+    priorities: &mut [f64],
+) {
+    for (i, (&at, &goal)) in cur.iter().zip(goals).enumerate() {
+        let Some(mouth) = dead_ends.mouth(goal) else {
+            continue;
+        };
+        if at == goal || dead_ends.mouth(at) == Some(mouth) {
+            continue;
+        }
+        // Someone bound deeper along this path has not passed `goal` yet.
+        let waits = goals
+            .iter()
+            .zip(cur)
+            .enumerate()
+            .any(|(j, (&deeper, &pos))| {
+                j != i
+                    && dead_ends.index_on_the_way(goal, deeper)
+                    && !dead_ends.index_on_the_way(goal, pos)
+            });
+        if !waits {
+            continue;
+        }
+        let moves = topo.moves(at);
+        rerank(&mut ranks[i], |a| {
+            let to = moves[usize::from(a)];
+            to != NONE && dead_ends.mouth(to) == Some(mouth)
+        });
+        priorities[i] = priorities[i].fract();
+    }
+}
+
+/// One agent about to enter a lane, for [`keep_lanes_one_way`].
+struct Entry {
+    agent: usize,
+    lane: u32,
+    /// The end it enters at (0 or 1).
+    end: usize,
+    /// How deep it goes, counted from its end: its goal's place, or the
+    /// lane's last cell if it passes through.
+    reach: u32,
+}
+
+/// The lane rule of [`Shield::with_one_way_lanes`](super::Shield::with_one_way_lanes): an agent whose most
+/// preferred move enters a lane yields (ranks every move into the lane
+/// last and takes the lowest priority) while an agent inside heads out at
+/// its end, while an agent bound deeper into the same lane has yet to pass
+/// its goal, or while a higher-priority agent enters the part of the lane
+/// it needs from the other end.
+pub(super) fn keep_lanes_one_way(
+    lanes: &Lanes,
+    topo: &Topology,
+    cur: &[u32],
+    goals: &[u32],
+    dist: &[Vec<u32>],
+    ranks: &mut [[u8; NUM_ACTIONS]],
+    priorities: &mut [f64],
+) {
+    // Places counted from `end` of `lane`.
+    let depth = |lane: u32, end: usize, v: u32| {
+        let p = lanes.place(v);
+        if end == 0 {
+            p
+        } else {
+            lanes.len(lane) - 1 - p
+        }
+    };
+    // Each agent's most preferred next cell.
+    let wants: Vec<u32> = cur
+        .iter()
+        .zip(ranks.iter())
+        .map(|(&at, rank)| {
+            let first = rank.iter().position(|&r| r == 0).unwrap_or(0);
+            topo.moves(at)[first]
+        })
+        .collect();
+    let mut entries = Vec::new();
+    for (agent, (&at, &to)) in cur.iter().zip(&wants).enumerate() {
+        let Some(lane) = (to != NONE && to != at)
+            .then(|| lanes.lane_index(to))
+            .flatten()
+        else {
+            continue;
+        };
+        if lanes.lane_index(at) == Some(lane) {
+            continue;
+        }
+        let Some(end) = lanes.entrance_indices(lane).iter().position(|&e| e == at) else {
+            continue;
+        };
+        let reach = match lanes.lane_index(goals[agent]) {
+            Some(l) if l == lane => depth(lane, end, goals[agent]),
+            _ => lanes.len(lane) - 1,
+        };
+        entries.push(Entry {
+            agent,
+            lane,
+            end,
+            reach,
+        });
+    }
+    // Whether agent `j`, inside `lane`, heads out of it at `end`: it wants
+    // to move that way, or it wants to stay and its shortest path leads
+    // that way. (One that backs away makes room; one bound for a goal
+    // inside the lane is no reason to wait either: the entering agent would
+    // have to pass that goal anyway, or stops short of it.)
+    let comes_towards = |j: usize, lane: u32, end: usize| {
+        let at = cur[j];
+        if lanes.lane_index(at) != Some(lane) || lanes.lane_index(goals[j]) == Some(lane) {
+            return false;
+        }
+        let d = depth(lane, end, at);
+        let towards = topo.neighbours(at).find(|&u| {
+            if d == 0 {
+                u == lanes.entrance_indices(lane)[end]
+            } else {
+                lanes.lane_index(u) == Some(lane) && depth(lane, end, u) + 1 == d
+            }
+        });
+        towards.is_some_and(|u| {
+            wants[j] == u || (wants[j] == at && dist[j][u as usize] < dist[j][at as usize])
+        })
+    };
+    // Whether agent `j`, bound deeper into the lane than `e`'s goal, has
+    // yet to pass that goal on its shortest path: `e` lets it by first
+    // (a lane entered from one end fills from the back).
+    let bound_deeper = |j: usize, e: &Entry| {
+        let (i, goal) = (e.agent, goals[e.agent]);
+        lanes.lane_index(goal) == Some(e.lane)
+            && lanes.lane_index(goals[j]) == Some(e.lane)
+            && depth(e.lane, e.end, goals[j]) > e.reach
+            && dist[j][cur[j] as usize] > 0
+            && dist[i][cur[j] as usize] + dist[j][goal as usize] == dist[j][cur[j] as usize]
+    };
+    let met_inside: Vec<bool> = entries
+        .iter()
+        .map(|e| {
+            (0..cur.len())
+                .any(|j| j != e.agent && (comes_towards(j, e.lane, e.end) || bound_deeper(j, e)))
+        })
+        .collect();
+    // Decided on this step's priorities before any yielder drops its own.
+    let met_at_the_other_end: Vec<bool> = entries
+        .iter()
+        .map(|e| {
+            entries.iter().zip(&met_inside).any(|(o, &o_waits)| {
+                !o_waits
+                    && o.lane == e.lane
+                    && o.end != e.end
+                    && (lanes.len(e.lane) - 1 - o.reach) <= e.reach
+                    && priorities[o.agent] > priorities[e.agent]
+            })
+        })
+        .collect();
+    for (k, e) in entries.iter().enumerate() {
+        if !(met_inside[k] || met_at_the_other_end[k]) {
+            continue;
+        }
+        let moves = topo.moves(cur[e.agent]);
+        rerank(&mut ranks[e.agent], |a| {
+            let to = moves[usize::from(a)];
+            to != NONE && lanes.lane_index(to) == Some(e.lane)
+        });
+        priorities[e.agent] = priorities[e.agent].fract();
+    }
+}
