@@ -18,7 +18,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use buridan_env::{episode_instance, Map, Starts};
-use buridan_mapf::{planner_by_name, replay_exact, validate_with, Limits, Rules};
+use buridan_mapf::{planner_by_name, replay_exact, validate_with, ConflictModel, Limits};
 
 const T_MAX: usize = 100;
 
@@ -62,7 +62,7 @@ fn main() {
                 let (status, makespan, cost) = match result {
                     Ok(sol) => {
                         let ctx = format!("{name} {m} {agents} agents episode {e}");
-                        validate_with(&map.grid, s, g, &sol.plan, Rules::ENV_EXECUTABLE)
+                        validate_with(&map.grid, s, g, &sol.plan, ConflictModel::ENV_EXECUTABLE)
                             .unwrap_or_else(|err| panic!("{ctx}: {err}"));
                         replay_exact(&map, s, g, &sol.plan, 1_000_000)
                             .unwrap_or_else(|err| panic!("{ctx}: {err}"));

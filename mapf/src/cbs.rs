@@ -10,7 +10,7 @@
 //!   not on `c` at `t` (this covers agents resting on their goals);
 //! - swap conflict (`a: x→y`, `b: y→x` in step `t`): `a` not moving `x→y`
 //!   at `t` | `b` not moving `y→x` at `t`;
-//! - following conflict (with [`Rules::forbid_following`]; follower `i`
+//! - following conflict (with [`ConflictModel::forbid_following`]; follower `i`
 //!   enters `c` at `t + 1` where leader `j > i` stands at `t`): `i` not on `c`
 //!   at `t + 1` | `j` not on `c` at `t`.
 //!
@@ -34,7 +34,7 @@ use crate::limits::{Budget, Limits, SolveError};
 use crate::lowlevel::{space_time_astar, Cat, Constraints, LowResult};
 use crate::plan::Plan;
 use crate::planner::{Planner, Solution};
-use crate::rules::Rules;
+use crate::rules::ConflictModel;
 
 /// The heuristic of CBS's low-level space-time A*.
 ///
@@ -55,19 +55,19 @@ pub enum LowLevelHeuristic {
 ///
 /// ```
 /// use buridan_env::Map;
-/// use buridan_mapf::{Cbs, Limits, Planner, Rules};
+/// use buridan_mapf::{Cbs, Limits, Planner, ConflictModel};
 /// let map = Map::load("rm-1.1").unwrap();
 /// let scen = map.scenario.unwrap();
 /// let sol = Cbs::default().solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
 /// assert_eq!((sol.plan.sum_of_costs(), sol.plan.makespan()), (18, 10));
-/// let pure = Cbs { rules: Rules::SIMULTANEOUS, ..Cbs::default() };
+/// let pure = Cbs { rules: ConflictModel::SIMULTANEOUS, ..Cbs::default() };
 /// let sol = pure.solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
 /// assert_eq!(sol.plan.sum_of_costs(), 17);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Cbs {
     /// The conflict model (default: following forbidden, env-executable plans).
-    pub rules: Rules,
+    pub rules: ConflictModel,
     /// The low-level heuristic (default: Manhattan).
     pub heuristic: LowLevelHeuristic,
     /// Low-level ties go to paths with fewer conflicts (default: off).
@@ -95,7 +95,7 @@ impl Cbs {
     /// ```
     pub fn improved() -> Self {
         Self {
-            rules: Rules::default(),
+            rules: ConflictModel::default(),
             heuristic: LowLevelHeuristic::TrueDistance,
             conflict_avoidance: true,
             bypass: true,
@@ -104,7 +104,7 @@ impl Cbs {
 }
 
 impl Planner for Cbs {
-    fn rules(&self) -> Rules {
+    fn rules(&self) -> ConflictModel {
         self.rules
     }
 

@@ -39,10 +39,10 @@
 //!
 //! **Env rules.** "Legal step" is a step of the generator's rules
 //! ([`crate::pibt`] explains how it respects the env's index order), so
-//! every plan replays exactly in the env under [`Rules::ENV_EXECUTABLE`],
+//! every plan replays exactly in the env under [`ConflictModel::ENV_EXECUTABLE`],
 //! and an unsolvable verdict is relative to those rules: four agents that
 //! must rotate around a 2×2 block can do so simultaneously
-//! ([`Rules::SIMULTANEOUS`]) but never in the env.
+//! ([`ConflictModel::SIMULTANEOUS`]) but never in the env.
 //!
 //! # LaCAM*
 //!
@@ -84,7 +84,7 @@ use crate::graph::{FastMap, NONE};
 use crate::limits::{Budget, Limits, SolveError};
 use crate::pibt::{Generator, Setup, TieBreaker};
 use crate::planner::{Planner, Solution, Stats};
-use crate::rules::Rules;
+use crate::rules::ConflictModel;
 
 /// What LaCAM* minimises.
 ///
@@ -116,7 +116,7 @@ pub enum Objective {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Lacam {
     /// The conflict model (default: env-executable plans).
-    pub rules: Rules,
+    pub rules: ConflictModel,
     /// Seed of PIBT's tie-breaking.
     pub seed: u64,
     /// PIBT's *swap* operation in the configuration generator (default
@@ -146,7 +146,7 @@ fn restart_default() -> f64 {
 impl Default for Lacam {
     fn default() -> Self {
         Self {
-            rules: Rules::default(),
+            rules: ConflictModel::default(),
             seed: 0,
             swap: swap_default(),
             restart: restart_default(),
@@ -165,7 +165,7 @@ impl Default for Lacam {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LacamStar {
     /// The conflict model (default: env-executable plans).
-    pub rules: Rules,
+    pub rules: ConflictModel,
     /// Seed of PIBT's tie-breaking.
     pub seed: u64,
     /// What to minimise (default: sum of loss).
@@ -188,7 +188,7 @@ pub struct LacamStar {
 impl Default for LacamStar {
     fn default() -> Self {
         Self {
-            rules: Rules::default(),
+            rules: ConflictModel::default(),
             seed: 0,
             objective: Objective::default(),
             refine_time: Some(Duration::from_millis(500)),
@@ -213,7 +213,7 @@ pub struct Outcome {
 }
 
 impl Planner for Lacam {
-    fn rules(&self) -> Rules {
+    fn rules(&self) -> ConflictModel {
         self.rules
     }
 
@@ -285,7 +285,7 @@ impl LacamStar {
 }
 
 impl Planner for LacamStar {
-    fn rules(&self) -> Rules {
+    fn rules(&self) -> ConflictModel {
         self.rules
     }
 
@@ -313,7 +313,7 @@ impl Planner for LacamStar {
 /// LaCAM*).
 #[derive(Clone, Copy)]
 struct Generation {
-    rules: Rules,
+    rules: ConflictModel,
     seed: u64,
     swap: bool,
     restart: f64,

@@ -21,19 +21,19 @@
 //! - [`planner`]: the [`Planner`] trait (`Send + Sync`), [`Solution`], [`Stats`],
 //!   and [`Portfolio`] (several planners in turn, `"lacam+od-astar"`).
 //! - [`limits`]: [`Limits`] (time, memory, nodes, makespan cap), [`SolveError`].
-//! - [`rules`]: [`Rules`], the conflict model, and how the env's two rule
+//! - [`rules`]: [`ConflictModel`], the conflict model, and how the env's two rule
 //!   sets ([`buridan_env::Rules`]: thesis, pogema) map onto it.
 //!
 //! # The env's rule sets
 //!
-//! Under the env's **thesis** rules planners use [`Rules::ENV_EXECUTABLE`]
+//! Under the env's **thesis** rules planners use [`ConflictModel::ENV_EXECUTABLE`]
 //! (below); under **pogema** rules (simultaneous moves, POGEMA's soft
-//! collisions) [`Rules::SIMULTANEOUS`], standard MAPF as PIBT and LaCAM
+//! collisions) [`ConflictModel::SIMULTANEOUS`], standard MAPF as PIBT and LaCAM
 //! define it: vertex and swap conflicts forbidden, following and rotations
 //! allowed. [`planner_for_rules`] makes a planner for a rule set (OD-A*,
 //! which searches the thesis step itself, is refused with
 //! [`PlannerLookupError::UnsupportedRules`]); [`validate_with`] checks a plan
-//! under `Rules::from(rule_set)`; [`replay_with`] / [`replay_exact_with`]
+//! under `ConflictModel::from(rule_set)`; [`replay_with`] / [`replay_exact_with`]
 //! step it through a [`buridan_env::GridEnv`] under that rule set.
 //!
 //! # Simultaneous plans and the sequential environment: following moves
@@ -54,12 +54,12 @@
 //! longer matches the world. Rotations of three or more agents along a cycle
 //! fail in the same way.
 //!
-//! Therefore every planner takes [`Rules`], whose `forbid_following` option
+//! Therefore every planner takes [`ConflictModel`], whose `forbid_following` option
 //! is **on by default**: "agent `i` enters at `t + 1` the cell agent `j > i`
 //! occupies at `t`" is then a third kind of conflict (a *following
 //! conflict*), and every plan replays exactly in the environment
 //! (termination with success after exactly `makespan` steps — [`replay()`]
-//! reports it, [`replay_exact`] insists on it). With it **off** ([`Rules::SIMULTANEOUS`]) plans are pure
+//! reports it, [`replay_exact`] insists on it). With it **off** ([`ConflictModel::SIMULTANEOUS`]) plans are pure
 //! SPEC §5 and can be shorter (rm-1.1: makespan 9 instead of 10, as in the
 //! dissertation), but may not replay; [`ReplayResult::blocked_following`]
 //! lists the following moves the env would block.
@@ -67,20 +67,20 @@
 //! ```
 //! use std::sync::Arc;
 //! use buridan_env::Map;
-//! use buridan_mapf::{replay, validate_with, Cbs, Limits, Planner, Rules};
+//! use buridan_mapf::{replay, validate_with, Cbs, Limits, Planner, ConflictModel};
 //! let map = Arc::new(Map::load("rm-1.1").unwrap());
 //! let scen = map.scenario.clone().unwrap();
 //! let (s, g) = (&scen.starts, &scen.goals);
 //!
 //! let sol = Cbs::default().solve(&map.grid, s, g, &Limits::default()).unwrap();
-//! validate_with(&map.grid, s, g, &sol.plan, Rules::ENV_EXECUTABLE).unwrap();
+//! validate_with(&map.grid, s, g, &sol.plan, ConflictModel::ENV_EXECUTABLE).unwrap();
 //! let r = replay(&map, s, g, &sol.plan, 100).unwrap();
 //! assert!(r.is_exact(sol.plan.makespan()));
 //! assert_eq!(r.terminated_at, Some(10));
 //!
 //! // Pure simultaneous semantics: makespan 9, but agent 0 follows agent 1
 //! // (whichever agent ducks into the aisle), which the env blocks.
-//! let fast = Cbs { rules: Rules::SIMULTANEOUS, ..Cbs::default() };
+//! let fast = Cbs { rules: ConflictModel::SIMULTANEOUS, ..Cbs::default() };
 //! let sol = fast.solve(&map.grid, s, g, &Limits::default()).unwrap();
 //! assert_eq!((sol.plan.makespan(), sol.plan.sum_of_costs()), (9, 17));
 //! let r = replay(&map, s, g, &sol.plan, 100).unwrap();
@@ -137,6 +137,6 @@ pub use replay::{
     replay, replay_exact, replay_exact_with, replay_with, BlockedFollowing, Divergence,
     ReplayError, ReplayResult,
 };
-pub use rules::Rules;
+pub use rules::ConflictModel;
 pub use shield::{ActionOrder, Shield, ShieldError};
 pub use validate::{validate, validate_with, PlanError};

@@ -12,7 +12,7 @@
 //! not a guarantee.
 //!
 //! Every step comes from the configuration generator of [`crate::pibt`], so
-//! under [`Rules::ENV_EXECUTABLE`] the env executes it exactly (no move is
+//! under [`ConflictModel::ENV_EXECUTABLE`] the env executes it exactly (no move is
 //! ever blocked, see [`run_episode`]).
 //!
 //! ```
@@ -35,7 +35,7 @@ use crate::graph::{distance_table, Topology};
 use crate::limits::{check_instance, InstanceError};
 use crate::pibt::{online_step, Generator};
 use crate::replay::action_between;
-use crate::rules::Rules;
+use crate::rules::ConflictModel;
 
 /// PIBT for lifelong MAPF (see the [module docs](self)): call
 /// [`LifelongPibt::step`] with the current positions and goals once per
@@ -54,7 +54,7 @@ use crate::rules::Rules;
 pub struct LifelongPibt {
     grid: Grid,
     topo: Topology,
-    rules: Rules,
+    rules: ConflictModel,
     seed: u64,
     steps: u64,
     /// Each agent's goal (cell index) and distance table.
@@ -65,7 +65,7 @@ pub struct LifelongPibt {
 
 impl LifelongPibt {
     /// A planner for `grid` under `rules`; `seed` drives the tie-breaking.
-    pub fn new(grid: &Grid, rules: Rules, seed: u64) -> Self {
+    pub fn new(grid: &Grid, rules: ConflictModel, seed: u64) -> Self {
         Self {
             grid: grid.clone(),
             topo: Topology::new(grid),

@@ -3,7 +3,7 @@
 //! All agents move simultaneously each step: the up to 5ⁿ joint moves of a
 //! state are generated agent by agent (depth first, agent 0 first), pruning a
 //! branch as soon as the agent just placed conflicts with an agent placed
-//! before it (vertex, swap) or, with [`Rules::forbid_following`], enters the
+//! before it (vertex, swap) or, with [`ConflictModel::forbid_following`], enters the
 //! current cell of a higher-index agent. `g` = joint steps, duplicate
 //! detection and a closed set on the joint positions (a closed state is never
 //! reopened).
@@ -14,7 +14,7 @@
 //! it is **not guaranteed makespan-optimal** — it behaves more greedily and
 //! is faster. [`Heuristic::MaxManhattan`] and [`Heuristic::MaxDistance`] are
 //! admissible and consistent, so with them the plan has the optimal makespan
-//! (under the chosen [`Rules`]).
+//! (under the chosen [`ConflictModel`]).
 
 use std::cmp::Reverse;
 use std::collections::hash_map::Entry;
@@ -27,7 +27,7 @@ use crate::graph::{distance_table, manhattan_table, FastMap, Topology, NONE};
 use crate::limits::{Budget, Limits, SolveError};
 use crate::plan::Plan;
 use crate::planner::{Planner, Solution};
-use crate::rules::Rules;
+use crate::rules::ConflictModel;
 
 /// The heuristic of [`MaAstar`].
 ///
@@ -51,13 +51,13 @@ pub enum Heuristic {
 ///
 /// ```
 /// use buridan_env::Map;
-/// use buridan_mapf::{Heuristic, Limits, MaAstar, Planner, Rules};
+/// use buridan_mapf::{Heuristic, Limits, MaAstar, Planner, ConflictModel};
 /// let map = Map::load("rm-1.1").unwrap();
 /// let scen = map.scenario.unwrap();
-/// let optimal = MaAstar { heuristic: Heuristic::MaxDistance, rules: Rules::default() };
+/// let optimal = MaAstar { heuristic: Heuristic::MaxDistance, rules: ConflictModel::default() };
 /// let sol = optimal.solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
 /// assert_eq!(sol.plan.makespan(), 10); // 9 needs a following move the env blocks
-/// let simultaneous = MaAstar { heuristic: Heuristic::MaxDistance, rules: Rules::SIMULTANEOUS };
+/// let simultaneous = MaAstar { heuristic: Heuristic::MaxDistance, rules: ConflictModel::SIMULTANEOUS };
 /// let sol = simultaneous.solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
 /// assert_eq!(sol.plan.makespan(), 9);
 /// ```
@@ -66,7 +66,7 @@ pub struct MaAstar {
     /// The heuristic (default: SPEC's Σ Manhattan).
     pub heuristic: Heuristic,
     /// The conflict model (default: following forbidden, env-executable plans).
-    pub rules: Rules,
+    pub rules: ConflictModel,
 }
 
 impl MaAstar {
@@ -85,7 +85,7 @@ impl MaAstar {
 }
 
 impl Planner for MaAstar {
-    fn rules(&self) -> Rules {
+    fn rules(&self) -> ConflictModel {
         self.rules
     }
 

@@ -15,7 +15,7 @@
 //!
 //! The env moves agents one after the other in index order, and a move
 //! succeeds only if its target is free *at that moment* (SPEC §2; see
-//! [`Rules`]). Under [`Rules::ENV_EXECUTABLE`] (the default) the generator
+//! [`ConflictModel`]). Under [`ConflictModel::ENV_EXECUTABLE`] (the default) the generator
 //! therefore only lets agent `i` take a cell that, at time `t`, is
 //!
 //! 1. empty, or
@@ -31,7 +31,7 @@
 //! of a higher-index one) and rotations along cycles (some agent of the cycle
 //! follows a higher-index one), so every generated step is executed by the
 //! env exactly. Every output is checked once more against these rules before
-//! it is returned. Under [`Rules::SIMULTANEOUS`] rule 3 holds for any
+//! it is returned. Under [`ConflictModel::SIMULTANEOUS`] rule 3 holds for any
 //! `j ≠ i`, and swaps are excluded explicitly (rotations are allowed, as in
 //! SPEC §5).
 //!
@@ -92,11 +92,11 @@
 //!
 //! ```
 //! use buridan_env::Map;
-//! use buridan_mapf::{replay_exact, validate_with, Limits, Pibt, Planner, Rules};
+//! use buridan_mapf::{replay_exact, validate_with, Limits, Pibt, Planner, ConflictModel};
 //! let map = std::sync::Arc::new(Map::load("rm-2.1").unwrap());
 //! let scen = map.scenario.clone().unwrap();
 //! let sol = Pibt::default().solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
-//! validate_with(&map.grid, &scen.starts, &scen.goals, &sol.plan, Rules::ENV_EXECUTABLE).unwrap();
+//! validate_with(&map.grid, &scen.starts, &scen.goals, &sol.plan, ConflictModel::ENV_EXECUTABLE).unwrap();
 //! replay_exact(&map, &scen.starts, &scen.goals, &sol.plan, 1000).unwrap();
 //! ```
 
@@ -111,7 +111,7 @@ pub(crate) use setup::{online_step, Setup};
 
 use crate::limits::{Budget, Limits, SolveError};
 use crate::planner::{Planner, Solution};
-use crate::rules::Rules;
+use crate::rules::ConflictModel;
 
 /// PIBT as a one-shot planner: apply the generator step after step until
 /// every agent stands on its goal. Fast, but incomplete: agents can
@@ -132,7 +132,7 @@ use crate::rules::Rules;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Pibt {
     /// The conflict model (default: env-executable, see the module docs).
-    pub rules: Rules,
+    pub rules: ConflictModel,
     /// Steps after which PIBT gives up (default 1000;
     /// [`Limits::max_makespan`] lowers it).
     pub max_steps: usize,
@@ -147,7 +147,7 @@ pub struct Pibt {
 impl Default for Pibt {
     fn default() -> Self {
         Self {
-            rules: Rules::default(),
+            rules: ConflictModel::default(),
             max_steps: 1000,
             seed: 0,
             swap: false,
@@ -156,7 +156,7 @@ impl Default for Pibt {
 }
 
 impl Planner for Pibt {
-    fn rules(&self) -> Rules {
+    fn rules(&self) -> ConflictModel {
         self.rules
     }
 

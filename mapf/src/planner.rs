@@ -6,7 +6,7 @@ use buridan_env::{Cell, Grid};
 
 use crate::limits::{Limits, SolveError};
 use crate::plan::Plan;
-use crate::rules::Rules;
+use crate::rules::ConflictModel;
 
 /// Search effort of one solve call.
 ///
@@ -82,19 +82,19 @@ pub trait Planner: Send + Sync {
         limits: &Limits,
     ) -> Result<Solution, SolveError>;
 
-    /// The conflict model its plans satisfy; [`Rules::rule_set`] names the
+    /// The conflict model its plans satisfy; [`ConflictModel::rule_set`] names the
     /// env rule set that executes them exactly. The default is the thesis
-    /// env's ([`Rules::ENV_EXECUTABLE`]), which planners without a rules
+    /// env's ([`ConflictModel::ENV_EXECUTABLE`]), which planners without a rules
     /// option (OD-A*, searching the sequential step itself) plan for.
     ///
     /// ```
-    /// use buridan_mapf::{planner_for_rules, Planner, Rules};
+    /// use buridan_mapf::{planner_for_rules, Planner, ConflictModel};
     /// let lacam = planner_for_rules("lacam", buridan_env::Rules::Pogema).unwrap();
-    /// assert_eq!(lacam.rules(), Rules::SIMULTANEOUS);
-    /// assert_eq!(buridan_mapf::OdAstar::default().rules(), Rules::ENV_EXECUTABLE);
+    /// assert_eq!(lacam.rules(), ConflictModel::SIMULTANEOUS);
+    /// assert_eq!(buridan_mapf::OdAstar::default().rules(), ConflictModel::ENV_EXECUTABLE);
     /// ```
-    fn rules(&self) -> Rules {
-        Rules::ENV_EXECUTABLE
+    fn rules(&self) -> ConflictModel {
+        ConflictModel::ENV_EXECUTABLE
     }
 }
 
@@ -135,13 +135,13 @@ pub enum PlannerLookupError {
 /// assert!(buridan_mapf::planner_by_name("lacam+dijkstra").is_none());
 /// ```
 pub fn planner_by_name(name: &str) -> Option<Box<dyn Planner>> {
-    build(name, Rules::ENV_EXECUTABLE).ok()
+    build(name, ConflictModel::ENV_EXECUTABLE).ok()
 }
 
 /// The planner of a name (as [`planner_by_name`]) configured to plan for
 /// the env's rule set `rules`: under [`buridan_env::Rules::Thesis`] exactly
 /// [`planner_by_name`]'s planner; under [`buridan_env::Rules::Pogema`] with
-/// [`Rules::SIMULTANEOUS`] (vertex and swap conflicts forbidden, following
+/// [`ConflictModel::SIMULTANEOUS`] (vertex and swap conflicts forbidden, following
 /// and rotations allowed), whose plans POGEMA's rules execute exactly.
 /// OD-A* (`od-astar`, `od-astar-soc`) searches the thesis env's sequential
 /// step itself, so it cannot plan under pogema rules and says so, as does a
@@ -149,9 +149,9 @@ pub fn planner_by_name(name: &str) -> Option<Box<dyn Planner>> {
 ///
 /// ```
 /// use buridan_env::Rules as RuleSet;
-/// use buridan_mapf::{planner_for_rules, PlannerLookupError, Rules};
+/// use buridan_mapf::{planner_for_rules, PlannerLookupError, ConflictModel};
 /// let lacam = planner_for_rules("lacam", RuleSet::Pogema).unwrap();
-/// assert_eq!((lacam.name(), lacam.rules()), ("lacam-simultaneous", Rules::SIMULTANEOUS));
+/// assert_eq!((lacam.name(), lacam.rules()), ("lacam-simultaneous", ConflictModel::SIMULTANEOUS));
 /// assert_eq!(planner_for_rules("lacam", RuleSet::Thesis).unwrap().name(), "lacam");
 /// let err = planner_for_rules("lacam+od-astar", RuleSet::Pogema).err().unwrap();
 /// assert!(matches!(err, PlannerLookupError::UnsupportedRules { rules: RuleSet::Pogema, .. }));
@@ -162,11 +162,11 @@ pub fn planner_for_rules(
     name: &str,
     rules: buridan_env::Rules,
 ) -> Result<Box<dyn Planner>, PlannerLookupError> {
-    build(name, Rules::from(rules))
+    build(name, ConflictModel::from(rules))
 }
 
 /// The name table of [`planner_by_name`] and [`planner_for_rules`].
-fn build(name: &str, rules: Rules) -> Result<Box<dyn Planner>, PlannerLookupError> {
+fn build(name: &str, rules: ConflictModel) -> Result<Box<dyn Planner>, PlannerLookupError> {
     if name.contains('+') {
         let planners = name
             .split('+')
@@ -292,11 +292,11 @@ impl Planner for Portfolio {
     }
 
     /// The weakest guarantee of its planners: simultaneous if any plans so.
-    fn rules(&self) -> Rules {
+    fn rules(&self) -> ConflictModel {
         if self.planners.iter().all(|p| p.rules().forbid_following) {
-            Rules::ENV_EXECUTABLE
+            ConflictModel::ENV_EXECUTABLE
         } else {
-            Rules::SIMULTANEOUS
+            ConflictModel::SIMULTANEOUS
         }
     }
 

@@ -7,11 +7,11 @@
 //! obstacles; after arriving, an agent rests on its goal for good, so later
 //! agents may not pass its goal from then on, and an agent may only arrive
 //! after the last time an earlier agent crosses its goal. Under
-//! [`Rules::ENV_EXECUTABLE`] the earlier paths also forbid the
+//! [`ConflictModel::ENV_EXECUTABLE`] the earlier paths also forbid the
 //! *following* moves the environment would block: entering the cell an
 //! earlier, higher-index agent leaves in the same step, or leaving a cell
 //! an earlier, lower-index agent enters in the same step while having the
-//! higher index oneself (see [`Rules`]). Every plan therefore replays
+//! higher index oneself (see [`ConflictModel`]). Every plan therefore replays
 //! exactly in the environment.
 //!
 //! One order costs `n` single-agent searches, so an attempt takes
@@ -47,7 +47,7 @@ use crate::lowlevel::{space_time_astar, Constraints, LowResult};
 use crate::pibt::TieBreaker;
 use crate::plan::Plan;
 use crate::planner::{Planner, Solution};
-use crate::rules::Rules;
+use crate::rules::ConflictModel;
 
 /// Prioritized planning with randomized restarts (see the
 /// [module docs](self)).
@@ -59,7 +59,7 @@ use crate::rules::Rules;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Prioritized {
     /// The conflict model (default: following forbidden, env-executable plans).
-    pub rules: Rules,
+    pub rules: ConflictModel,
     /// Seed of the random orders tried after the first one fails.
     pub seed: u64,
 }
@@ -67,14 +67,14 @@ pub struct Prioritized {
 impl Default for Prioritized {
     fn default() -> Self {
         Self {
-            rules: Rules::default(),
+            rules: ConflictModel::default(),
             seed: 1,
         }
     }
 }
 
 impl Planner for Prioritized {
-    fn rules(&self) -> Rules {
+    fn rules(&self) -> ConflictModel {
         self.rules
     }
 

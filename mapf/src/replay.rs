@@ -2,11 +2,11 @@
 //!
 //! The plan is turned into one joint action per step and fed open-loop to a
 //! `GridEnv` reset to the plan's starts and goals. Plans found under
-//! [`Rules::ENV_EXECUTABLE`](crate::Rules::ENV_EXECUTABLE) (the default)
+//! [`ConflictModel::ENV_EXECUTABLE`](crate::ConflictModel::ENV_EXECUTABLE) (the default)
 //! replay exactly: the episode terminates with success after exactly
 //! `max(makespan, 1)` steps (the env only checks termination after a step,
 //! so a plan of makespan 0 takes one all-stay step). Plans found under
-//! [`Rules::SIMULTANEOUS`](crate::Rules::SIMULTANEOUS) may contain following
+//! [`ConflictModel::SIMULTANEOUS`](crate::ConflictModel::SIMULTANEOUS) may contain following
 //! moves the env blocks; [`ReplayResult::blocked_following`] lists them and
 //! [`ReplayResult::divergence`] shows where the env left the plan.
 
@@ -135,7 +135,7 @@ pub struct ReplayResult {
     pub divergence: Option<Divergence>,
     /// Following moves in the plan that the env's index order blocks
     /// (computed from the plan alone; empty for plans under
-    /// [`Rules::ENV_EXECUTABLE`](crate::Rules::ENV_EXECUTABLE), and always
+    /// [`ConflictModel::ENV_EXECUTABLE`](crate::ConflictModel::ENV_EXECUTABLE), and always
     /// empty under pogema rules, which allow following).
     pub blocked_following: Vec<BlockedFollowing>,
     /// Agents' cells when the replay stopped.
@@ -275,7 +275,7 @@ pub fn replay(
 }
 
 /// [`replay`] in an env under the rule set `rules`: under pogema rules
-/// plans valid under [`Rules::SIMULTANEOUS`](crate::Rules::SIMULTANEOUS)
+/// plans valid under [`ConflictModel::SIMULTANEOUS`](crate::ConflictModel::SIMULTANEOUS)
 /// (following, rotations) replay exactly, and nothing counts as a blocked
 /// following move.
 ///
@@ -378,7 +378,7 @@ pub fn replay_with(
 /// [`replay`], then insists that the env executed the plan exactly:
 /// termination with success after exactly `max(makespan, 1)` steps, never
 /// off the plan. Guaranteed for valid plans under
-/// [`Rules::ENV_EXECUTABLE`](crate::Rules::ENV_EXECUTABLE) whose makespan
+/// [`ConflictModel::ENV_EXECUTABLE`](crate::ConflictModel::ENV_EXECUTABLE) whose makespan
 /// is at most `t_max`.
 ///
 /// ```
@@ -403,7 +403,7 @@ pub fn replay_exact(
 
 /// [`replay_exact`] in an env under the rule set `rules` (see
 /// [`replay_with`]). Guaranteed under pogema rules for valid plans under
-/// [`Rules::SIMULTANEOUS`](crate::Rules::SIMULTANEOUS) whose makespan is at
+/// [`ConflictModel::SIMULTANEOUS`](crate::ConflictModel::SIMULTANEOUS) whose makespan is at
 /// most `t_max`.
 ///
 /// ```

@@ -1,4 +1,4 @@
-//! [`Rules`]: which joint moves count as conflicts.
+//! [`ConflictModel`]: which joint moves count as conflicts.
 //!
 //! Plans are timed paths executed *simultaneously*: between `t` and `t + 1`
 //! every agent moves at once. SPEC §5 forbids two kinds of conflict:
@@ -13,7 +13,7 @@
 //! occupies at `t` (and leaves during that step). Simultaneously this is
 //! fine; in the environment it succeeds only if `j < i` (`j` has already
 //! moved out). If `j > i`, `i` finds the cell still occupied and stays put,
-//! and the plan falls apart. [`Rules::forbid_following`] (default **on**)
+//! and the plan falls apart. [`ConflictModel::forbid_following`] (default **on**)
 //! adds a third conflict, the **following conflict** "agent `i` enters at
 //! `t + 1` the cell that agent `j > i` occupies at `t`". With it every
 //! conflict-free plan replays exactly in the environment: by induction over
@@ -26,9 +26,9 @@
 //! # The env's rule sets
 //!
 //! The env has two rule sets ([`buridan_env::Rules`]), and each maps onto one
-//! conflict model (`Rules::from`): **thesis** (sequential moves in index
-//! order) onto [`Rules::ENV_EXECUTABLE`], **pogema** (POGEMA's simultaneous
-//! moves with soft-collision repair) onto [`Rules::SIMULTANEOUS`]. A plan
+//! conflict model (`ConflictModel::from`): **thesis** (sequential moves in index
+//! order) onto [`ConflictModel::ENV_EXECUTABLE`], **pogema** (POGEMA's simultaneous
+//! moves with soft-collision repair) onto [`ConflictModel::SIMULTANEOUS`]. A plan
 //! without vertex and swap conflicts makes POGEMA repair nothing: no move
 //! enters a wall, none swaps, no two enter one cell and none enters the cell
 //! of an agent that stays, so every valid plan under `SIMULTANEOUS` (following
@@ -38,45 +38,45 @@
 /// The conflict model a planner or the validator uses.
 ///
 /// ```
-/// use buridan_mapf::Rules;
-/// assert!(Rules::default().forbid_following);
-/// assert_eq!(Rules::default(), Rules::ENV_EXECUTABLE);
-/// assert!(!Rules::SIMULTANEOUS.forbid_following);
+/// use buridan_mapf::ConflictModel;
+/// assert!(ConflictModel::default().forbid_following);
+/// assert_eq!(ConflictModel::default(), ConflictModel::ENV_EXECUTABLE);
+/// assert!(!ConflictModel::SIMULTANEOUS.forbid_following);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
-pub struct Rules {
+pub struct ConflictModel {
     /// Treat "agent `i` enters at `t + 1` the cell agent `j > i` occupies at
     /// `t`" as a conflict, so plans replay exactly in the index-ordered env.
     pub forbid_following: bool,
 }
 
-impl Rules {
+impl ConflictModel {
     /// Pure SPEC §5: vertex and swap conflicts only. Plans may contain
     /// following moves that the environment blocks.
-    pub const SIMULTANEOUS: Rules = Rules {
+    pub const SIMULTANEOUS: ConflictModel = ConflictModel {
         forbid_following: false,
     };
     /// Vertex, swap and following conflicts: plans replay exactly in the
     /// environment (the default).
-    pub const ENV_EXECUTABLE: Rules = Rules {
+    pub const ENV_EXECUTABLE: ConflictModel = ConflictModel {
         forbid_following: true,
     };
 }
 
-impl Default for Rules {
+impl Default for ConflictModel {
     fn default() -> Self {
         Self::ENV_EXECUTABLE
     }
 }
 
-impl Rules {
+impl ConflictModel {
     /// The env rule set that executes exactly the plans valid under this
-    /// conflict model (the inverse of `Rules::from`).
+    /// conflict model (the inverse of `ConflictModel::from`).
     ///
     /// ```
-    /// use buridan_mapf::Rules;
-    /// assert_eq!(Rules::ENV_EXECUTABLE.rule_set(), buridan_env::Rules::Thesis);
-    /// assert_eq!(Rules::SIMULTANEOUS.rule_set(), buridan_env::Rules::Pogema);
+    /// use buridan_mapf::ConflictModel;
+    /// assert_eq!(ConflictModel::ENV_EXECUTABLE.rule_set(), buridan_env::Rules::Thesis);
+    /// assert_eq!(ConflictModel::SIMULTANEOUS.rule_set(), buridan_env::Rules::Pogema);
     /// ```
     pub fn rule_set(self) -> buridan_env::Rules {
         if self.forbid_following {
@@ -91,11 +91,11 @@ impl Rules {
 /// (see the [module docs](self)).
 ///
 /// ```
-/// use buridan_mapf::Rules;
-/// assert_eq!(Rules::from(buridan_env::Rules::Thesis), Rules::ENV_EXECUTABLE);
-/// assert_eq!(Rules::from(buridan_env::Rules::Pogema), Rules::SIMULTANEOUS);
+/// use buridan_mapf::ConflictModel;
+/// assert_eq!(ConflictModel::from(buridan_env::Rules::Thesis), ConflictModel::ENV_EXECUTABLE);
+/// assert_eq!(ConflictModel::from(buridan_env::Rules::Pogema), ConflictModel::SIMULTANEOUS);
 /// ```
-impl From<buridan_env::Rules> for Rules {
+impl From<buridan_env::Rules> for ConflictModel {
     fn from(rules: buridan_env::Rules) -> Self {
         match rules {
             buridan_env::Rules::Thesis => Self::ENV_EXECUTABLE,

@@ -22,7 +22,7 @@
 //! The env moves agents one after the other in index order (SPEC §2): a move
 //! into a cell another agent vacates in the same step succeeds only if that
 //! agent has a lower index. The shield uses the generator's
-//! [`Rules::ENV_EXECUTABLE`] (see [`crate::pibt`]): agent `i` never enters a
+//! [`ConflictModel::ENV_EXECUTABLE`] (see [`crate::pibt`]): agent `i` never enters a
 //! cell held by a higher-index agent in the same step (it waits one step
 //! while that agent is pushed out instead), so **every move the shield
 //! returns succeeds in the env** — no blocked move, no collision, no swap.
@@ -62,7 +62,7 @@ use crate::graph::{Topology, NONE};
 use crate::lanes::Lanes;
 use crate::limits::{check_instance, InstanceError};
 use crate::pibt::{online_step, Generator};
-use crate::rules::Rules;
+use crate::rules::ConflictModel;
 
 use preference::Ranks;
 use progress::{shortest_first, GoalDistances, ProgressFallback};
@@ -429,7 +429,7 @@ impl Shield {
         }
         let mut gen = Generator::new(
             &self.topo,
-            Rules::ENV_EXECUTABLE,
+            ConflictModel::ENV_EXECUTABLE,
             self.tie_seed ^ self.steps,
         );
         // Stalled agents also back away and pull where two of them must

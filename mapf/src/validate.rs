@@ -3,7 +3,7 @@
 use buridan_env::{Cell, Grid};
 
 use crate::plan::Plan;
-use crate::rules::Rules;
+use crate::rules::ConflictModel;
 
 /// Why a plan is not a valid solution. Times are plan time steps; for moves
 /// (`NonUnitMove`, `SwapConflict`, `FollowingConflict`) `time` is the step
@@ -115,7 +115,7 @@ pub enum PlanError {
         /// `second`'s cell at `time` (= `first`'s at `time + 1`).
         second_from: Cell,
     },
-    /// (Only with [`Rules::forbid_following`].) An agent enters the cell a
+    /// (Only with [`ConflictModel::forbid_following`].) An agent enters the cell a
     /// higher-index agent leaves in the same step, a move the index-ordered
     /// environment blocks.
     #[error("following conflict: agent {follower} enters {cell} in step {time}→{} while agent {leader} (moving later in the env) leaves it", time + 1)]
@@ -151,24 +151,24 @@ pub fn validate(
     goals: &[Cell],
     plan: &Plan,
 ) -> Result<(), PlanError> {
-    validate_with(grid, starts, goals, plan, Rules::SIMULTANEOUS)
+    validate_with(grid, starts, goals, plan, ConflictModel::SIMULTANEOUS)
 }
 
-/// [`validate`] under explicit [`Rules`]: with `forbid_following` also
+/// [`validate`] under explicit [`ConflictModel`]: with `forbid_following` also
 /// rejects following conflicts, making the plan exactly executable in the
 /// environment. The first problem found is reported: per-agent problems
 /// first, then conflicts in time order.
 ///
 /// ```
 /// use buridan_env::{Cell, Grid};
-/// use buridan_mapf::{validate_with, Plan, PlanError, Rules};
+/// use buridan_mapf::{validate_with, Plan, PlanError, ConflictModel};
 /// let grid = Grid::from_rows(&["..."]).unwrap();
 /// let c = |col| Cell::new(0, col);
 /// // Agent 0 follows agent 1 to the right: fine simultaneously, not in the env.
 /// let plan = Plan::new(vec![vec![c(0), c(1)], vec![c(1), c(2)]]);
 /// let (s, g) = ([c(0), c(1)], [c(1), c(2)]);
-/// assert!(validate_with(&grid, &s, &g, &plan, Rules::SIMULTANEOUS).is_ok());
-/// let err = validate_with(&grid, &s, &g, &plan, Rules::ENV_EXECUTABLE).unwrap_err();
+/// assert!(validate_with(&grid, &s, &g, &plan, ConflictModel::SIMULTANEOUS).is_ok());
+/// let err = validate_with(&grid, &s, &g, &plan, ConflictModel::ENV_EXECUTABLE).unwrap_err();
 /// assert!(matches!(err, PlanError::FollowingConflict { follower: 0, leader: 1, time: 0, .. }));
 /// ```
 pub fn validate_with(
@@ -176,7 +176,7 @@ pub fn validate_with(
     starts: &[Cell],
     goals: &[Cell],
     plan: &Plan,
-    rules: Rules,
+    rules: ConflictModel,
 ) -> Result<(), PlanError> {
     let n = plan.paths.len();
     if starts.len() != n || goals.len() != n {

@@ -10,8 +10,8 @@ use std::time::Duration;
 
 use buridan_env::{episode_instance, Cell, Grid, Map, Starts, REFERENCE_MODELS};
 use buridan_mapf::{
-    validate_with, Cbs, InstanceError, Lacam, LacamStar, Limits, Objective, Pibt, Planner, Rules,
-    SolveError,
+    validate_with, Cbs, ConflictModel, InstanceError, Lacam, LacamStar, Limits, Objective, Pibt,
+    Planner, SolveError,
 };
 use common::{check, optimal_makespan, optimal_soc, random_instance, Rng};
 
@@ -20,7 +20,7 @@ fn limits(secs: u64) -> Limits {
 }
 
 /// A LaCAM* that refines until it proves optimality.
-fn star(objective: Objective, rules: Rules) -> LacamStar {
+fn star(objective: Objective, rules: ConflictModel) -> LacamStar {
     LacamStar {
         rules,
         objective,
@@ -44,7 +44,14 @@ fn lacam_and_lacam_star_solve_every_fixed_scenario() {
             let sol = planner
                 .solve(&map.grid, s, g, &limits(20))
                 .unwrap_or_else(|e| panic!("{ctx}: {e}"));
-            check(&map.grid, s, g, &sol.plan, Rules::ENV_EXECUTABLE, &ctx);
+            check(
+                &map.grid,
+                s,
+                g,
+                &sol.plan,
+                ConflictModel::ENV_EXECUTABLE,
+                &ctx,
+            );
             eprintln!(
                 "{ctx:24} makespan {:3} SoC {:3} iterations {:7} {:?}",
                 sol.plan.makespan(),
@@ -55,7 +62,14 @@ fn lacam_and_lacam_star_solve_every_fixed_scenario() {
         }
         // PIBT is incomplete: any plan it finds must still be exact.
         match Pibt::default().solve(&map.grid, s, g, &limits(20)) {
-            Ok(sol) => check(&map.grid, s, g, &sol.plan, Rules::ENV_EXECUTABLE, "pibt"),
+            Ok(sol) => check(
+                &map.grid,
+                s,
+                g,
+                &sol.plan,
+                ConflictModel::ENV_EXECUTABLE,
+                "pibt",
+            ),
             Err(e) => assert!(matches!(e, SolveError::StepLimit { .. }), "{e}"),
         }
     }
@@ -72,7 +86,7 @@ fn lacam_star_reaches_cbs_optimum_on_fixed_scenarios() {
         let scen = map.scenario.clone().unwrap();
         let (s, g) = (&scen.starts, &scen.goals);
         let cbs = Cbs::default().solve(&map.grid, s, g, &limits(20)).unwrap();
-        let out = star(Objective::SumOfLoss, Rules::ENV_EXECUTABLE)
+        let out = star(Objective::SumOfLoss, ConflictModel::ENV_EXECUTABLE)
             .search(&map.grid, s, g, &limits(60))
             .unwrap();
         check(
@@ -80,7 +94,7 @@ fn lacam_star_reaches_cbs_optimum_on_fixed_scenarios() {
             s,
             g,
             &out.solution.plan,
-            Rules::ENV_EXECUTABLE,
+            ConflictModel::ENV_EXECUTABLE,
             id,
         );
         assert!(out.proven_optimal, "{id}");
@@ -109,7 +123,7 @@ fn lacam_family_matches_brute_force_on_random_tiny_instances() {
             continue;
         };
         instances += 1;
-        for rules in [Rules::ENV_EXECUTABLE, Rules::SIMULTANEOUS] {
+        for rules in [ConflictModel::ENV_EXECUTABLE, ConflictModel::SIMULTANEOUS] {
             let follow = rules.forbid_following;
             let ctx = format!("{grid:?} starts {s:?} goals {g:?} {rules:?}");
             let lacam = Lacam {
@@ -182,8 +196,8 @@ fn crafted_swaps_in_dead_ends_and_proven_unsolvable_instances() {
         let ctx = format!("{s:?} -> {g:?}");
         let best = optimal_soc(grid, &s, &g, true).unwrap();
         let sol = Lacam::default().solve(grid, &s, &g, &limits(20)).unwrap();
-        check(grid, &s, &g, &sol.plan, Rules::ENV_EXECUTABLE, &ctx);
-        let out = star(Objective::SumOfLoss, Rules::ENV_EXECUTABLE)
+        check(grid, &s, &g, &sol.plan, ConflictModel::ENV_EXECUTABLE, &ctx);
+        let out = star(Objective::SumOfLoss, ConflictModel::ENV_EXECUTABLE)
             .search(grid, &s, &g, &limits(20))
             .unwrap();
         check(
@@ -191,7 +205,7 @@ fn crafted_swaps_in_dead_ends_and_proven_unsolvable_instances() {
             &s,
             &g,
             &out.solution.plan,
-            Rules::ENV_EXECUTABLE,
+            ConflictModel::ENV_EXECUTABLE,
             &ctx,
         );
         assert_eq!(out.solution.plan.sum_of_costs(), best, "{ctx}");
@@ -218,13 +232,20 @@ fn crafted_swaps_in_dead_ends_and_proven_unsolvable_instances() {
         Err(SolveError::NoSolution)
     );
     let simultaneous = Lacam {
-        rules: Rules::SIMULTANEOUS,
+        rules: ConflictModel::SIMULTANEOUS,
         ..Lacam::default()
     };
     let sol = simultaneous
         .solve(&square, &ring, &goals, &limits(20))
         .unwrap();
-    validate_with(&square, &ring, &goals, &sol.plan, Rules::SIMULTANEOUS).unwrap();
+    validate_with(
+        &square,
+        &ring,
+        &goals,
+        &sol.plan,
+        ConflictModel::SIMULTANEOUS,
+    )
+    .unwrap();
     assert_eq!(sol.plan.makespan(), 1);
 }
 
@@ -262,7 +283,14 @@ fn lacam_plans_a_dead_end_reordering_with_the_swap_operation() {
         let sol = Lacam::default()
             .solve(&grid, &s, &g, &tight)
             .unwrap_or_else(|e| panic!("{ctx}: {e}"));
-        check(&grid, &s, &g, &sol.plan, Rules::ENV_EXECUTABLE, &ctx);
+        check(
+            &grid,
+            &s,
+            &g,
+            &sol.plan,
+            ConflictModel::ENV_EXECUTABLE,
+            &ctx,
+        );
         assert!(
             sol.plan.makespan() <= 40,
             "{ctx}: makespan {}",
@@ -271,7 +299,14 @@ fn lacam_plans_a_dead_end_reordering_with_the_swap_operation() {
         let star = LacamStar::default()
             .solve(&grid, &s, &g, &tight)
             .unwrap_or_else(|e| panic!("{ctx}: {e}"));
-        check(&grid, &s, &g, &star.plan, Rules::ENV_EXECUTABLE, &ctx);
+        check(
+            &grid,
+            &s,
+            &g,
+            &star.plan,
+            ConflictModel::ENV_EXECUTABLE,
+            &ctx,
+        );
         // PIBT with the swap operation alone backs the pair out.
         let pibt = Pibt {
             swap: true,
@@ -280,7 +315,14 @@ fn lacam_plans_a_dead_end_reordering_with_the_swap_operation() {
         let sol = pibt
             .solve(&grid, &s, &g, &tight)
             .unwrap_or_else(|e| panic!("{ctx}: pibt with swap: {e}"));
-        check(&grid, &s, &g, &sol.plan, Rules::ENV_EXECUTABLE, &ctx);
+        check(
+            &grid,
+            &s,
+            &g,
+            &sol.plan,
+            ConflictModel::ENV_EXECUTABLE,
+            &ctx,
+        );
         // Without it PIBT livelocks and LaCAM needs a far larger search.
         assert!(
             Pibt::default().solve(&grid, &s, &g, &tight).is_err(),
@@ -323,12 +365,26 @@ fn lacam_solves_random_warehouse_episodes_and_plans_replay() {
             let (s, g) = (&inst.starts, &inst.goals);
             let ctx = format!("lacam {id} {agents} agents episode {e}");
             match Lacam::default().solve(&map.grid, s, g, &limits(2)) {
-                Ok(sol) => check(&map.grid, s, g, &sol.plan, Rules::ENV_EXECUTABLE, &ctx),
+                Ok(sol) => check(
+                    &map.grid,
+                    s,
+                    g,
+                    &sol.plan,
+                    ConflictModel::ENV_EXECUTABLE,
+                    &ctx,
+                ),
                 Err(SolveError::TimeLimit { .. }) => failures.push(ctx),
                 Err(err) => panic!("{ctx}: {err}"),
             }
             if let Ok(sol) = Pibt::default().solve(&map.grid, s, g, &limits(2)) {
-                check(&map.grid, s, g, &sol.plan, Rules::ENV_EXECUTABLE, "pibt");
+                check(
+                    &map.grid,
+                    s,
+                    g,
+                    &sol.plan,
+                    ConflictModel::ENV_EXECUTABLE,
+                    "pibt",
+                );
             }
         }
     }
@@ -409,7 +465,7 @@ fn bad_instances_and_limits_give_typed_errors() {
         max_nodes: Some(2000),
         ..Limits::default()
     };
-    let out = star(Objective::SumOfLoss, Rules::ENV_EXECUTABLE)
+    let out = star(Objective::SumOfLoss, ConflictModel::ENV_EXECUTABLE)
         .search(&open, &s, &g, &tight)
         .unwrap();
     assert!(!out.proven_optimal && out.cost <= out.first_cost);
@@ -418,7 +474,7 @@ fn bad_instances_and_limits_give_typed_errors() {
         &s,
         &g,
         &out.solution.plan,
-        Rules::ENV_EXECUTABLE,
+        ConflictModel::ENV_EXECUTABLE,
         "tight",
     );
 }
@@ -450,6 +506,6 @@ fn random_restarts_plan_the_dead_end_instance_depth_first_search_misses() {
         "{} iterations",
         sol.stats.expanded
     );
-    let rules = Rules::ENV_EXECUTABLE;
+    let rules = ConflictModel::ENV_EXECUTABLE;
     check(&map.grid, s, g, &sol.plan, rules, "rm-2.1b episode 2");
 }

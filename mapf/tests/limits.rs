@@ -5,8 +5,8 @@ use std::time::{Duration, Instant};
 
 use buridan_env::{episode_instance, Cell, Grid, Map, Starts};
 use buridan_mapf::{
-    planner_by_name, validate_with, Cbs, Heuristic, InstanceError, Limits, MaAstar, Planner, Rules,
-    SolveError,
+    planner_by_name, validate_with, Cbs, ConflictModel, Heuristic, InstanceError, Limits, MaAstar,
+    Planner, SolveError,
 };
 
 fn planners() -> Vec<Box<dyn Planner>> {
@@ -239,7 +239,7 @@ fn planners_are_send_sync_and_callable_through_the_trait_from_threads() {
                         &scen.starts,
                         &scen.goals,
                         &sol.plan,
-                        Rules::default(),
+                        ConflictModel::default(),
                     )
                     .unwrap();
                 });

@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use buridan_env::{Cell, Grid, Map};
 use buridan_mapf::{
-    validate_with, Cbs, Heuristic, Limits, MaAstar, OdAstar, Planner, Rules, SolveError,
+    validate_with, Cbs, ConflictModel, Heuristic, Limits, MaAstar, OdAstar, Planner, SolveError,
 };
 use common::{optimal_makespan, optimal_soc, random_instance, Rng};
 
@@ -23,7 +23,13 @@ struct Tally {
     unsolvable: usize,
 }
 
-fn check_instance(grid: &Grid, starts: &[Cell], goals: &[Cell], rules: Rules, tally: &mut Tally) {
+fn check_instance(
+    grid: &Grid,
+    starts: &[Cell],
+    goals: &[Cell],
+    rules: ConflictModel,
+    tally: &mut Tally,
+) {
     let follow = rules.forbid_following;
     let best_makespan = optimal_makespan(grid, starts, goals, follow);
     let best_soc = optimal_soc(grid, starts, goals, follow);
@@ -59,7 +65,7 @@ fn check_instance(grid: &Grid, starts: &[Cell], goals: &[Cell], rules: Rules, ta
                 assert_eq!(sol.plan.makespan(), makespan, "{h:?} makespan on {ctx}");
                 assert!(sol.plan.sum_of_costs() >= soc);
             }
-            if rules == Rules::ENV_EXECUTABLE {
+            if rules == ConflictModel::ENV_EXECUTABLE {
                 let sol = OdAstar::default()
                     .solve(grid, starts, goals, &limits())
                     .unwrap();
@@ -98,7 +104,7 @@ fn check_instance(grid: &Grid, starts: &[Cell], goals: &[Cell], rules: Rules, ta
                     "{ctx}"
                 );
             }
-            if rules == Rules::ENV_EXECUTABLE {
+            if rules == ConflictModel::ENV_EXECUTABLE {
                 for od in [OdAstar::default(), OdAstar::sum_of_loss()] {
                     assert_eq!(
                         od.solve(grid, starts, goals, &limits()),
@@ -145,7 +151,7 @@ fn planners_match_brute_force_on_random_tiny_instances() {
             continue;
         };
         instances += 1;
-        for rules in [Rules::ENV_EXECUTABLE, Rules::SIMULTANEOUS] {
+        for rules in [ConflictModel::ENV_EXECUTABLE, ConflictModel::SIMULTANEOUS] {
             check_instance(&grid, &starts, &goals, rules, &mut tally);
         }
     }
@@ -179,7 +185,7 @@ fn following_rule_changes_the_optimum_as_brute_force_says() {
     assert_eq!(optimal_soc(&corridor, &s, &g, false), Some(2));
     assert_eq!(optimal_makespan(&corridor, &s, &g, true), Some(2));
     assert_eq!(optimal_soc(&corridor, &s, &g, true), Some(3));
-    for rules in [Rules::ENV_EXECUTABLE, Rules::SIMULTANEOUS] {
+    for rules in [ConflictModel::ENV_EXECUTABLE, ConflictModel::SIMULTANEOUS] {
         check_instance(&corridor, &s, &g, rules, &mut tally);
     }
     // Four agents rotating clockwise in a 2×2 block: one step simultaneously,
@@ -194,7 +200,7 @@ fn following_rule_changes_the_optimum_as_brute_force_says() {
     let (s, g) = ([a, b, cc, d], [b, cc, d, a]);
     assert_eq!(optimal_makespan(&square, &s, &g, false), Some(1));
     assert_eq!(optimal_makespan(&square, &s, &g, true), None);
-    for rules in [Rules::ENV_EXECUTABLE, Rules::SIMULTANEOUS] {
+    for rules in [ConflictModel::ENV_EXECUTABLE, ConflictModel::SIMULTANEOUS] {
         check_instance(&square, &s, &g, rules, &mut tally);
     }
     assert_eq!((tally.solvable, tally.unsolvable), (3, 1));

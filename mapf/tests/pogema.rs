@@ -10,8 +10,8 @@ use std::time::Duration;
 
 use buridan_env::{Cell, Grid, Map, Rules as RuleSet, Scenario};
 use buridan_mapf::{
-    planner_by_name, planner_for_rules, replay_exact_with, replay_with, validate_with, Limits,
-    Plan, PlanError, PlannerLookupError, Rules, SolveError,
+    planner_by_name, planner_for_rules, replay_exact_with, replay_with, validate_with,
+    ConflictModel, Limits, Plan, PlanError, PlannerLookupError, SolveError,
 };
 
 fn c(row: usize, col: usize) -> Cell {
@@ -44,7 +44,7 @@ fn map_of(rows: &[&str], starts: &[Cell], goals: &[Cell]) -> Arc<Map> {
 /// returns the makespan.
 fn plan_and_replay(name: &str, rules: RuleSet, map: &Arc<Map>, s: &[Cell], g: &[Cell]) -> usize {
     let planner = planner_for_rules(name, rules).unwrap();
-    assert_eq!(planner.rules(), Rules::from(rules), "{name}");
+    assert_eq!(planner.rules(), ConflictModel::from(rules), "{name}");
     let sol = planner
         .solve(&map.grid, s, g, &limits(10))
         .unwrap_or_else(|e| panic!("{name} under {rules}: {e}"));
@@ -115,7 +115,7 @@ fn thesis_planners_are_the_default_ones() {
         let by_name = planner_by_name(name).unwrap();
         let for_thesis = planner_for_rules(name, RuleSet::Thesis).unwrap();
         assert_eq!(by_name.name(), for_thesis.name());
-        assert_eq!(for_thesis.rules(), Rules::ENV_EXECUTABLE);
+        assert_eq!(for_thesis.rules(), ConflictModel::ENV_EXECUTABLE);
     }
 }
 
@@ -135,15 +135,15 @@ fn od_astar_refuses_pogema_rules_with_a_typed_error() {
         assert!(err.to_string().contains("pogema"), "{err}");
     }
     let pp_lacam = planner_for_rules("pp+lacam", RuleSet::Pogema).unwrap();
-    assert_eq!(pp_lacam.rules(), Rules::SIMULTANEOUS);
+    assert_eq!(pp_lacam.rules(), ConflictModel::SIMULTANEOUS);
 }
 
 /// The validator under pogema rules: swaps and vertex conflicts rejected,
 /// following and rotations accepted (both rejected under thesis rules).
 #[test]
 fn validator_under_pogema_rejects_swaps_and_vertex_conflicts_only() {
-    let pogema = Rules::from(RuleSet::Pogema);
-    let thesis = Rules::from(RuleSet::Thesis);
+    let pogema = ConflictModel::from(RuleSet::Pogema);
+    let thesis = ConflictModel::from(RuleSet::Thesis);
     let line = Grid::from_rows(&["...."]).unwrap();
     // Swap along one edge.
     let (s, g) = ([c(0, 1), c(0, 2)], [c(0, 2), c(0, 1)]);
@@ -208,7 +208,7 @@ fn lacam_solves_pogema_warehouse_instances_and_plans_replay() {
         let (s, g) = (&scen.starts, &scen.goals);
         assert_eq!(s.len(), 32);
         let sol = lacam.solve(&map.grid, s, g, &limits(10)).unwrap();
-        validate_with(&map.grid, s, g, &sol.plan, Rules::SIMULTANEOUS).unwrap();
+        validate_with(&map.grid, s, g, &sol.plan, ConflictModel::SIMULTANEOUS).unwrap();
         assert!(
             sol.plan.makespan() <= 128,
             "seed {seed}: {}",

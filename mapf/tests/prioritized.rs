@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use buridan_env::{episode_instance, Map, Starts, REFERENCE_MODELS};
-use buridan_mapf::{Limits, Planner, Prioritized, Rules, SolveError};
+use buridan_mapf::{ConflictModel, Limits, Planner, Prioritized, SolveError};
 use common::{check, optimal_makespan, random_instance, Rng};
 
 fn limits(millis: u64) -> Limits {
@@ -23,7 +23,7 @@ fn plans_on_random_grids_are_valid_under_both_rules() {
         let Some((grid, s, g)) = random_instance(&mut rng, 5, 6, 20, 2 + case % 5) else {
             continue;
         };
-        for (k, rules) in [Rules::ENV_EXECUTABLE, Rules::SIMULTANEOUS]
+        for (k, rules) in [ConflictModel::ENV_EXECUTABLE, ConflictModel::SIMULTANEOUS]
             .into_iter()
             .enumerate()
         {
@@ -92,7 +92,7 @@ fn fixed_scenarios_are_solved_or_every_order_is_shown_to_fail() {
                 &scen.starts,
                 &scen.goals,
                 &sol.plan,
-                Rules::ENV_EXECUTABLE,
+                ConflictModel::ENV_EXECUTABLE,
                 model.id,
             ),
             // A few agents: their n! orders are few and each is tried once.
@@ -133,7 +133,7 @@ fn random_restarts_solve_crowded_instances_the_first_order_cannot() {
                 s,
                 g,
                 &sol.plan,
-                Rules::ENV_EXECUTABLE,
+                ConflictModel::ENV_EXECUTABLE,
                 &format!("episode {e}"),
             );
             restarts += 1;

@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use buridan_env::{Map, REFERENCE_MODELS};
 use buridan_mapf::{
-    replay, replay_exact, validate, validate_with, Cbs, Heuristic, Limits, MaAstar, Plan, Planner,
-    Rules, SolveError,
+    replay, replay_exact, validate, validate_with, Cbs, ConflictModel, Heuristic, Limits, MaAstar,
+    Plan, Planner, SolveError,
 };
 
 /// Fixed scenarios the plain planners cannot solve within a small limit on
@@ -40,7 +40,7 @@ fn check_plan(map: &Arc<Map>, plan: &Plan, who: &str) {
     let (s, g) = (&scen.starts, &scen.goals);
     let id = &map.name;
     validate(&map.grid, s, g, plan).unwrap_or_else(|e| panic!("{who} on {id}: {e}"));
-    validate_with(&map.grid, s, g, plan, Rules::ENV_EXECUTABLE)
+    validate_with(&map.grid, s, g, plan, ConflictModel::ENV_EXECUTABLE)
         .unwrap_or_else(|e| panic!("{who} on {id}: {e}"));
     let r = replay_exact(map, s, g, plan, 1000).unwrap_or_else(|e| panic!("{who} on {id}: {e}"));
     assert_eq!(r.terminated_at, Some(plan.makespan().max(1)));
@@ -164,14 +164,14 @@ fn rm_1_1_by_hand() {
     }
     // Pure SPEC §5 semantics: 9 steps and SoC 17, not executable in the env.
     let cbs = Cbs {
-        rules: Rules::SIMULTANEOUS,
+        rules: ConflictModel::SIMULTANEOUS,
         ..Cbs::default()
     };
     let (_, plan) = solve(&cbs, "rm-1.1");
     assert_eq!(plan.sum_of_costs(), 17);
     let astar = MaAstar {
         heuristic: Heuristic::MaxDistance,
-        rules: Rules::SIMULTANEOUS,
+        rules: ConflictModel::SIMULTANEOUS,
     };
     let (map, plan) = solve(&astar, "rm-1.1");
     assert_eq!(plan.makespan(), 9);

@@ -5,8 +5,8 @@ use std::sync::Arc;
 
 use buridan_env::{Cell, Grid, Map};
 use buridan_mapf::{
-    replay, validate, validate_with, BlockedFollowing, Divergence, Plan, PlanError, ReplayError,
-    Rules,
+    replay, validate, validate_with, BlockedFollowing, ConflictModel, Divergence, Plan, PlanError,
+    ReplayError,
 };
 
 fn c(row: usize, col: usize) -> Cell {
@@ -38,7 +38,7 @@ fn a_valid_plan_passes_both_rule_sets() {
     let (s, goals) = ([c(0, 0), c(2, 3)], [c(0, 2), c(2, 0)]);
     assert_eq!(validate(&g, &s, &goals, &p), Ok(()));
     assert_eq!(
-        validate_with(&g, &s, &goals, &p, Rules::ENV_EXECUTABLE),
+        validate_with(&g, &s, &goals, &p, ConflictModel::ENV_EXECUTABLE),
         Ok(())
     );
     assert_eq!((p.makespan(), p.sum_of_costs()), (3, 5));
@@ -195,7 +195,7 @@ fn following_is_a_conflict_only_when_forbidden_and_only_behind_a_higher_index() 
     let (s, goals) = ([r(0), r(1)], [r(1), r(2)]);
     assert_eq!(validate(&g, &s, &goals, &p), Ok(()));
     assert_eq!(
-        validate_with(&g, &s, &goals, &p, Rules::ENV_EXECUTABLE),
+        validate_with(&g, &s, &goals, &p, ConflictModel::ENV_EXECUTABLE),
         Err(PlanError::FollowingConflict {
             follower: 0,
             leader: 1,
@@ -207,7 +207,7 @@ fn following_is_a_conflict_only_when_forbidden_and_only_behind_a_higher_index() 
     let p = plan(&[&[r(1), r(2)], &[r(0), r(1)]]);
     let (s, goals) = ([r(1), r(0)], [r(2), r(1)]);
     assert_eq!(
-        validate_with(&g, &s, &goals, &p, Rules::ENV_EXECUTABLE),
+        validate_with(&g, &s, &goals, &p, ConflictModel::ENV_EXECUTABLE),
         Ok(())
     );
     // A rotation of four agents in a 2×2 block has no swap and no vertex
@@ -218,7 +218,7 @@ fn following_is_a_conflict_only_when_forbidden_and_only_behind_a_higher_index() 
     let (s, goals) = ([a, b, cc, d], [b, cc, d, a]);
     assert_eq!(validate(&g2, &s, &goals, &p), Ok(()));
     assert!(matches!(
-        validate_with(&g2, &s, &goals, &p, Rules::ENV_EXECUTABLE),
+        validate_with(&g2, &s, &goals, &p, ConflictModel::ENV_EXECUTABLE),
         Err(PlanError::FollowingConflict { .. })
     ));
 }
@@ -244,7 +244,7 @@ fn replay_reports_blocked_following_moves() {
     assert_eq!((p.makespan(), p.sum_of_costs()), (9, 17));
     assert_eq!(validate(&map.grid, s, g, &p), Ok(()));
     assert!(matches!(
-        validate_with(&map.grid, s, g, &p, Rules::ENV_EXECUTABLE),
+        validate_with(&map.grid, s, g, &p, ConflictModel::ENV_EXECUTABLE),
         Err(PlanError::FollowingConflict {
             follower: 0,
             leader: 1,

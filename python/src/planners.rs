@@ -152,7 +152,7 @@ impl PyPlan {
             &self.starts,
             &self.goals,
             &self.plan,
-            buridan_mapf::Rules::from(self.rules),
+            buridan_mapf::ConflictModel::from(self.rules),
         )
         .map_err(|e| BuridanError::new_err(format!("invalid plan: {e}")))
     }

@@ -3,7 +3,7 @@
 //! check of every step against the rules (see the [module docs](super)).
 
 use crate::graph::{Topology, NONE};
-use crate::rules::Rules;
+use crate::rules::ConflictModel;
 
 use super::swap::{Swap, SwapInfo};
 
@@ -51,7 +51,7 @@ const BLOCKED: u32 = NONE - 1;
 /// Holds per-cell scratch tables that are reset after every call.
 pub(crate) struct Generator<'a> {
     pub(super) topo: &'a Topology,
-    pub(super) rules: Rules,
+    pub(super) rules: ConflictModel,
     /// Agent at each cell at `t` (or [`NONE`]).
     pub(super) occ_now: Vec<u32>,
     /// Agent that reserved each cell for `t + 1` (or [`NONE`]).
@@ -69,7 +69,7 @@ pub(crate) struct Generator<'a> {
 }
 
 impl<'a> Generator<'a> {
-    pub fn new(topo: &'a Topology, rules: Rules, seed: u64) -> Self {
+    pub fn new(topo: &'a Topology, rules: ConflictModel, seed: u64) -> Self {
         Self {
             topo,
             rules,

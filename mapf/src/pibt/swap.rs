@@ -232,7 +232,7 @@ mod tests {
 
     use super::*;
     use crate::pibt::Setup;
-    use crate::rules::Rules;
+    use crate::rules::ConflictModel;
 
     /// A dead-end aisle `(1, 1..=4)` off a junction `(1, 0)`.
     const AISLE: [&str; 3] = [".@@@@", ".....", ".@@@@"];
@@ -250,7 +250,7 @@ mod tests {
         let cells =
             |v: &[(usize, usize)]| v.iter().map(|&(r, c)| Cell::new(r, c)).collect::<Vec<_>>();
         let setup = Setup::new(&grid, &cells(starts), &cells(goals)).unwrap();
-        let mut gen = Generator::new(&setup.topo, Rules::ENV_EXECUTABLE, 0);
+        let mut gen = Generator::new(&setup.topo, ConflictModel::ENV_EXECUTABLE, 0);
         if swap {
             gen = gen.with_swap(&setup.dist, &setup.goals);
         }
@@ -265,7 +265,7 @@ mod tests {
     /// A generator with the swap on and every agent of `setup` on its start,
     /// no move chosen yet: the state the swap decisions are asked in.
     fn placed_swap_generator(setup: &Setup) -> Generator<'_> {
-        let mut gen = Generator::new(&setup.topo, Rules::ENV_EXECUTABLE, 0)
+        let mut gen = Generator::new(&setup.topo, ConflictModel::ENV_EXECUTABLE, 0)
             .with_swap(&setup.dist, &setup.goals);
         for (i, &v) in setup.starts.iter().enumerate() {
             gen.occ_now[v as usize] = i as u32;

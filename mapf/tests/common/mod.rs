@@ -10,7 +10,7 @@ use std::collections::{BinaryHeap, HashMap, HashSet, VecDeque};
 use std::sync::Arc;
 
 use buridan_env::{Cell, Grid, Map, Scenario};
-use buridan_mapf::{replay_exact, validate_with, Plan, Rules};
+use buridan_mapf::{replay_exact, validate_with, ConflictModel, Plan};
 
 /// All conflict-free joint successors of `cur`. Agents with `frozen[i]`
 /// stay where they are. `follow_forbidden`: agent `i` may not enter a cell
@@ -180,9 +180,10 @@ pub fn random_instance(
 /// Checks a plan: valid under `rules` and under pure SPEC §5 rules, and,
 /// for env rules, replayed exactly in the env (success after `makespan`
 /// steps, no blocked move).
-pub fn check(grid: &Grid, s: &[Cell], g: &[Cell], plan: &Plan, rules: Rules, ctx: &str) {
+pub fn check(grid: &Grid, s: &[Cell], g: &[Cell], plan: &Plan, rules: ConflictModel, ctx: &str) {
     validate_with(grid, s, g, plan, rules).unwrap_or_else(|e| panic!("{ctx}: {e}"));
-    validate_with(grid, s, g, plan, Rules::SIMULTANEOUS).unwrap_or_else(|e| panic!("{ctx}: {e}"));
+    validate_with(grid, s, g, plan, ConflictModel::SIMULTANEOUS)
+        .unwrap_or_else(|e| panic!("{ctx}: {e}"));
     if rules.forbid_following {
         let map = Arc::new(Map {
             name: "test".into(),
