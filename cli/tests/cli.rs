@@ -197,6 +197,15 @@ fn without_a_config_the_recipe_imitates_first_unless_told_not_to() {
     args.no_stop = true;
     assert!(train::resolve_config(&args).unwrap().stop.is_none());
     args.no_stop = false;
+    // Over several layouts it keeps the training-success rule and leaves
+    // out the greedy check, which plays one map's held-out episodes.
+    let mut mixed = args.clone();
+    (mixed.map, mixed.maps) = (None, Some("rm-2.2,rm-3.1".into()));
+    let stop = train::resolve_config(&mixed).unwrap().stop.unwrap();
+    assert_eq!(
+        (stop.success, stop.hold, stop.greedy),
+        (0.99, 200_000, None)
+    );
     args.no_imitation = true;
     let cfg = train::resolve_config(&args).unwrap();
     assert!(cfg.lstm && cfg.imitation.is_none());
