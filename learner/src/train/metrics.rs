@@ -209,7 +209,8 @@ pub struct MetricsRow {
     pub entropy_coeff: f64,
 }
 
-/// Why `metrics.csv` could not be written.
+/// Why one of a run's CSV files (`metrics.csv`, `greedy.csv`) could not be
+/// written.
 #[derive(Debug, thiserror::Error)]
 #[error("cannot write {}", path.display())]
 pub struct MetricsError {
@@ -219,33 +220,26 @@ pub struct MetricsError {
     pub source: csv::Error,
 }
 
-/// Appends rows to `metrics.csv`: the header (the [`MetricsRow`] field
-/// names) when the file is new, then one flushed line per update.
-///
-/// A file written by an older version with fewer columns (a run resumed
-/// after an upgrade) is first rewritten under the current header, its rows
-/// kept and the new columns at their defaults, so the file stays one table.
-pub struct MetricsWriter {
+/// A CSV file a run appends rows to: the header (the row type's field
+/// names) when the file is new or empty, none when a resumed run reopens
+/// it; every row flushed as it is written.
+pub struct CsvLog {
     writer: csv::Writer<std::fs::File>,
     path: PathBuf,
 }
 
-impl MetricsWriter {
-    /// Opens (appending) or creates `path`.
-    pub fn open(path: &Path) -> Result<Self, MetricsError> {
-        let failed = |source: csv::Error| MetricsError {
-            path: path.to_path_buf(),
-            source,
-        };
+impl CsvLog {
+    /// Opens `path` for appending, creating it if needed.
+    pub fn append(path: &Path) -> Result<Self, MetricsError> {
         let is_new = std::fs::metadata(path).map_or(true, |m| m.len() == 0);
-        if !is_new {
-            upgrade_header(path).map_err(failed)?;
-        }
         let file = std::fs::OpenOptions::new()
             .create(true)
             .append(true)
             .open(path)
-            .map_err(|e| failed(e.into()))?;
+            .map_err(|e| MetricsError {
+                path: path.to_path_buf(),
+                source: e.into(),
+            })?;
         let writer = csv::WriterBuilder::new()
             .has_headers(is_new)
             .from_writer(file);
@@ -256,13 +250,43 @@ impl MetricsWriter {
     }
 
     /// Writes one row and flushes.
-    pub fn write(&mut self, row: &MetricsRow) -> Result<(), MetricsError> {
+    pub fn write<T: Serialize>(&mut self, row: &T) -> Result<(), MetricsError> {
         let failed = |source: csv::Error| MetricsError {
             path: self.path.clone(),
             source,
         };
         self.writer.serialize(row).map_err(failed)?;
         self.writer.flush().map_err(|e| failed(e.into()))
+    }
+}
+
+/// Appends rows to `metrics.csv`: the header (the [`MetricsRow`] field
+/// names) when the file is new, then one flushed line per update.
+///
+/// A file written by an older version with fewer columns (a run resumed
+/// after an upgrade) is first rewritten under the current header, its rows
+/// kept and the new columns at their defaults, so the file stays one table.
+pub struct MetricsWriter {
+    log: CsvLog,
+}
+
+impl MetricsWriter {
+    /// Opens (appending) or creates `path`.
+    pub fn open(path: &Path) -> Result<Self, MetricsError> {
+        if std::fs::metadata(path).is_ok_and(|m| m.len() > 0) {
+            upgrade_header(path).map_err(|source| MetricsError {
+                path: path.to_path_buf(),
+                source,
+            })?;
+        }
+        Ok(Self {
+            log: CsvLog::append(path)?,
+        })
+    }
+
+    /// Writes one row and flushes.
+    pub fn write(&mut self, row: &MetricsRow) -> Result<(), MetricsError> {
+        self.log.write(row)
     }
 }
 

@@ -253,6 +253,9 @@ impl Run {
             updates = state.updates,
             "training"
         );
+        let greedy = (cfg.stop.and_then(|s| s.greedy))
+            .map(|check| stop::GreedyProbe::new(check, out))
+            .transpose()?;
         Ok(Run {
             cfg: cfg.clone(),
             out: out.to_path_buf(),
@@ -268,8 +271,7 @@ impl Run {
             t_start,
             interrupt: None,
             holding: cfg.stop.map(stop::Holding::new),
-            greedy: (cfg.stop.and_then(|s| s.greedy))
-                .map(|check| stop::GreedyProbe::new(check, out)),
+            greedy,
         })
     }
 

@@ -17,7 +17,7 @@
 //! their success reaches its level. Each check draws new episodes, so a
 //! policy that passed once by luck is as likely to be caught as any other.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -25,6 +25,7 @@ use buridan_env::{seed, EnvConfig, Map};
 use buridan_policy::{ActMode, Policy};
 use serde::{Deserialize, Serialize};
 
+use super::metrics::CsvLog;
 use super::target::{Mark, TimeToTarget};
 use super::{rollout, TrainError};
 
@@ -123,27 +124,25 @@ pub const GREEDY_FILE: &str = "greedy.csv";
 /// A [`GreedyCheck`] through a run: when the next check is due, the seed
 /// of each, and their log `greedy.csv` in the run's directory (appended
 /// to on resume; the checks themselves start afresh).
-#[derive(Debug)]
 pub struct GreedyProbe {
     check: GreedyCheck,
     next: u64,
     done: u64,
     last: Option<GreedyRecord>,
-    path: PathBuf,
-    log: Option<csv::Writer<std::fs::File>>,
+    log: CsvLog,
 }
 
 impl GreedyProbe {
-    /// No check done yet; the first is due at once.
-    pub fn new(check: GreedyCheck, out: &Path) -> Self {
-        Self {
+    /// No check done yet; the first is due at once. Opens `greedy.csv` in
+    /// `out`.
+    pub fn new(check: GreedyCheck, out: &Path) -> Result<Self, TrainError> {
+        Ok(Self {
             check,
             next: 0,
             done: 0,
             last: None,
-            path: out.join(GREEDY_FILE),
-            log: None,
-        }
+            log: CsvLog::append(&out.join(GREEDY_FILE))?,
+        })
     }
 
     /// The latest check, if any ran.
@@ -192,33 +191,9 @@ impl GreedyProbe {
             seconds = record.seconds,
             "greedy check on held-out episodes: {solved} of {n} solved"
         );
-        self.book(&record)?;
+        self.log.write(&record)?;
         self.last = Some(record);
         Ok(self.check.passes(solved, n))
-    }
-
-    fn book(&mut self, record: &GreedyRecord) -> Result<(), TrainError> {
-        let path = &self.path;
-        let failed = |e: csv::Error| TrainError::io("cannot write", path, std::io::Error::other(e));
-        let log = match &mut self.log {
-            Some(log) => log,
-            None => {
-                let fresh = !path.exists();
-                let file = std::fs::OpenOptions::new()
-                    .create(true)
-                    .append(true)
-                    .open(path)
-                    .map_err(|e| TrainError::io("cannot open", path, e))?;
-                self.log.insert(
-                    csv::WriterBuilder::new()
-                        .has_headers(fresh)
-                        .from_writer(file),
-                )
-            }
-        };
-        log.serialize(record).map_err(failed)?;
-        log.flush()
-            .map_err(|e| TrainError::io("cannot write", path, e))
     }
 }
 
