@@ -16,6 +16,14 @@
 //! a new goal (drawn from the episode RNG, distinct from the other agents'
 //! goals); there is no termination bonus and no truncation penalty, and
 //! throughput = goals reached per step.
+//!
+//! A step ([`GridEnv::step`]) validates its input, moves the agents, keeps
+//! the episode's accounts (arrivals, rewards, termination or truncation,
+//! lifelong goal draws) and then shows the step to its observers, plain
+//! structs with one job each: potential-based shaping (`shaping.rs`), the
+//! visit heatmap (`visits.rs`) and the deadlock/livelock monitor with its
+//! inputs (`stall.rs`). The padded per-cell arrays the moves and the
+//! observation encoders work on are `board.rs`.
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -25,11 +33,20 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::config::{episode_instance, episode_rng, EnvConfig};
 use crate::error::EnvError;
-use crate::map::{Cell, Map, UNREACHABLE};
+use crate::map::{Cell, Map};
 use crate::monitor::StallMonitor;
-use crate::obs::code;
 use crate::rules::{resolve_simultaneous, Rules, SimultaneousScratch};
 use crate::stats::EpisodeStats;
+
+use board::{Board, NOBODY};
+use shaping::ShapingObserver;
+use stall::StallWatch;
+use visits::VisitCounts;
+
+mod board;
+mod shaping;
+mod stall;
+mod visits;
 
 /// Reward for first standing on one's goal.
 pub const REWARD_GOAL: f32 = 0.5;
@@ -51,9 +68,6 @@ fn lifelong_rng(seed: u64, episode: u64) -> ChaCha8Rng {
 /// `(row, col)` change of each action.
 pub(crate) const MOVE_DELTAS: [(isize, isize); NUM_ACTIONS] =
     [(0, 0), (-1, 0), (0, 1), (1, 0), (0, -1)];
-
-/// Sentinel for "no agent" in the per-cell arrays.
-const NOBODY: u16 = 0;
 
 /// How a step ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -89,21 +103,9 @@ impl StepOutcome {
 pub struct GridEnv {
     map: Arc<Map>,
     cfg: EnvConfig,
-    /// Padding around the grid, = sensor range, so windows need no bounds checks.
-    pad: usize,
-    padded_width: usize,
-    /// Per padded cell: 1 wall or outside, 0 free.
-    blocked: Vec<u8>,
-    /// Per padded cell: agent index + 1, or 0.
-    occupant: Vec<u16>,
-    /// Per padded cell: index + 1 of the agent whose goal it is, or 0.
-    goal_owner: Vec<u16>,
-    /// Per padded cell, the local code as any agent *not* involved sees it:
-    /// 1 wall or outside, 2 agent, 4 goal, 0 empty (agent over goal). An
-    /// observer's window is these codes with two fix-ups: its own cell and
-    /// its own goal (see `obs.rs`). Kept in step with `occupant` and
-    /// `goal_owner` by [`Self::refresh_code`].
-    shared_code: Vec<u8>,
+    /// The padded per-cell arrays (walls, occupants, goals, shared codes).
+    board: Board,
+    // Per agent.
     /// Padded index of each agent.
     pos: Vec<usize>,
     /// Padded index of each agent's goal.
@@ -114,36 +116,34 @@ pub struct GridEnv {
     goal_cells: Vec<Cell>,
     /// Goal distance maps (unpadded, row-major) of each agent's goal.
     goal_distance: Vec<Arc<[u16]>>,
-    reached: Vec<bool>,
-    /// Steps each agent has been off its goal since it last stood on it
-    /// (PIBT's priority, for the priority feature).
-    off_goal: Vec<u32>,
-    step_offsets: [isize; NUM_ACTIONS],
-    t: u32,
-    episode: u64,
-    over: bool,
-    rng: ChaCha8Rng,
-    // Episode statistics.
-    episode_reward: f32,
-    blocked_moves: u32,
-    goals_reached: u32,
-    visits: Vec<u64>,
-    monitor: StallMonitor,
-    /// The monitor's inputs: each agent's `(row, col)` and whether it stands
-    /// on its goal, updated as agents move (not refilled every step).
-    scratch_cell: Vec<(usize, usize)>,
-    scratch_at_goal: Vec<bool>,
-    /// Goal distances before this step's moves (for shaping).
-    scratch_distance: Vec<u16>,
-    /// Lifelong mode: agents that reached a goal this step (and got a new one).
-    arrived: Vec<bool>,
-    /// Per agent, the step (1-based) at which its latest stay on its goal
-    /// began, 0 before any: its POGEMA cost while it stays.
-    arrival: Vec<u32>,
     /// Pogema rules: each agent's padded cell after the repair.
     scratch_target: Vec<usize>,
     /// Pogema rules: the repair's buffers (empty under thesis rules).
     simultaneous: SimultaneousScratch,
+    // Episode accounting.
+    t: u32,
+    episode: u64,
+    over: bool,
+    /// The lifelong goal draws.
+    rng: ChaCha8Rng,
+    /// Whether each agent has stood on its goal in this episode.
+    reached: Vec<bool>,
+    /// Steps each agent has been off its goal since it last stood on it
+    /// (PIBT's priority, for the priority feature).
+    off_goal: Vec<u32>,
+    /// Per agent, the step (1-based) at which its latest stay on its goal
+    /// began, 0 before any: its POGEMA cost while it stays.
+    arrival: Vec<u32>,
+    episode_reward: f32,
+    blocked_moves: u32,
+    goals_reached: u32,
+    // Observers.
+    /// Potential-based shaping (a no-op unless configured).
+    shaping: ShapingObserver,
+    /// The visit heatmap.
+    visits: VisitCounts,
+    /// The deadlock/livelock monitor and its inputs.
+    stall: StallWatch,
 }
 
 impl GridEnv {
@@ -155,54 +155,33 @@ impl GridEnv {
     /// A new environment, reset to the given episode index.
     pub fn with_episode(map: Arc<Map>, cfg: EnvConfig, episode: u64) -> Result<Self, EnvError> {
         cfg.validate()?;
-        let (h, w) = (map.grid.height(), map.grid.width());
-        let pad = cfg.sensor_range.max(1);
-        let padded_width = w + 2 * pad;
-        let padded_cells = (h + 2 * pad) * padded_width;
-        let mut blocked = vec![1u8; padded_cells];
-        for r in 0..h {
-            for c in 0..w {
-                blocked[(r + pad) * padded_width + c + pad] =
-                    u8::from(map.grid.is_wall(Cell::new(r, c)));
-            }
-        }
-        let shared_code = blocked.clone();
-        let pw = padded_width as isize;
+        let board = Board::new(&map.grid, cfg.sensor_range.max(1));
         let n = cfg.agents;
         let mut env = Self {
-            pad,
-            padded_width,
-            blocked,
-            occupant: vec![NOBODY; padded_cells],
-            goal_owner: vec![NOBODY; padded_cells],
-            shared_code,
             pos: vec![0; n],
             goal: vec![0; n],
             cells: vec![Cell::new(0, 0); n],
             goal_cells: vec![Cell::new(0, 0); n],
             goal_distance: Vec::with_capacity(n),
-            reached: vec![false; n],
-            off_goal: vec![0; n],
-            step_offsets: [0, -pw, 1, pw, -1],
+            scratch_target: vec![0; n],
+            simultaneous: match cfg.rules {
+                Rules::Thesis => SimultaneousScratch::default(),
+                Rules::Pogema => SimultaneousScratch::new(board.len()),
+            },
+            board,
             t: 0,
             episode,
             over: false,
             rng: lifelong_rng(cfg.seed, episode),
+            reached: vec![false; n],
+            off_goal: vec![0; n],
+            arrival: vec![0; n],
             episode_reward: 0.0,
             blocked_moves: 0,
             goals_reached: 0,
-            visits: vec![0; h * w],
-            monitor: StallMonitor::new(n, cfg.stall_window),
-            scratch_cell: vec![(0, 0); n],
-            scratch_at_goal: vec![false; n],
-            scratch_distance: vec![0; n],
-            arrived: vec![false; n],
-            arrival: vec![0; n],
-            scratch_target: vec![0; n],
-            simultaneous: match cfg.rules {
-                Rules::Thesis => SimultaneousScratch::default(),
-                Rules::Pogema => SimultaneousScratch::new(padded_cells),
-            },
+            shaping: ShapingObserver::new(cfg.shaping, n),
+            visits: VisitCounts::new(map.grid.height(), map.grid.width()),
+            stall: StallWatch::new(n, cfg.stall_window),
             map,
             cfg,
         };
@@ -236,6 +215,50 @@ impl GridEnv {
         starts: &[Cell],
         goals: &[Cell],
     ) -> Result<(), EnvError> {
+        self.validate_instance(starts, goals)?;
+        let n = self.cfg.agents;
+        for i in 0..n {
+            self.board.remove_agent(self.pos[i], self.goal[i]);
+        }
+        self.goal_distance.clear();
+        for i in 0..n {
+            self.pos[i] = self.board.padded(starts[i]);
+            self.goal[i] = self.board.padded(goals[i]);
+            self.cells[i] = starts[i];
+            self.goal_cells[i] = goals[i];
+            self.board.place_agent(i, self.pos[i], self.goal[i]);
+            self.goal_distance
+                .push(self.map.grid.distances_to(goals[i]));
+        }
+        for i in 0..n {
+            self.board.refresh_code(self.pos[i]);
+            self.board.refresh_code(self.goal[i]);
+        }
+        self.reached.fill(false);
+        self.off_goal.fill(0);
+        self.arrival.fill(0);
+        self.t = 0;
+        self.episode = episode;
+        self.over = false;
+        self.rng = lifelong_rng(self.cfg.seed, episode);
+        self.episode_reward = 0.0;
+        self.blocked_moves = 0;
+        self.goals_reached = 0;
+        self.visits.record(&self.cells);
+        let (pos, goal) = (&self.pos, &self.goal);
+        let (width, distance) = (self.map.grid.width(), &self.goal_distance);
+        self.stall.reset(
+            &self.cells,
+            |i| pos[i] == goal[i],
+            |i, (r, c)| distance[i][r * width + c],
+        );
+        Ok(())
+    }
+
+    /// Checks an episode's starts and goals for [`Self::reset_with`]: one
+    /// of each per agent, inside the grid, not on walls, pairwise distinct
+    /// (and, in lifelong mode, a free cell to spare for goal draws).
+    fn validate_instance(&self, starts: &[Cell], goals: &[Cell]) -> Result<(), EnvError> {
         let n = self.cfg.agents;
         for (what, list) in [("starts", starts), ("goals", goals)] {
             if list.len() != n {
@@ -287,53 +310,36 @@ impl GridEnv {
                 }
             }
         }
-        for i in 0..n {
-            let (p, g) = (self.pos[i], self.goal[i]);
-            self.occupant[p] = NOBODY;
-            self.goal_owner[g] = NOBODY;
-            self.shared_code[p] = self.blocked[p];
-            self.shared_code[g] = self.blocked[g];
-        }
-        self.goal_distance.clear();
-        for i in 0..n {
-            self.pos[i] = self.padded(starts[i]);
-            self.goal[i] = self.padded(goals[i]);
-            self.cells[i] = starts[i];
-            self.goal_cells[i] = goals[i];
-            self.occupant[self.pos[i]] = i as u16 + 1;
-            self.goal_owner[self.goal[i]] = i as u16 + 1;
-            self.goal_distance
-                .push(self.map.grid.distances_to(goals[i]));
-        }
-        for i in 0..n {
-            self.refresh_code(self.pos[i]);
-            self.refresh_code(self.goal[i]);
-        }
-        let grid = &self.map.grid;
-        self.reached.iter_mut().for_each(|r| *r = false);
-        self.off_goal.iter_mut().for_each(|k| *k = 0);
-        self.arrival.fill(0);
-        self.t = 0;
-        self.episode = episode;
-        self.over = false;
-        self.rng = lifelong_rng(self.cfg.seed, episode);
-        self.episode_reward = 0.0;
-        self.blocked_moves = 0;
-        self.goals_reached = 0;
-        for &cell in &self.cells {
-            self.visits[grid.index(cell)] += 1;
-        }
-        self.fill_scratch();
-        let (width, distance) = (self.map.grid.width(), &self.goal_distance);
-        self.monitor
-            .reset(&self.scratch_cell, |i, (r, c)| distance[i][r * width + c]);
         Ok(())
     }
 
     /// Advances one step. `actions[i]` ∈ 0..5 is agent `i`'s action; the
     /// per-agent rewards are written to `rewards`. Invalid input is rejected
     /// before anything changes.
+    ///
+    /// In order: the input is validated; the agents move (by the rule set);
+    /// the episode's accounts are kept (arrivals, rewards, termination or
+    /// truncation, lifelong goal draws); the observers see the step
+    /// (shaping adds its bonus, the heatmap counts the agents' cells, the
+    /// stall monitor updates).
     pub fn step(&mut self, actions: &[u8], rewards: &mut [f32]) -> Result<StepOutcome, EnvError> {
+        self.validate_step(actions, rewards)?;
+        let (distance, cells, width) = (&self.goal_distance, &self.cells, self.map.grid.width());
+        self.shaping
+            .before_moves(|i| distance[i][cells[i].row * width + cells[i].col]);
+        let blocked_moves = match self.cfg.rules {
+            Rules::Thesis => self.move_sequentially(actions),
+            Rules::Pogema => self.move_simultaneously(actions),
+        };
+        let outcome = self.account(blocked_moves, rewards);
+        self.observe(rewards);
+        self.over = outcome.done();
+        Ok(outcome)
+    }
+
+    /// Rejects a step's input that does not fit: wrong lengths, an action
+    /// out of range, or an episode that is over.
+    fn validate_step(&self, actions: &[u8], rewards: &[f32]) -> Result<(), EnvError> {
         let n = self.cfg.agents;
         if actions.len() != n {
             return Err(EnvError::WrongLength {
@@ -358,45 +364,90 @@ impl GridEnv {
         if self.over {
             return Err(EnvError::EpisodeOver);
         }
-        let mut outcome = StepOutcome::default();
-        if self.cfg.shaping.is_some() {
-            for i in 0..n {
-                self.scratch_distance[i] = self.goal_distance(i);
+        Ok(())
+    }
+
+    /// Moves the agents one after another in index order under the thesis
+    /// rules; returns the requested moves that failed.
+    fn move_sequentially(&mut self, actions: &[u8]) -> u32 {
+        let mut blocked_moves = 0;
+        for (i, &action) in actions.iter().enumerate() {
+            if action == 0 {
+                continue;
+            }
+            let from = self.pos[i];
+            let to = from.wrapping_add_signed(self.board.step_offsets[action as usize]);
+            if self.board.is_open(to) {
+                self.board.leave(from);
+                self.board.enter(i, to);
+                self.pos[i] = to;
+                self.shift_cell(i, action);
+            } else {
+                blocked_moves += 1;
             }
         }
-        match self.cfg.rules {
-            Rules::Thesis => {
-                for (i, &action) in actions.iter().enumerate() {
-                    if action == 0 {
-                        continue;
-                    }
-                    let from = self.pos[i];
-                    let to = from.wrapping_add_signed(self.step_offsets[action as usize]);
-                    if self.blocked[to] == 0 && self.occupant[to] == NOBODY {
-                        self.occupant[from] = NOBODY;
-                        self.occupant[to] = i as u16 + 1;
-                        self.vacate_code(from);
-                        self.shared_code[to] = code::AGENT;
-                        self.pos[i] = to;
-                        self.shift_cell(i, action);
-                    } else {
-                        outcome.blocked_moves += 1;
-                    }
-                }
+        blocked_moves
+    }
+
+    /// Moves all agents at once under the pogema rules; returns the
+    /// requested moves that became waits.
+    fn move_simultaneously(&mut self, actions: &[u8]) -> u32 {
+        let blocked_moves = resolve_simultaneous(
+            &self.pos,
+            actions,
+            &self.board.step_offsets,
+            &self.board.blocked,
+            &self.board.occupant,
+            &mut self.scratch_target,
+            &mut self.simultaneous,
+        );
+        // Vacate every source before filling any target: a follower's target
+        // is its leader's source.
+        for i in 0..self.cfg.agents {
+            let from = self.pos[i];
+            if self.scratch_target[i] != from {
+                self.board.leave(from);
             }
-            Rules::Pogema => outcome.blocked_moves = self.move_simultaneously(actions),
         }
+        for (i, &action) in actions.iter().enumerate() {
+            let to = self.scratch_target[i];
+            if to != self.pos[i] {
+                self.board.enter(i, to);
+                self.pos[i] = to;
+                self.shift_cell(i, action);
+            }
+        }
+        blocked_moves
+    }
+
+    /// Moves agent `i`'s unpadded cell by `action` (a move that succeeded,
+    /// so its target is inside the grid and nothing wraps).
+    #[inline(always)]
+    fn shift_cell(&mut self, i: usize, action: u8) {
+        let (dr, dc) = MOVE_DELTAS[action as usize];
+        let cell = &mut self.cells[i];
+        cell.row = cell.row.wrapping_add_signed(dr);
+        cell.col = cell.col.wrapping_add_signed(dc);
+        self.stall.moved(i, *cell);
+    }
+
+    /// The episode's accounts after the moves: the step count, arrivals
+    /// and costs, the rewards (collision, goal, all-at-goal, truncation),
+    /// termination or truncation, lifelong goal draws (in agent order), the
+    /// episode return (unshaped) and the blocked-move count.
+    fn account(&mut self, blocked_moves: u32, rewards: &mut [f32]) -> StepOutcome {
+        let mut outcome = StepOutcome {
+            blocked_moves,
+            ..StepOutcome::default()
+        };
         self.t += 1;
         rewards.fill(0.0);
         let mut all_home = true;
-        let grid_width = self.map.grid.width();
         for (i, reward) in rewards.iter_mut().enumerate() {
             let p = self.pos[i];
-            let cell = self.cells[i];
-            self.visits[cell.row * grid_width + cell.col] += 1;
             // Collision check: under sequential moves the occupant array has one
             // agent per cell, so a mismatch would mean two agents in one cell.
-            if self.occupant[p] != i as u16 + 1 {
+            if self.board.occupant[p] != i as u16 + 1 {
                 *reward += REWARD_COLLISION;
             }
             let home = p == self.goal[i];
@@ -406,15 +457,14 @@ impl GridEnv {
             if home && (self.off_goal[i] != 0 || self.t == 1) {
                 self.arrival[i] = self.t;
             }
-            self.scratch_at_goal[i] = home;
+            self.stall.set_at_goal(i, home);
             self.off_goal[i] = if home { 0 } else { self.off_goal[i] + 1 };
             if home {
                 if self.cfg.lifelong {
                     *reward += REWARD_GOAL;
                     self.goals_reached += 1;
                     self.draw_new_goal(i);
-                    self.arrived[i] = true;
-                    self.scratch_at_goal[i] = false;
+                    self.stall.new_goal(i);
                     continue;
                 }
                 if !self.reached[i] {
@@ -443,135 +493,41 @@ impl GridEnv {
             }
         }
         self.episode_reward += rewards.iter().sum::<f32>();
-        if let Some(shaping) = self.cfg.shaping {
-            self.add_shaping(shaping, rewards);
-        }
         self.blocked_moves += outcome.blocked_moves;
-        let distance = &self.goal_distance;
-        self.monitor.observe(
-            &self.scratch_cell,
-            &self.scratch_at_goal,
-            &self.arrived,
-            |i, (r, c)| distance[i][r * grid_width + c],
-        );
-        self.arrived.fill(false);
-        self.over = outcome.done();
-        Ok(outcome)
+        outcome
     }
 
-    /// Moves all agents at once under the pogema rules; returns the
-    /// requested moves that became waits.
-    fn move_simultaneously(&mut self, actions: &[u8]) -> u32 {
-        let blocked_moves = resolve_simultaneous(
-            &self.pos,
-            actions,
-            &self.step_offsets,
-            &self.blocked,
-            &self.occupant,
-            &mut self.scratch_target,
-            &mut self.simultaneous,
-        );
-        // Vacate every source before filling any target: a follower's target
-        // is its leader's source.
-        for i in 0..self.cfg.agents {
-            let from = self.pos[i];
-            if self.scratch_target[i] != from {
-                self.occupant[from] = NOBODY;
-                self.vacate_code(from);
-            }
-        }
-        for (i, &action) in actions.iter().enumerate() {
-            let to = self.scratch_target[i];
-            if to != self.pos[i] {
-                self.occupant[to] = i as u16 + 1;
-                self.shared_code[to] = code::AGENT;
-                self.pos[i] = to;
-                self.shift_cell(i, action);
-            }
-        }
-        blocked_moves
+    /// The observers see the step: shaping adds its bonus to `rewards`
+    /// (none to an agent with a new goal), the heatmap counts every agent's
+    /// cell, the stall monitor takes the step's inputs.
+    #[inline]
+    fn observe(&mut self, rewards: &mut [f32]) {
+        let (distance, cells, width) = (&self.goal_distance, &self.cells, self.map.grid.width());
+        self.shaping.add(rewards, self.stall.arrived(), |i| {
+            distance[i][cells[i].row * width + cells[i].col]
+        });
+        self.visits.record(cells);
+        self.stall.observe(|i, (r, c)| distance[i][r * width + c]);
     }
 
-    /// The shared code of padded cell `p` once its agent has left.
-    #[inline(always)]
-    fn vacate_code(&mut self, p: usize) {
-        self.shared_code[p] = if self.goal_owner[p] != NOBODY {
-            code::GOAL
-        } else {
-            code::EMPTY
-        };
-    }
-
-    /// Moves agent `i`'s unpadded cell by `action` (a move that succeeded,
-    /// so its target is inside the grid and nothing wraps).
-    #[inline(always)]
-    fn shift_cell(&mut self, i: usize, action: u8) {
-        let (dr, dc) = MOVE_DELTAS[action as usize];
-        let cell = &mut self.cells[i];
-        cell.row = cell.row.wrapping_add_signed(dr);
-        cell.col = cell.col.wrapping_add_signed(dc);
-        self.scratch_cell[i] = (cell.row, cell.col);
-    }
-
-    /// Adds the shaping bonus (after the episode return took the unshaped
-    /// rewards). An agent whose goal changed this step (lifelong) or cannot
-    /// reach it gets none: its distances do not form one potential.
-    fn add_shaping(&self, shaping: crate::Shaping, rewards: &mut [f32]) {
-        for (i, reward) in rewards.iter_mut().enumerate() {
-            let (before, after) = (self.scratch_distance[i], self.goal_distance(i));
-            if before == UNREACHABLE || after == UNREACHABLE || self.arrived[i] {
-                continue;
-            }
-            *reward += shaping.bonus(before, after);
-        }
-    }
-
+    /// Gives agent `agent` a new goal drawn from the episode's lifelong RNG:
+    /// a free cell that is nobody's goal.
     fn draw_new_goal(&mut self, agent: usize) {
         let free = self.map.grid.free_cells();
         // Rejection sampling terminates: `reset_with` guarantees more free
         // cells than agents in lifelong mode, so some free cell is nobody's goal.
         let cell = loop {
             let cand = free[self.rng.random_range(0..free.len())];
-            let p = self.padded(cand);
-            if self.goal_owner[p] == NOBODY {
+            let p = self.board.padded(cand);
+            if self.board.goal_owner[p] == NOBODY {
                 break cand;
             }
         };
-        let old = self.goal[agent];
-        self.goal_owner[old] = NOBODY;
-        self.refresh_code(old);
-        self.goal[agent] = self.padded(cell);
+        let new = self.board.padded(cell);
+        self.board.move_goal(agent, self.goal[agent], new);
+        self.goal[agent] = new;
         self.goal_cells[agent] = cell;
-        self.goal_owner[self.goal[agent]] = agent as u16 + 1;
-        self.refresh_code(self.goal[agent]);
         self.goal_distance[agent] = self.map.grid.distances_to(cell);
-    }
-
-    /// Recomputes the shared code of padded cell `p` from the cell arrays.
-    fn refresh_code(&mut self, p: usize) {
-        self.shared_code[p] = if self.blocked[p] != 0 {
-            code::WALL
-        } else if self.occupant[p] != NOBODY {
-            code::AGENT
-        } else if self.goal_owner[p] != NOBODY {
-            code::GOAL
-        } else {
-            code::EMPTY
-        };
-    }
-
-    /// Fills the monitor's inputs from the state (kept up to date by
-    /// `step` after that).
-    fn fill_scratch(&mut self) {
-        for i in 0..self.cfg.agents {
-            let cell = self.cells[i];
-            self.scratch_cell[i] = (cell.row, cell.col);
-            self.scratch_at_goal[i] = self.pos[i] == self.goal[i];
-        }
-    }
-
-    fn padded(&self, cell: Cell) -> usize {
-        (cell.row + self.pad) * self.padded_width + cell.col + self.pad
     }
 
     /// The map.
@@ -680,17 +636,17 @@ impl GridEnv {
     /// Per-cell visit counts since the env was created (row-major): each
     /// episode's starts once, then every agent's cell after every step.
     pub fn visits(&self) -> &[u64] {
-        &self.visits
+        self.visits.counts()
     }
 
     /// Sets all visit counts to zero.
     pub fn clear_visits(&mut self) {
-        self.visits.iter_mut().for_each(|v| *v = 0);
+        self.visits.clear();
     }
 
     /// The deadlock/livelock monitor of this episode.
     pub fn monitor(&self) -> &StallMonitor {
-        &self.monitor
+        self.stall.monitor()
     }
 
     /// Statistics of the episode so far (final once [`Self::is_over`]).
@@ -704,9 +660,9 @@ impl GridEnv {
             agents_at_goal: (0..n).filter(|&i| self.at_goal(i)).count() as u32,
             blocked_moves: self.blocked_moves,
             goals_reached: self.goals_reached,
-            deadlock_steps: self.monitor.deadlock_steps(),
-            livelock_steps: self.monitor.livelock_steps(),
-            deadlock_events: self.monitor.deadlock_events(),
+            deadlock_steps: self.monitor().deadlock_steps(),
+            livelock_steps: self.monitor().livelock_steps(),
+            deadlock_events: self.monitor().deadlock_events(),
             layout: 0,
             replay: 0,
         }
@@ -715,15 +671,15 @@ impl GridEnv {
     // Accessors for the observation encoders.
     pub(crate) fn raw(&self) -> RawView<'_> {
         RawView {
-            padded_width: self.padded_width,
-            goal_owner: &self.goal_owner,
-            occupant: &self.occupant,
-            shared_code: &self.shared_code,
+            padded_width: self.board.padded_width,
+            goal_owner: &self.board.goal_owner,
+            occupant: &self.board.occupant,
+            shared_code: &self.board.shared_code,
             pos: &self.pos,
             goal_pos: &self.goal,
             cells: &self.cells,
             goal_cells: &self.goal_cells,
-            step_offsets: &self.step_offsets,
+            step_offsets: &self.board.step_offsets,
         }
     }
 
