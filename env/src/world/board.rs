@@ -100,6 +100,19 @@ impl Board {
         self.shared_code[p] = code::AGENT;
     }
 
+    /// Agent `agent` has moved from padded cell `from` to the open cell `to`.
+    #[inline(always)]
+    pub(super) fn move_agent(&mut self, agent: usize, from: usize, to: usize) {
+        self.occupant[from] = NOBODY;
+        self.occupant[to] = agent as u16 + 1;
+        self.shared_code[from] = if self.goal_owner[from] != NOBODY {
+            code::GOAL
+        } else {
+            code::EMPTY
+        };
+        self.shared_code[to] = code::AGENT;
+    }
+
     /// Takes agent `agent`'s goal off padded cell `old` and puts it on `new`
     /// (nobody's goal until now).
     pub(super) fn move_goal(&mut self, agent: usize, old: usize, new: usize) {
@@ -204,6 +217,15 @@ mod tests {
             (b.shared_code[g], b.shared_code[q]),
             (code::EMPTY, code::GOAL)
         );
+        // One sequential move does what leaving and entering do.
+        let mut c = b.clone();
+        c.leave(p);
+        c.enter(0, g);
+        b.move_agent(0, p, g);
+        assert_eq!((&b.occupant, &b.shared_code), (&c.occupant, &c.shared_code));
+        assert_eq!(b.shared_code[p], code::EMPTY);
+        b.move_agent(0, g, p);
+        assert_eq!(b.shared_code[g], code::EMPTY);
         b.remove_agent(p, q);
         assert_eq!((b.occupant[p], b.goal_owner[q]), (NOBODY, NOBODY));
         assert_eq!(

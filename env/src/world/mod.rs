@@ -69,6 +69,15 @@ fn lifelong_rng(seed: u64, episode: u64) -> ChaCha8Rng {
 pub(crate) const MOVE_DELTAS: [(isize, isize); NUM_ACTIONS] =
     [(0, 0), (-1, 0), (0, 1), (1, 0), (0, -1)];
 
+/// Moves `cell` by `action` (a move that succeeded, so its target is
+/// inside the grid and nothing wraps).
+#[inline(always)]
+fn shift_cell(cell: &mut Cell, action: u8) {
+    let (dr, dc) = MOVE_DELTAS[action as usize];
+    cell.row = cell.row.wrapping_add_signed(dr);
+    cell.col = cell.col.wrapping_add_signed(dc);
+}
+
 /// How a step ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct StepOutcome {
@@ -371,17 +380,18 @@ impl GridEnv {
     /// rules; returns the requested moves that failed.
     fn move_sequentially(&mut self, actions: &[u8]) -> u32 {
         let mut blocked_moves = 0;
-        for (i, &action) in actions.iter().enumerate() {
+        let board = &mut self.board;
+        let agents = self.pos.iter_mut().zip(self.cells.iter_mut());
+        for (i, (&action, (pos, cell))) in actions.iter().zip(agents).enumerate() {
             if action == 0 {
                 continue;
             }
-            let from = self.pos[i];
-            let to = from.wrapping_add_signed(self.board.step_offsets[action as usize]);
-            if self.board.is_open(to) {
-                self.board.leave(from);
-                self.board.enter(i, to);
-                self.pos[i] = to;
-                self.shift_cell(i, action);
+            let to = pos.wrapping_add_signed(board.step_offsets[action as usize]);
+            if board.is_open(to) {
+                board.move_agent(i, *pos, to);
+                *pos = to;
+                shift_cell(cell, action);
+                self.stall.moved(i, *cell);
             } else {
                 blocked_moves += 1;
             }
@@ -403,32 +413,22 @@ impl GridEnv {
         );
         // Vacate every source before filling any target: a follower's target
         // is its leader's source.
-        for i in 0..self.cfg.agents {
-            let from = self.pos[i];
-            if self.scratch_target[i] != from {
+        for (&from, &to) in self.pos.iter().zip(&self.scratch_target) {
+            if to != from {
                 self.board.leave(from);
             }
         }
-        for (i, &action) in actions.iter().enumerate() {
-            let to = self.scratch_target[i];
-            if to != self.pos[i] {
+        let agents = self.pos.iter_mut().zip(self.cells.iter_mut());
+        let moves = actions.iter().zip(&self.scratch_target).zip(agents);
+        for (i, ((&action, &to), (pos, cell))) in moves.enumerate() {
+            if to != *pos {
                 self.board.enter(i, to);
-                self.pos[i] = to;
-                self.shift_cell(i, action);
+                *pos = to;
+                shift_cell(cell, action);
+                self.stall.moved(i, *cell);
             }
         }
         blocked_moves
-    }
-
-    /// Moves agent `i`'s unpadded cell by `action` (a move that succeeded,
-    /// so its target is inside the grid and nothing wraps).
-    #[inline(always)]
-    fn shift_cell(&mut self, i: usize, action: u8) {
-        let (dr, dc) = MOVE_DELTAS[action as usize];
-        let cell = &mut self.cells[i];
-        cell.row = cell.row.wrapping_add_signed(dr);
-        cell.col = cell.col.wrapping_add_signed(dc);
-        self.stall.moved(i, *cell);
     }
 
     /// The episode's accounts after the moves: the step count, arrivals
