@@ -326,16 +326,14 @@ impl GridEnv {
     /// per-agent rewards are written to `rewards`. Invalid input is rejected
     /// before anything changes.
     ///
-    /// In order: the input is validated; the agents move (by the rule set);
-    /// the episode's accounts are kept (arrivals, rewards, termination or
-    /// truncation, lifelong goal draws); the observers see the step
-    /// (shaping adds its bonus, the heatmap counts the agents' cells, the
-    /// stall monitor updates).
+    /// In order: the input is validated; the agents move (by the rule set;
+    /// shaping notes the goal distances before); the episode's accounts are
+    /// kept (arrivals, rewards, termination or truncation, lifelong goal
+    /// draws); the observers see the step (shaping adds its bonus, the
+    /// heatmap counts the agents' cells, the stall monitor updates).
     pub fn step(&mut self, actions: &[u8], rewards: &mut [f32]) -> Result<StepOutcome, EnvError> {
         self.validate_step(actions, rewards)?;
-        let (distance, cells, width) = (&self.goal_distance, &self.cells, self.map.grid.width());
-        self.shaping
-            .before_moves(|i| distance[i][cells[i].row * width + cells[i].col]);
+        self.before_moves();
         let blocked_moves = match self.cfg.rules {
             Rules::Thesis => self.move_sequentially(actions),
             Rules::Pogema => self.move_simultaneously(actions),
@@ -495,6 +493,15 @@ impl GridEnv {
         self.episode_reward += rewards.iter().sum::<f32>();
         self.blocked_moves += outcome.blocked_moves;
         outcome
+    }
+
+    /// The observers note what they compare the step's outcome with:
+    /// shaping, each agent's goal distance before the moves.
+    #[inline]
+    fn before_moves(&mut self) {
+        let (distance, cells, width) = (&self.goal_distance, &self.cells, self.map.grid.width());
+        self.shaping
+            .before_moves(|i| distance[i][cells[i].row * width + cells[i].col]);
     }
 
     /// The observers see the step: shaping adds its bonus to `rewards`
