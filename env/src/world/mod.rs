@@ -439,34 +439,40 @@ impl GridEnv {
             ..StepOutcome::default()
         };
         self.t += 1;
+        let (t, lifelong) = (self.t, self.cfg.lifelong);
         rewards.fill(0.0);
-        let mut all_home = true;
-        for (i, reward) in rewards.iter_mut().enumerate() {
-            let p = self.pos[i];
+        let (mut all_home, mut arrivals) = (true, 0);
+        let agents = (self.pos.iter().zip(&self.goal))
+            .zip(self.off_goal.iter_mut().zip(&mut self.arrival))
+            .zip(&mut self.reached);
+        for (i, (reward, (((&p, &g), (off_goal, arrival)), reached))) in
+            rewards.iter_mut().zip(agents).enumerate()
+        {
             // Collision check: under sequential moves the occupant array has one
             // agent per cell, so a mismatch would mean two agents in one cell.
             if self.board.occupant[p] != i as u16 + 1 {
                 *reward += REWARD_COLLISION;
             }
-            let home = p == self.goal[i];
+            let home = p == g;
             // An arrival: on the goal now, off it before (or at the start).
             // Only arrivals are written, which keeps this loop as cheap as
             // before costs existed.
-            if home && (self.off_goal[i] != 0 || self.t == 1) {
-                self.arrival[i] = self.t;
+            if home && (*off_goal != 0 || t == 1) {
+                *arrival = t;
             }
             self.stall.set_at_goal(i, home);
-            self.off_goal[i] = if home { 0 } else { self.off_goal[i] + 1 };
+            *off_goal = if home { 0 } else { *off_goal + 1 };
             if home {
-                if self.cfg.lifelong {
+                if lifelong {
+                    // Its new goal is drawn below.
                     *reward += REWARD_GOAL;
                     self.goals_reached += 1;
-                    self.draw_new_goal(i);
                     self.stall.new_goal(i);
+                    arrivals += 1;
                     continue;
                 }
-                if !self.reached[i] {
-                    self.reached[i] = true;
+                if !*reached {
+                    *reached = true;
                     self.goals_reached += 1;
                     *reward += REWARD_GOAL;
                 }
@@ -474,7 +480,18 @@ impl GridEnv {
                 all_home = false;
             }
         }
-        if self.cfg.lifelong {
+        if lifelong {
+            // New goals for this step's arrivals, drawn in agent order (each
+            // draw avoids the goals of the agents drawn before it).
+            for i in 0..self.cfg.agents {
+                if arrivals == 0 {
+                    break;
+                }
+                if self.stall.arrived()[i] {
+                    self.draw_new_goal(i);
+                    arrivals -= 1;
+                }
+            }
             all_home = false;
         }
         if all_home {
