@@ -42,7 +42,7 @@ use tonic::transport::Channel;
 use tonic::{Code, Request, Status};
 
 pub use error::{ActorError, ConnectError, SetupError};
-pub use setup::{build_collector, build_remote_collector, check_env_spec};
+pub use setup::{build_collector, build_remote_collector, check_env_spec, run_spec};
 pub use submit::obs_encoding_for;
 
 use crate::collector::CollectError;
@@ -315,7 +315,8 @@ async fn session(
     };
     // Env sessions opened on the env server in this learner session.
     let mut env_attempt = 0u64;
-    let mut submitter = Submitter::new(client, &join, opts.obs_encoding);
+    let (run, _) = run_spec(&join).map_err(ActorError::Setup)?;
+    let mut submitter = Submitter::new(client, &join, run, opts.obs_encoding);
     // On-policy: after a full batch, wait for a version newer than this.
     let mut wait_after: Option<u64> = None;
     loop {
@@ -370,7 +371,7 @@ async fn join(
 ) -> Result<Joined, ActorError> {
     let reply = client
         .join(v1::JoinRequest {
-            api_version: v1::ApiVersion::V1 as u32,
+            api_version: v1::ApiVersion::V2 as u32,
             actor_name: opts.name.clone(),
             envs: envs.unwrap_or(0),
         })

@@ -376,7 +376,7 @@ impl Client {
     ) -> Result<Option<v1::JoinReply>, Status> {
         let reply = client
             .join(v1::JoinRequest {
-                api_version: v1::ApiVersion::V1 as u32,
+                api_version: v1::ApiVersion::V2 as u32,
                 actor_name: self.opts.name.clone(),
                 envs: 0,
             })
@@ -475,10 +475,9 @@ impl Client {
         let Some((run_id, old)) = &self.old else {
             return Ok(());
         };
-        let lag = if joined.on_policy {
-            0
-        } else {
-            joined.max_policy_lag
+        let lag = match &joined.run {
+            Some(run) if !run.on_policy => run.max_policy_lag,
+            _ => 0,
         };
         // A restarted learner (new run id) may be back at an earlier version.
         if *run_id != joined.run_id || learner_version <= old.policy_version + lag + 1 {

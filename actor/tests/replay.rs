@@ -4,7 +4,7 @@
 use buridan_actor::client::build_collector;
 use buridan_env::{local_obs_dim, EnvConfig, MapSource};
 use buridan_policy::{Mode, ModelSpec};
-use buridan_proto::convert::{env_to_message, map_to_message};
+use buridan_proto::convert::{env_to_message, map_to_message, model_spec_to_message};
 use buridan_proto::v1;
 
 /// A join reply for 2 envs of rm-2.1 whose episodes end after 5 steps —
@@ -17,14 +17,17 @@ fn join(replay: Option<v1::FailureReplay>) -> v1::JoinReply {
     let spec = ModelSpec::new(Mode::Ctde, env.agents, local_obs_dim(env.sensor_range));
     v1::JoinReply {
         run_id: "run".into(),
-        model_spec_json: serde_json::to_string(&spec).unwrap(),
-        map: Some(map_to_message(&MapSource::read("rm-2.1").unwrap())),
-        env: Some(env_to_message(&env)),
         envs: 2,
         seed: 3,
-        fragment_len: 40,
-        on_policy: true,
-        replay,
+        run: Some(v1::RunSpec {
+            model: Some(model_spec_to_message(&spec)),
+            map: Some(map_to_message(&MapSource::read("rm-2.1").unwrap())),
+            env: Some(env_to_message(&env)),
+            fragment_len: 40,
+            on_policy: true,
+            replay,
+            ..Default::default()
+        }),
         ..Default::default()
     }
 }

@@ -42,7 +42,7 @@ fn start(sessions: SessionLimits) -> Learner {
 async fn join(client: &mut LearnerClient<Channel>, name: &str) -> Result<v1::JoinReply, Status> {
     client
         .join(v1::JoinRequest {
-            api_version: 1,
+            api_version: v1::ApiVersion::V2 as u32,
             actor_name: name.into(),
             envs: 1,
         })
@@ -141,7 +141,7 @@ fn bad_compressed_observations_are_refused_naming_the_field_and_training_goes_on
         let mut client = learner.client().await;
         let (joined, _stream, good) = join_and_collect(&mut client, "squeezer").await;
         assert_eq!(
-            joined.obs_encodings,
+            joined.run.as_ref().unwrap().obs_encodings,
             [v1::ObsEncoding::Codes as i32, v1::ObsEncoding::Lz4 as i32]
         );
         let tag = |seq| wire_tag(&joined, seq);

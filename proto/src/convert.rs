@@ -28,6 +28,7 @@
 //! ```
 mod fragment;
 mod settings;
+mod spec;
 
 pub use fragment::{
     check_fragment, fragment_from_message, fragment_from_message_within, fragment_to_message,
@@ -37,6 +38,7 @@ pub use settings::{
     env_from_message, env_to_message, map_from_message, map_to_message, replay_from_message,
     replay_to_message, weights_from_message, weights_to_message,
 };
+pub use spec::{check_run_spec, model_spec_from_message, model_spec_to_message};
 
 use buridan_policy::PolicyError;
 
@@ -84,9 +86,45 @@ pub enum ConvertError {
     /// or oversized LZ4 block).
     #[error(transparent)]
     Obs(#[from] ObsDecodeError),
+    /// A message or enum the receiver needs is unset (an enum left at its
+    /// UNSPECIFIED zero counts as unset).
+    #[error("{field} is missing")]
+    Missing {
+        /// The field, by its path in the message.
+        field: &'static str,
+    },
+    /// An enum field holds a number its enum does not define.
+    #[error("{field} = {value} is not a value its enum defines")]
+    UnknownEnum {
+        /// The field, by its path in the message.
+        field: &'static str,
+        /// The number found.
+        value: i32,
+    },
+    /// A size that must be positive is 0.
+    #[error("{field}{} is 0 (must be positive)", at(.index))]
+    Zero {
+        /// The field, by its path in the message.
+        field: &'static str,
+        /// Position in a repeated field.
+        index: Option<usize>,
+    },
+    /// A field's value is not allowed, alone or beside the others.
+    #[error("{field}: {reason}")]
+    Field {
+        /// The field, by its path in the message.
+        field: &'static str,
+        /// What is wrong with it.
+        reason: String,
+    },
     /// Something else that makes the message unusable.
     #[error("{0}")]
     Invalid(String),
+}
+
+/// `[index]`, or nothing.
+fn at(index: &Option<usize>) -> String {
+    index.map_or_else(String::new, |i| format!("[{i}]"))
 }
 
 /// Where a fragment comes from: the run, the actor's session and the

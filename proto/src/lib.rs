@@ -5,8 +5,8 @@
 //!
 //! ```
 //! use buridan_proto::v1;
-//! let join = v1::JoinRequest { api_version: v1::ApiVersion::V1 as u32, ..Default::default() };
-//! assert_eq!(join.api_version, 1);
+//! let join = v1::JoinRequest { api_version: v1::ApiVersion::V2 as u32, ..Default::default() };
+//! assert_eq!(join.api_version, 2);
 //! ```
 
 pub mod codec;

@@ -12,10 +12,12 @@ mod fuzz_support;
 
 use buridan_env::EpisodeStats;
 use buridan_policy::{Fragment, NamedTensor, RecurrentState, Weights};
+use buridan_policy::{Mode, ModelSpec};
 use buridan_proto::convert::{
-    env_from_message, env_to_message, f32_to_le_bytes, fragment_from_message, fragment_to_message,
-    fragment_to_message_encoded, map_from_message, map_to_message, weights_from_message,
-    weights_to_message, WireTag,
+    check_run_spec, env_from_message, env_to_message, f32_to_le_bytes, fragment_from_message,
+    fragment_to_message, fragment_to_message_encoded, map_from_message, map_to_message,
+    model_spec_from_message, model_spec_to_message, weights_from_message, weights_to_message,
+    WireTag,
 };
 use buridan_proto::obs_encoding;
 use buridan_proto::v1;
@@ -473,6 +475,49 @@ fn convert_map(m: v1::MapSource) -> Result<bool, TestCaseError> {
     Ok(src.parse().is_ok())
 }
 
+/// Converts a model spec; true if accepted (then checked: positive sizes,
+/// consistent, and back to the same message).
+fn convert_model_spec(m: &v1::ModelSpec) -> Result<bool, TestCaseError> {
+    let Ok(spec) = model_spec_from_message(m) else {
+        return Ok(false);
+    };
+    prop_assert!(spec.validate().is_ok(), "accepted: {m:?}");
+    prop_assert!(spec.obs_dim > 0 && spec.heads > 0 && spec.actions > 0 && spec.agents > 0);
+    prop_assert!(!spec.hidden.is_empty() && !spec.hidden.contains(&0));
+    prop_assert!(spec.lstm.is_none_or(|l| l.cells > 0));
+    // Back to the wire: the same message, no features sent as none.
+    let expected = v1::ModelSpec {
+        features: m.features.filter(|f| *f != v1::ObsFeatures::default()),
+        ..m.clone()
+    };
+    prop_assert_eq!(
+        model_spec_to_message(&spec).encode_to_vec(),
+        expected.encode_to_vec()
+    );
+    Ok(true)
+}
+
+/// Checks a run spec; true if accepted (then checked: a valid model, the
+/// run-wide numbers in range, a grid run or a plant run).
+fn convert_run(m: &v1::RunSpec) -> Result<bool, TestCaseError> {
+    let Ok(spec) = check_run_spec(m) else {
+        return Ok(false);
+    };
+    let Some(model) = &m.model else {
+        return Err(TestCaseError::fail(format!(
+            "accepted without a model: {m:?}"
+        )));
+    };
+    prop_assert!(convert_model_spec(model)?);
+    prop_assert_eq!(model_spec_from_message(model).ok(), Some(spec));
+    prop_assert!(m.fragment_len > 0);
+    prop_assert!((0.0..=1.0).contains(&m.greedy_mix));
+    let grid = m.map.is_some() && m.env.is_some() && m.plant.is_none();
+    let plant = m.map.is_none() && m.env.is_none() && m.plant.is_some();
+    prop_assert!(grid != plant, "{m:?}");
+    Ok(true)
+}
+
 /// Valid messages of every type, encoded: the seeds of the decoder target.
 fn encoded_seeds() -> Vec<Vec<u8>> {
     let runner = &mut proptest::test_runner::TestRunner::deterministic();
@@ -506,22 +551,35 @@ fn encoded_seeds() -> Vec<Vec<u8>> {
     let env = env_to_message(&buridan_env::EnvConfig::default());
     seeds.push(map_to_message(&src).encode_to_vec());
     seeds.push(env.encode_to_vec());
+    let model = ModelSpec {
+        lstm: Some(Default::default()),
+        maps: vec!["rm-1.1".into()],
+        ..ModelSpec::new(Mode::Cte, 2, 40)
+    };
+    seeds.push(model_spec_to_message(&model).encode_to_vec());
+    let run = v1::RunSpec {
+        model: Some(model_spec_to_message(&model)),
+        map: Some(map_to_message(&src)),
+        env: Some(env),
+        fragment_len: 16,
+        greedy_mix: 0.5,
+        obs_encodings: vec![v1::ObsEncoding::Codes as i32],
+        ..Default::default()
+    };
+    seeds.push(run.encode_to_vec());
     seeds.push(
         v1::JoinReply {
             run_id: "run-1".into(),
             session: 3,
-            config_toml: "algo = \"ppo\"\n".into(),
-            map: Some(map_to_message(&src)),
-            env: Some(env),
             envs: 4,
-            fragment_len: 16,
+            run: Some(run),
             ..Default::default()
         }
         .encode_to_vec(),
     );
     seeds.push(
         v1::JoinRequest {
-            api_version: 1,
+            api_version: v1::ApiVersion::V2 as u32,
             actor_name: "a".into(),
             envs: 2,
         }
@@ -584,6 +642,7 @@ fn proto_bytes() -> impl Strategy<Value = Vec<u8>> {
         vec![0x82, 0x01, 0x10, 0x00],
         vec![0xb2, 0x01, 0x02, 0x08, 0x01],
         vec![0xba, 0x01, 0x00],
+        vec![0x9a, 0x01, 0x02, 0x08, 0x01],
         vec![0x0d, 0x00, 0x00],
         vec![0x0f],
         vec![0x0c],
@@ -614,12 +673,21 @@ fn fuzz_decode() {
             accepted |= convert_parameters(m)?;
         }
         if let Some(m) = decode::<v1::JoinReply>(&b)? {
-            if let Some(env) = &m.env {
-                convert_env(env, m.seed)?;
+            if let Some(run) = m.run {
+                accepted |= convert_run(&run)?;
+                if let Some(env) = &run.env {
+                    convert_env(env, m.seed)?;
+                }
+                if let Some(map) = run.map {
+                    accepted |= convert_map(map)?;
+                }
             }
-            if let Some(map) = m.map {
-                accepted |= convert_map(map)?;
-            }
+        }
+        if let Some(m) = decode::<v1::RunSpec>(&b)? {
+            accepted |= convert_run(&m)?;
+        }
+        if let Some(m) = decode::<v1::ModelSpec>(&b)? {
+            accepted |= convert_model_spec(&m)?;
         }
         if let Some(m) = decode::<v1::EnvSettings>(&b)? {
             convert_env(&m, 1)?;
@@ -791,6 +859,66 @@ fn fuzz_env_settings() {
                 order_feature: flags[5],
             };
             convert_env(&m, seed)
+        },
+    );
+}
+
+/// Model specs of edge sizes and enum numbers, known, unspecified and
+/// unknown → `model_spec_from_message`: no panic; accepted specs are
+/// consistent and convert back to the message.
+#[test]
+fn fuzz_model_spec() {
+    // Mostly valid numbers, so that a share is accepted.
+    let size = || prop_oneof![3 => 1u32..6, 1 => edge_u32()];
+    let enum_value = || prop_oneof![6 => 1i32..3, 1 => 0i32..5, 1 => any::<i32>()];
+    let lstm = prop::option::of(
+        (size(), any::<[bool; 2]>()).prop_map(|(cells, b)| v1::LstmSpec {
+            cells,
+            prev_action: b[0],
+            prev_reward: b[1],
+        }),
+    );
+    let features = prop::option::of(any::<[bool; 5]>().prop_map(|b| v1::ObsFeatures {
+        path: b[0],
+        priority: b[1],
+        pressure: b[2],
+        intent: b[3],
+        order: b[4],
+    }));
+    let strategy = (
+        (
+            size(),
+            prop_oneof![2 => Just(1u32), 1 => size()],
+            size(),
+            size(),
+            edge_u32(),
+        ),
+        prop::collection::vec(size(), 0..4),
+        (enum_value(), enum_value(), enum_value(), enum_value()),
+        lstm,
+        features,
+        prop::collection::vec("\\PC{0,6}", 0..3),
+    );
+    run(
+        "model_spec",
+        strategy,
+        |(dims, hidden, enums, lstm, features, maps)| {
+            let m = v1::ModelSpec {
+                obs_dim: dims.0,
+                heads: dims.1,
+                actions: dims.2,
+                agents: dims.3,
+                sensor_range: dims.4,
+                hidden,
+                mode: enums.0,
+                activation: enums.1,
+                value: enums.2,
+                rules: enums.3,
+                lstm,
+                features,
+                maps,
+            };
+            convert_model_spec(&m)
         },
     );
 }

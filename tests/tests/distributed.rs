@@ -141,7 +141,7 @@ fn an_actor_refused_by_the_session_cap_waits_for_room_and_trains() {
         let mut client = LearnerClient::new(net.channel().await.unwrap());
         client
             .join(v1::JoinRequest {
-                api_version: 1,
+                api_version: v1::ApiVersion::V2 as u32,
                 actor_name: "idle".into(),
                 envs: 2,
             })
@@ -174,7 +174,7 @@ async fn raw_client(
     let mut client = LearnerClient::new(net.channel().await.unwrap());
     let join = client
         .join(v1::JoinRequest {
-            api_version: 1,
+            api_version: v1::ApiVersion::V2 as u32,
             actor_name: "raw".into(),
             envs: 2,
         })
@@ -308,15 +308,32 @@ fn malformed_fragments_get_a_status_naming_the_problem() {
         assert!(reply.accepted, "{reply:?}");
         expect(submit(good).await, Code::AlreadyExists, "already received");
 
-        let bad_join = client
-            .join(v1::JoinRequest {
-                api_version: 7,
-                ..Default::default()
-            })
-            .await;
-        let s = bad_join.unwrap_err();
-        assert_eq!(s.code(), Code::FailedPrecondition);
-        assert!(s.message().contains("API version 7"));
+        // Another API version: refused naming both versions and who must
+        // upgrade; v1 is the actor before the typed RunSpec.
+        for (version, expected) in [
+            (
+                v1::ApiVersion::V1 as u32,
+                "this actor speaks API v1, this learner speaks v2: upgrade the actor",
+            ),
+            (
+                0,
+                "this actor names no API version (api_version 0), this learner speaks v2: upgrade the actor",
+            ),
+            (
+                7,
+                "this actor speaks API v7, this learner speaks v2: upgrade the learner, or run an actor that speaks v2",
+            ),
+        ] {
+            let bad_join = client
+                .join(v1::JoinRequest {
+                    api_version: version,
+                    ..Default::default()
+                })
+                .await;
+            let s = bad_join.unwrap_err();
+            assert_eq!(s.code(), Code::FailedPrecondition, "{s:?}");
+            assert_eq!(s.message(), expected);
+        }
         let _ = join;
     });
     // The learner is unaffected: a real actor finishes the run.
@@ -342,7 +359,7 @@ fn a_token_is_required_when_set() {
         let mut client = LearnerClient::new(net.channel().await.unwrap());
         client
             .join(v1::JoinRequest {
-                api_version: 1,
+                api_version: v1::ApiVersion::V2 as u32,
                 ..Default::default()
             })
             .await

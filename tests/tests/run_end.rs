@@ -57,7 +57,7 @@ fn in_process_actors_see_the_end_as_a_ticket() {
 async fn join_as(client: &mut LearnerClient<Channel>, name: &str) -> v1::JoinReply {
     client
         .join(v1::JoinRequest {
-            api_version: 1,
+            api_version: v1::ApiVersion::V2 as u32,
             actor_name: name.into(),
             envs: 1,
         })
@@ -98,7 +98,7 @@ async fn end_seen_through_data_fields(channel: Channel) {
 
     let again = join_as(&mut client, "late").await;
     assert!(again.run_finished);
-    assert!(again.run_id.is_empty() && again.map.is_none());
+    assert!(again.run_id.is_empty() && again.run.is_none());
 
     let tag = WireTag {
         run_id: join.run_id.clone(),

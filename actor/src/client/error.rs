@@ -89,13 +89,11 @@ pub struct ConnectError {
 /// What in a join reply does not describe a run this actor can run.
 #[derive(Debug, thiserror::Error)]
 pub enum SetupError {
-    /// The model spec is not JSON of a [`ModelSpec`].
-    #[error("the model spec is not valid JSON")]
-    SpecJson(#[source] serde_json::Error),
     /// The model spec or the policy is inconsistent.
     #[error(transparent)]
     Policy(#[from] PolicyError),
-    /// A field is missing or out of range.
+    /// A field is missing or out of range (the run spec's fields among
+    /// them).
     #[error(transparent)]
     Convert(#[from] ConvertError),
     /// The map does not parse.

@@ -7,7 +7,9 @@ use std::sync::Arc;
 use buridan_env::error::error_chain;
 use buridan_env::VecEnv;
 use buridan_policy::{ActMode, Inference, ModelSpec, Policy};
-use buridan_proto::convert::{env_from_message, map_from_message, replay_from_message};
+use buridan_proto::convert::{
+    check_run_spec, env_from_message, map_from_message, replay_from_message, ConvertError,
+};
 use buridan_proto::env_convert::EnvSpec;
 use buridan_proto::v1;
 use rand::Rng;
@@ -99,7 +101,10 @@ pub(super) async fn reconnect_env(
 /// let model = ModelSpec::new(Mode::Ctde, 2, 11);
 /// let join = v1::JoinReply {
 ///     envs: 8,
-///     plant: Some(v1::PlantSettings { name: "plant:dissertation".into(), agents: 2, t_max: 1000 }),
+///     run: Some(v1::RunSpec {
+///         plant: Some(v1::PlantSettings { name: "plant:dissertation".into(), agents: 2, t_max: 1000 }),
+///         ..Default::default()
+///     }),
 ///     ..Default::default()
 /// };
 /// let mut env = EnvSpec { num_envs: 8, agents: 2, kind: ObsKind::Local, obs_dim: 11, num_actions: 3, t_max: 1000, name: "plant:dissertation".into() };
@@ -127,7 +132,11 @@ pub fn check_env_spec(
             format!("{:?} ({} policy)", run_kind, model.mode).to_lowercase(),
         ));
     }
-    let run_t_max = match (&join.plant, &join.env) {
+    let (plant, env_settings) = join
+        .run
+        .as_ref()
+        .map_or((None, None), |r| (r.plant.as_ref(), r.env.as_ref()));
+    let run_t_max = match (plant, env_settings) {
         (Some(p), _) => Some(p.t_max),
         (None, Some(e)) => Some(e.t_max),
         (None, None) => None,
@@ -151,7 +160,7 @@ pub fn check_env_spec(
             format!("at most {} (the policy heads' width)", model.actions),
         ));
     }
-    if let Some(plant) = &join.plant {
+    if let Some(plant) = plant {
         if env.name != plant.name {
             tracing::warn!(
                 env = %env.name,
@@ -173,7 +182,7 @@ pub fn build_remote_collector(
     options: &RemoteEnvOptions,
     attempt: u64,
 ) -> Result<Collector<ActorEnv>, SetupError> {
-    let spec = model_spec(join)?;
+    let (run, spec) = run_spec(join)?;
     let options = RemoteEnvOptions {
         mask_slots: Some(spec.actions),
         ..options.clone()
@@ -181,19 +190,31 @@ pub fn build_remote_collector(
     let seed = buridan_env::seed::remote_env_session(join.seed, attempt);
     let venv = RemoteEnv::connect(url, seed, &options)?;
     check_env_spec(venv.spec(), &spec, join)?;
-    collector_over(join, spec, Box::new(venv))
+    collector_over(join, run, spec, Box::new(venv))
 }
 
-fn model_spec(join: &v1::JoinReply) -> Result<ModelSpec, SetupError> {
-    let spec: ModelSpec =
-        serde_json::from_str(&join.model_spec_json).map_err(SetupError::SpecJson)?;
-    spec.validate()?;
-    Ok(spec)
+/// The run a join reply describes, checked ([`check_run_spec`]), and its
+/// model spec.
+///
+/// ```
+/// use buridan_actor::client::run_spec;
+/// use buridan_proto::v1;
+/// let join = v1::JoinReply { run: Some(v1::RunSpec::default()), ..Default::default() };
+/// let err = run_spec(&join).unwrap_err();
+/// assert_eq!(err.to_string(), "run.model is missing");
+/// ```
+pub fn run_spec(join: &v1::JoinReply) -> Result<(&v1::RunSpec, ModelSpec), SetupError> {
+    let run = join
+        .run
+        .as_ref()
+        .ok_or(ConvertError::Missing { field: "run" })?;
+    Ok((run, check_run_spec(run)?))
 }
 
 /// The collector of a join reply over `venv`.
 fn collector_over(
     join: &v1::JoinReply,
+    run: &v1::RunSpec,
     spec: ModelSpec,
     venv: ActorEnv,
 ) -> Result<Collector<ActorEnv>, SetupError> {
@@ -208,12 +229,12 @@ fn collector_over(
     Ok(Collector {
         id: join.actor_id,
         inference: Inference::new(policy, rows, buridan_env::seed::session_sampling(join.seed)),
-        behaviour: ActMode::rollout(join.greedy_mix),
+        behaviour: ActMode::rollout(run.greedy_mix),
         venv,
-        fragment_len: join.fragment_len as usize,
+        fragment_len: run.fragment_len as usize,
         // Nothing loaded yet: the first weights always load.
         version: u64::MAX,
-        shield: join
+        shield: run
             .shield_rollouts
             .then(|| RolloutShield::new(buridan_env::seed::session_sampling(join.seed))),
     })
@@ -223,26 +244,26 @@ fn collector_over(
 /// grid envs of its map (a plant run's envs are external: see
 /// [`build_remote_collector`]).
 pub fn build_collector(join: &v1::JoinReply) -> Result<Collector<ActorEnv>, SetupError> {
-    if let Some(plant) = &join.plant {
+    let (run, spec) = run_spec(join)?;
+    if let Some(plant) = &run.plant {
         return Err(SetupError::NeedsEnv {
             plant: plant.name.clone(),
             agents: plant.agents,
         });
     }
-    let spec = model_spec(join)?;
-    let map = map_from_message(join.map.clone().ok_or(SetupError::Missing("map"))?).parse()?;
+    let map = map_from_message(run.map.clone().ok_or(SetupError::Missing("map"))?).parse()?;
     let env = env_from_message(
-        join.env
+        run.env
             .as_ref()
             .ok_or(SetupError::Missing("env settings"))?,
         join.seed,
     )?;
     let kind = spec.mode.obs_kind();
-    let replay = join
+    let replay = run
         .replay
         .as_ref()
         .map(replay_from_message)
         .unwrap_or_default();
     let venv = VecEnv::new(Arc::new(map), env, join.envs as usize, kind, 1)?.boxed(replay)?;
-    collector_over(join, spec, venv)
+    collector_over(join, run, spec, venv)
 }

@@ -11,19 +11,18 @@ use super::{retryable, ActorError, ActorReport, Client, SessionEnd};
 
 type SubmitResult = Result<tonic::Response<v1::SubmitReply>, Status>;
 
-/// The observation encoding to send with: the one wanted if the learner
+/// The observation encoding to send with: the one wanted if the run spec
 /// lists it, else the cheaper packing it lists (codes, then LZ4), else raw
-/// (every learner reads raw, including those from before the field).
-/// Wanting raw always gets raw.
+/// (every learner reads raw). Wanting raw always gets raw.
 ///
 /// ```
 /// use buridan_actor::client::obs_encoding_for;
-/// use buridan_proto::v1::{JoinReply, ObsEncoding};
-/// let old = JoinReply::default();
-/// assert_eq!(obs_encoding_for(&old, ObsEncoding::Codes), ObsEncoding::Raw);
-/// let lz4_only = JoinReply { obs_encodings: vec![ObsEncoding::Lz4 as i32], ..Default::default() };
+/// use buridan_proto::v1::{ObsEncoding, RunSpec};
+/// let none = RunSpec::default();
+/// assert_eq!(obs_encoding_for(&none, ObsEncoding::Codes), ObsEncoding::Raw);
+/// let lz4_only = RunSpec { obs_encodings: vec![ObsEncoding::Lz4 as i32], ..Default::default() };
 /// assert_eq!(obs_encoding_for(&lz4_only, ObsEncoding::Codes), ObsEncoding::Lz4);
-/// let both = JoinReply {
+/// let both = RunSpec {
 ///     obs_encodings: vec![ObsEncoding::Codes as i32, ObsEncoding::Lz4 as i32],
 ///     ..Default::default()
 /// };
@@ -31,11 +30,11 @@ type SubmitResult = Result<tonic::Response<v1::SubmitReply>, Status>;
 /// assert_eq!(obs_encoding_for(&both, ObsEncoding::Codes), ObsEncoding::Codes);
 /// assert_eq!(obs_encoding_for(&both, ObsEncoding::Raw), ObsEncoding::Raw);
 /// ```
-pub fn obs_encoding_for(join: &v1::JoinReply, wanted: ObsEncoding) -> ObsEncoding {
+pub fn obs_encoding_for(run: &v1::RunSpec, wanted: ObsEncoding) -> ObsEncoding {
     if wanted == ObsEncoding::Raw {
         return ObsEncoding::Raw;
     }
-    let listed = |e: ObsEncoding| join.obs_encodings.contains(&(e as i32));
+    let listed = |e: ObsEncoding| run.obs_encodings.contains(&(e as i32));
     [wanted, ObsEncoding::Codes, ObsEncoding::Lz4]
         .into_iter()
         .find(|&e| listed(e))
@@ -56,8 +55,15 @@ pub(super) struct Submitter {
 }
 
 impl Submitter {
-    pub(super) fn new(client: Client, join: &v1::JoinReply, wanted: ObsEncoding) -> Self {
-        let encoding = obs_encoding_for(join, wanted);
+    /// A submitter for the session of `join`, whose checked run spec is
+    /// `run`.
+    pub(super) fn new(
+        client: Client,
+        join: &v1::JoinReply,
+        run: &v1::RunSpec,
+        wanted: ObsEncoding,
+    ) -> Self {
+        let encoding = obs_encoding_for(run, wanted);
         tracing::debug!(?encoding, "observation encoding");
         Self {
             client,
@@ -66,7 +72,7 @@ impl Submitter {
                 session: join.session,
                 seq: 0,
             },
-            pipelined: !join.on_policy,
+            pipelined: !run.on_policy,
             encoding,
             in_flight: None,
         }

@@ -17,37 +17,19 @@ use super::sessions::{SessionCap, SessionLimits, SessionTable};
 use crate::train::gate::{Gate, Refusal, Staleness};
 use crate::train::{Exchange, ExchangeError};
 
-/// What every joining actor is told (all but its session, id and seed).
+/// What every joining actor is told (all but its session, id and seed),
+/// and what the handlers check fragments against.
 #[derive(Debug, Clone)]
 pub struct RunInfo {
     /// This learner incarnation.
     pub run_id: String,
-    /// The run's TrainConfig as TOML.
-    pub config_toml: String,
-    /// The model spec as JSON.
-    pub model_spec_json: String,
-    /// The map's texts (`None` for a plant run).
-    pub map: Option<v1::MapSource>,
-    /// The env rules (`None` for a plant run).
-    pub env: Option<v1::EnvSettings>,
-    /// A plant run's label, agents and T_max (actors step an external env).
-    pub plant: Option<v1::PlantSettings>,
+    /// The run as every join reply describes it: model spec, map or plant,
+    /// env settings, fragment length, on-/off-policy, observation encodings.
+    pub spec: v1::RunSpec,
     /// Default envs per actor.
     pub envs_per_actor: u32,
     /// Largest envs an actor may ask for.
     pub max_envs: u32,
-    /// Steps per fragment.
-    pub fragment_len: u32,
-    /// PPO (true) or IMPALA.
-    pub on_policy: bool,
-    /// IMPALA's largest accepted policy lag.
-    pub max_policy_lag: u64,
-    /// IMPALA's greedy steps in rollouts (`impala.greedy_mix`).
-    pub greedy_mix: f32,
-    /// Rollouts through the collision shield (`shield_rollouts`).
-    pub shield_rollouts: bool,
-    /// Replay of failed episodes (`[replay]`; `None`: off).
-    pub replay: Option<v1::FailureReplay>,
     /// Base of the actors' env seeds.
     pub seed_base: u64,
     /// Observation floats per row.
@@ -158,10 +140,10 @@ impl Hub {
         limits: SessionLimits,
         plausibility: Plausibility,
     ) -> (Arc<Hub>, mpsc::Receiver<Fragment>) {
-        let staleness = if info.on_policy {
+        let staleness = if info.spec.on_policy {
             Staleness::OnPolicy
         } else {
-            Staleness::MaxLag(info.max_policy_lag)
+            Staleness::MaxLag(info.spec.max_policy_lag)
         };
         let (tx, rx) = mpsc::channel(capacity.max(1));
         let (params, _) = watch::channel(Arc::new(v1::Parameters {
@@ -386,19 +368,15 @@ mod tests {
     fn hub(capacity: usize) -> (Arc<Hub>, mpsc::Receiver<Fragment>) {
         let info = RunInfo {
             run_id: "test".into(),
-            config_toml: String::new(),
-            model_spec_json: String::new(),
-            map: Some(v1::MapSource::default()),
-            env: Some(v1::EnvSettings::default()),
-            plant: None,
+            spec: v1::RunSpec {
+                map: Some(v1::MapSource::default()),
+                env: Some(v1::EnvSettings::default()),
+                fragment_len: 1,
+                on_policy: true,
+                ..Default::default()
+            },
             envs_per_actor: 1,
             max_envs: 1,
-            fragment_len: 1,
-            on_policy: true,
-            max_policy_lag: 0,
-            greedy_mix: 0.0,
-            shield_rollouts: false,
-            replay: None,
             seed_base: 0,
             obs_dim: 1,
             heads: 1,

@@ -55,7 +55,9 @@ use std::time::Duration;
 
 use buridan_env::MapSource;
 use buridan_proto::codec::UNDECODABLE_METADATA;
-use buridan_proto::convert::{env_to_message, map_to_message, replay_to_message};
+use buridan_proto::convert::{
+    env_to_message, map_to_message, model_spec_to_message, replay_to_message,
+};
 use buridan_proto::v1;
 use buridan_proto::v1::learner_server::LearnerServer;
 use rand::Rng;
@@ -325,19 +327,21 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
     let run_id = format!("{name}-{:016x}", rand::rng().random::<u64>());
     Ok(RunInfo {
         run_id,
-        config_toml: cfg.to_toml(),
-        model_spec_json: serde_json::to_string(spec).expect("a model spec serialises"),
-        map,
-        env,
-        plant,
+        spec: v1::RunSpec {
+            model: Some(model_spec_to_message(spec)),
+            map,
+            env,
+            plant,
+            fragment_len: cfg.fragment_len as u32,
+            on_policy: cfg.on_policy(),
+            max_policy_lag: cfg.impala.max_policy_lag,
+            greedy_mix: cfg.behaviour().greedy_mix(),
+            shield_rollouts: cfg.shield_rollouts,
+            replay: replay_to_message(&cfg.replay),
+            obs_encodings: vec![v1::ObsEncoding::Codes as i32, v1::ObsEncoding::Lz4 as i32],
+        },
         envs_per_actor: cfg.envs_per_actor as u32,
         max_envs: opts.max_envs.max(cfg.envs_per_actor as u32),
-        fragment_len: cfg.fragment_len as u32,
-        on_policy: cfg.on_policy(),
-        max_policy_lag: cfg.impala.max_policy_lag,
-        greedy_mix: cfg.behaviour().greedy_mix(),
-        shield_rollouts: cfg.shield_rollouts,
-        replay: replay_to_message(&cfg.replay),
         seed_base: run.actor_seed(0),
         obs_dim: spec.obs_dim as u32,
         heads: spec.heads as u32,

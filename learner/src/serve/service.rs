@@ -80,12 +80,37 @@ impl LearnerService {
     }
 }
 
+/// The API version this learner speaks; a join of any other is refused.
+const API_VERSION: u32 = v1::ApiVersion::V2 as u32;
+
+/// The refusal of a join that speaks API version `got`: names both
+/// versions and the side to upgrade.
+///
+/// ```text
+/// this actor speaks API v1, this learner speaks v2: upgrade the actor
+/// ```
+fn version_refusal(got: u32) -> Status {
+    let message = match got {
+        0 => format!(
+            "this actor names no API version (api_version 0), this learner speaks v{API_VERSION}: upgrade the actor"
+        ),
+        v if v < API_VERSION => format!(
+            "this actor speaks API v{v}, this learner speaks v{API_VERSION}: upgrade the actor"
+        ),
+        v => format!(
+            "this actor speaks API v{v}, this learner speaks v{API_VERSION}: upgrade the learner, or run an actor that speaks v{API_VERSION}"
+        ),
+    };
+    tracing::warn!(api_version = got, "join refused: {message}");
+    Status::failed_precondition(message)
+}
+
 /// Bytes of observations in the largest fragment of the run: obs and at most
 /// as many final observations (one per truncated step), plus last_obs, for
 /// an actor with the most envs allowed.
 fn fragment_obs_bytes(info: &super::RunInfo) -> usize {
     let rows = u64::from(info.max_envs) * u64::from(info.rows_per_env);
-    let values = (2 * u64::from(info.fragment_len) + 1)
+    let values = (2 * u64::from(info.spec.fragment_len) + 1)
         .saturating_mul(rows)
         .saturating_mul(u64::from(info.obs_dim));
     usize::try_from(values.saturating_mul(4)).unwrap_or(usize::MAX)
@@ -133,12 +158,8 @@ impl Learner for LearnerService {
     ) -> Result<Response<v1::JoinReply>, Status> {
         let req = request.into_inner();
         let info = &self.hub.info;
-        if req.api_version != v1::ApiVersion::V1 as u32 {
-            return Err(Status::failed_precondition(format!(
-                "API version {} is not supported: this learner speaks version {}",
-                req.api_version,
-                v1::ApiVersion::V1 as u32
-            )));
+        if req.api_version != API_VERSION {
+            return Err(version_refusal(req.api_version));
         }
         if self.hub.finished() {
             return Ok(Response::new(v1::JoinReply {
@@ -173,20 +194,9 @@ impl Learner for LearnerService {
             run_id: info.run_id.clone(),
             session,
             actor_id: s.actor_id,
-            config_toml: info.config_toml.clone(),
-            model_spec_json: info.model_spec_json.clone(),
-            map: info.map.clone(),
             envs,
             seed: buridan_env::seed::session_env(info.seed_base, session),
-            fragment_len: info.fragment_len,
-            on_policy: info.on_policy,
-            max_policy_lag: info.max_policy_lag,
-            env: info.env.clone(),
-            plant: info.plant.clone(),
-            greedy_mix: info.greedy_mix,
-            shield_rollouts: info.shield_rollouts,
-            replay: info.replay,
-            obs_encodings: vec![v1::ObsEncoding::Codes as i32, v1::ObsEncoding::Lz4 as i32],
+            run: Some(info.spec.clone()),
             run_finished: false,
         }))
     }
@@ -245,7 +255,7 @@ impl Learner for LearnerService {
                 f.rows_per_env as u64,
                 u64::from(info.rows_per_env),
             ),
-            ("len", f.len as u64, u64::from(info.fragment_len)),
+            ("len", f.len as u64, u64::from(info.spec.fragment_len)),
             (
                 "rows",
                 f.rows as u64,
@@ -305,7 +315,7 @@ impl Learner for LearnerService {
                     accepted: false,
                     reason: refusal.to_string(),
                     learner_version: self.hub.version(),
-                    wait_for_next_version: self.hub.info.on_policy,
+                    wait_for_next_version: self.hub.info.spec.on_policy,
                     run_finished: false,
                 }));
             }
