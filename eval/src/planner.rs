@@ -1,6 +1,7 @@
 //! Classical planners of `buridan-mapf` as [`Controller`]s: plan once at the
 //! start of an episode within the limits, then follow the plan step by step.
 
+use buridan_mapf::Problem;
 use std::sync::Arc;
 
 use buridan_env::GridEnv;
@@ -49,12 +50,7 @@ impl Controller for PlannerController {
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
         self.plan = None;
         self.notes = PlanNotes::default();
-        let solved = self.planner.solve(
-            &env.map().grid,
-            &env.positions(),
-            &env.goals(),
-            &self.limits,
-        );
+        let solved = self.planner.solve(Problem::new(&env.map().grid, &env.positions(), &env.goals()), &self.limits);
         match solved {
             Ok(solution) => {
                 self.notes = PlanNotes {

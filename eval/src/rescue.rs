@@ -51,6 +51,7 @@
 //! While a plan is followed the inner controller does not act (a recurrent
 //! policy misses those steps' actions as inputs).
 
+use buridan_mapf::Problem;
 use std::sync::Arc;
 
 use buridan_env::GridEnv;
@@ -224,7 +225,7 @@ impl RescueController {
         };
         let solved = self
             .planner
-            .solve(&env.map().grid, &env.positions(), &env.goals(), &limits);
+            .solve(Problem::new(&env.map().grid, &env.positions(), &env.goals()), &limits);
         let planned = solved.ok().and_then(|solution| {
             let steps = plan_actions(&solution.plan).ok()?;
             Some((solution.plan, steps))

@@ -21,6 +21,7 @@
 //! track: the state after the wait is planned afresh, and the two plans'
 //! labels can close a cycle the policy then imitates faithfully.)
 
+use buridan_mapf::Problem;
 use std::collections::HashMap;
 use std::time::Duration;
 
@@ -155,7 +156,7 @@ impl Expert {
         let plan = self
             .planners
             .iter()
-            .find_map(|p| p.solve(grid, starts, goals, &self.limits).ok());
+            .find_map(|p| p.solve(Problem::new(grid, starts, goals), &self.limits).ok());
         let Some(solution) = plan else {
             self.failures += 1;
             self.known.insert(key.clone(), None);

@@ -6,6 +6,7 @@
 //! 8 agents: episodes 0..8 without episode 2, which plain CBS does not solve
 //! within 5 s (it would only measure the time limit).
 
+use buridan_mapf::Problem;
 use std::time::Duration;
 
 use buridan_env::{episode_instance, Map, Scenario, Starts};
@@ -24,7 +25,7 @@ fn solve_all(planner: &dyn Planner, map: &Map, set: &[Scenario]) -> usize {
     set.iter()
         .map(|s| {
             planner
-                .solve(&map.grid, &s.starts, &s.goals, &limits)
+                .solve(Problem::new(&map.grid, &s.starts, &s.goals), &limits)
                 .expect("benchmark instances are solvable")
                 .plan
                 .sum_of_costs()

@@ -6,6 +6,7 @@
 //! episodes 0..8 that LaCAM solves within 5 s (checked once at setup; the
 //! others would only measure the time limit).
 
+use buridan_mapf::Problem;
 use std::time::Duration;
 
 use buridan_env::{episode_instance, Map, Scenario, Starts};
@@ -18,7 +19,7 @@ fn instances(map: &Map, agents: usize) -> Vec<Scenario> {
         .map(|e| episode_instance(map, agents, Starts::Random, 42, e).unwrap())
         .filter(|s| {
             Lacam::default()
-                .solve(&map.grid, &s.starts, &s.goals, &quick)
+                .solve(Problem::new(&map.grid, &s.starts, &s.goals), &quick)
                 .is_ok()
         })
         .collect()
@@ -29,7 +30,7 @@ fn solve_all(map: &Map, set: &[Scenario]) -> usize {
     set.iter()
         .map(|s| {
             Lacam::default()
-                .solve(&map.grid, &s.starts, &s.goals, &limits)
+                .solve(Problem::new(&map.grid, &s.starts, &s.goals), &limits)
                 .expect("benchmark instances are solvable")
                 .plan
                 .sum_of_costs()

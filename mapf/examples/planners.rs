@@ -14,6 +14,7 @@
 //! successes. Every plan is validated under the env rules and replayed
 //! exactly in the env (the example panics otherwise).
 
+use buridan_mapf::Problem;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -56,7 +57,7 @@ fn main() {
                 let inst = episode_instance(&map, agents, Starts::Random, 42, e).unwrap();
                 let (s, g) = (&inst.starts, &inst.goals);
                 let clock = cpu_time::ThreadTime::now();
-                let result = planner.solve(&map.grid, s, g, &limits);
+                let result = planner.solve(Problem::new(&map.grid, s, g), &limits);
                 let seconds = clock.elapsed().as_secs_f64();
                 cpu.push(seconds);
                 let (status, makespan, cost) = match result {

@@ -29,6 +29,7 @@
 //!
 //! Every failure was a `TimeLimit`.
 
+use buridan_mapf::Problem;
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -117,7 +118,8 @@ fn main() {
                             }
                             let scen = episode_instance(map, 4, Starts::Random, 42, e).unwrap();
                             let t = Instant::now();
-                            let res = planner.solve(&map.grid, &scen.starts, &scen.goals, limits);
+                            let res = planner
+                                .solve(Problem::new(&map.grid, &scen.starts, &scen.goals), limits);
                             let seconds = t.elapsed().as_secs_f64();
                             let row = match res {
                                 Ok(sol) => {

@@ -23,11 +23,10 @@
 //! expands fewer nodes). An agent rests on its goal after arriving, so its
 //! path may only end after the last vertex constraint on its goal cell.
 
+use crate::Problem;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 use std::rc::Rc;
-
-use buridan_env::{Cell, Grid};
 
 use crate::graph::{distance_table, manhattan_table, Topology, NONE};
 use crate::limits::{Budget, Limits, SolveError};
@@ -55,13 +54,13 @@ pub enum LowLevelHeuristic {
 ///
 /// ```
 /// use buridan_env::Map;
-/// use buridan_mapf::{Cbs, Limits, Planner, ConflictModel};
+/// use buridan_mapf::{Cbs, Limits, Planner, ConflictModel, Problem};
 /// let map = Map::load("rm-1.1").unwrap();
 /// let scen = map.scenario.unwrap();
-/// let sol = Cbs::default().solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+/// let sol = Cbs::default().solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
 /// assert_eq!((sol.plan.sum_of_costs(), sol.plan.makespan()), (18, 10));
 /// let pure = Cbs { rules: ConflictModel::SIMULTANEOUS, ..Cbs::default() };
-/// let sol = pure.solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+/// let sol = pure.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
 /// assert_eq!(sol.plan.sum_of_costs(), 17);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -83,13 +82,13 @@ impl Cbs {
     ///
     /// ```
     /// use buridan_env::Map;
-    /// use buridan_mapf::{Cbs, Limits, Planner};
+    /// use buridan_mapf::{Cbs, Limits, Planner, Problem};
     /// let map = Map::load("rm-2.2").unwrap();
     /// let scen = map.scenario.unwrap();
     /// let cbs = Cbs::improved();
     /// assert_eq!(cbs.name(), "cbs-improved");
-    /// let sol = cbs.solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
-    /// let plain = Cbs::default().solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+    /// let sol = cbs.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
+    /// let plain = Cbs::default().solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
     /// assert_eq!(sol.plan.sum_of_costs(), plain.plan.sum_of_costs());
     /// assert!(sol.stats.expanded < plain.stats.expanded);
     /// ```
@@ -125,13 +124,12 @@ impl Planner for Cbs {
         }
     }
 
-    fn solve(
-        &self,
-        grid: &Grid,
-        starts: &[Cell],
-        goals: &[Cell],
-        limits: &Limits,
-    ) -> Result<Solution, SolveError> {
+    fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
+        let Problem {
+            grid,
+            starts,
+            goals,
+        } = problem;
         let mut budget = Budget::start(grid, starts, goals, limits)?;
         let topo = Topology::new(grid);
         let h = goals

@@ -63,18 +63,19 @@
 //! ```
 //! use std::sync::Arc;
 //! use buridan_env::Map;
-//! use buridan_mapf::{replay_exact, Cbs, Lacam, LacamStar, Limits, Planner};
+//! use buridan_mapf::{replay_exact, Cbs, Lacam, LacamStar, Limits, Planner, Problem};
 //! let map = Arc::new(Map::load("rm-1.1").unwrap());
 //! let scen = map.scenario.clone().unwrap();
 //! let (s, g) = (&scen.starts, &scen.goals);
-//! let fast = Lacam::default().solve(&map.grid, s, g, &Limits::default()).unwrap();
+//! let fast = Lacam::default().solve(Problem::new(&map.grid, s, g), &Limits::default()).unwrap();
 //! replay_exact(&map, s, g, &fast.plan, 1000).unwrap();
 //! let star = LacamStar::default().search(&map.grid, s, g, &Limits::default()).unwrap();
 //! assert!(star.proven_optimal);
-//! let cbs = Cbs::default().solve(&map.grid, s, g, &Limits::default()).unwrap();
+//! let cbs = Cbs::default().solve(Problem::new(&map.grid, s, g), &Limits::default()).unwrap();
 //! assert_eq!(star.solution.plan.sum_of_costs(), cbs.plan.sum_of_costs()); // 18
 //! ```
 
+use crate::Problem;
 use std::collections::VecDeque;
 use std::time::Duration;
 
@@ -106,11 +107,11 @@ pub enum Objective {
 ///
 /// ```
 /// use buridan_env::{Cell, Grid};
-/// use buridan_mapf::{Lacam, Limits, Planner, SolveError};
+/// use buridan_mapf::{Lacam, Limits, Planner, SolveError, Problem};
 /// // Two agents cannot swap in a corridor: LaCAM proves it.
 /// let grid = Grid::from_rows(&["..."]).unwrap();
 /// let (s, g) = ([Cell::new(0, 0), Cell::new(0, 1)], [Cell::new(0, 1), Cell::new(0, 0)]);
-/// let err = Lacam::default().solve(&grid, &s, &g, &Limits::default()).unwrap_err();
+/// let err = Lacam::default().solve(Problem::new(&grid, &s, &g), &Limits::default()).unwrap_err();
 /// assert_eq!(err, SolveError::NoSolution);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -225,13 +226,12 @@ impl Planner for Lacam {
         }
     }
 
-    fn solve(
-        &self,
-        grid: &Grid,
-        starts: &[Cell],
-        goals: &[Cell],
-        limits: &Limits,
-    ) -> Result<Solution, SolveError> {
+    fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
+        let Problem {
+            grid,
+            starts,
+            goals,
+        } = problem;
         let setup = Setup::new(grid, starts, goals)?;
         Search::new(&setup, self.generator(), None, limits)
             .run()
@@ -298,13 +298,12 @@ impl Planner for LacamStar {
         }
     }
 
-    fn solve(
-        &self,
-        grid: &Grid,
-        starts: &[Cell],
-        goals: &[Cell],
-        limits: &Limits,
-    ) -> Result<Solution, SolveError> {
+    fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
+        let Problem {
+            grid,
+            starts,
+            goals,
+        } = problem;
         self.search(grid, starts, goals, limits).map(|o| o.solution)
     }
 }

@@ -67,12 +67,12 @@
 //! ```
 //! use std::sync::Arc;
 //! use buridan_env::Map;
-//! use buridan_mapf::{replay, validate_with, Cbs, Limits, Planner, ConflictModel};
+//! use buridan_mapf::{replay, validate_with, Cbs, Limits, Planner, ConflictModel, Problem};
 //! let map = Arc::new(Map::load("rm-1.1").unwrap());
 //! let scen = map.scenario.clone().unwrap();
 //! let (s, g) = (&scen.starts, &scen.goals);
 //!
-//! let sol = Cbs::default().solve(&map.grid, s, g, &Limits::default()).unwrap();
+//! let sol = Cbs::default().solve(Problem::new(&map.grid, s, g), &Limits::default()).unwrap();
 //! validate_with(&map.grid, s, g, &sol.plan, ConflictModel::ENV_EXECUTABLE).unwrap();
 //! let r = replay(&map, s, g, &sol.plan, 100).unwrap();
 //! assert!(r.is_exact(sol.plan.makespan()));
@@ -81,7 +81,7 @@
 //! // Pure simultaneous semantics: makespan 9, but agent 0 follows agent 1
 //! // (whichever agent ducks into the aisle), which the env blocks.
 //! let fast = Cbs { rules: ConflictModel::SIMULTANEOUS, ..Cbs::default() };
-//! let sol = fast.solve(&map.grid, s, g, &Limits::default()).unwrap();
+//! let sol = fast.solve(Problem::new(&map.grid, s, g), &Limits::default()).unwrap();
 //! assert_eq!((sol.plan.makespan(), sol.plan.sum_of_costs()), (9, 17));
 //! let r = replay(&map, s, g, &sol.plan, 100).unwrap();
 //! assert_eq!((r.blocked_following[0].follower, r.blocked_following[0].leader), (0, 1));
@@ -116,6 +116,7 @@ pub mod pibt;
 pub mod plan;
 pub mod planner;
 pub mod prioritized;
+mod problem;
 pub mod replay;
 pub mod rules;
 pub mod shield;
@@ -133,6 +134,7 @@ pub use planner::{
     planner_by_name, planner_for_rules, Planner, PlannerLookupError, Portfolio, Solution, Stats,
 };
 pub use prioritized::Prioritized;
+pub use problem::Problem;
 pub use replay::{
     replay, replay_exact, replay_exact_with, replay_with, BlockedFollowing, Divergence,
     ReplayError, ReplayResult,

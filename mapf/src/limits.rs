@@ -65,9 +65,9 @@ impl Limits {
 ///
 /// ```
 /// use buridan_env::{Cell, Grid};
-/// use buridan_mapf::{Cbs, InstanceError, Limits, Planner, SolveError};
+/// use buridan_mapf::{Cbs, InstanceError, Limits, Planner, SolveError, Problem};
 /// let grid = Grid::from_rows(&[".@."]).unwrap();
-/// let err = Cbs::default().solve(&grid, &[Cell::new(0, 1)], &[Cell::new(0, 0)], &Limits::default()).unwrap_err();
+/// let err = Cbs::default().solve(Problem::new(&grid, &[Cell::new(0, 1)], &[Cell::new(0, 0)]), &Limits::default()).unwrap_err();
 /// assert!(matches!(err, SolveError::Instance(InstanceError::BadCell { agent: 0, which: "start", .. })));
 /// ```
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

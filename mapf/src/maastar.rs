@@ -16,12 +16,11 @@
 //! admissible and consistent, so with them the plan has the optimal makespan
 //! (under the chosen [`ConflictModel`]).
 
+use crate::Problem;
 use std::cmp::Reverse;
 use std::collections::hash_map::Entry;
 use std::collections::BinaryHeap;
 use std::hash::Hash;
-
-use buridan_env::{Cell, Grid};
 
 use crate::graph::{distance_table, manhattan_table, FastMap, Topology, NONE};
 use crate::limits::{Budget, Limits, SolveError};
@@ -51,14 +50,14 @@ pub enum Heuristic {
 ///
 /// ```
 /// use buridan_env::Map;
-/// use buridan_mapf::{Heuristic, Limits, MaAstar, Planner, ConflictModel};
+/// use buridan_mapf::{Heuristic, Limits, MaAstar, Planner, ConflictModel, Problem};
 /// let map = Map::load("rm-1.1").unwrap();
 /// let scen = map.scenario.unwrap();
 /// let optimal = MaAstar { heuristic: Heuristic::MaxDistance, rules: ConflictModel::default() };
-/// let sol = optimal.solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+/// let sol = optimal.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
 /// assert_eq!(sol.plan.makespan(), 10); // 9 needs a following move the env blocks
 /// let simultaneous = MaAstar { heuristic: Heuristic::MaxDistance, rules: ConflictModel::SIMULTANEOUS };
-/// let sol = simultaneous.solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+/// let sol = simultaneous.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
 /// assert_eq!(sol.plan.makespan(), 9);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -100,13 +99,12 @@ impl Planner for MaAstar {
         }
     }
 
-    fn solve(
-        &self,
-        grid: &Grid,
-        starts: &[Cell],
-        goals: &[Cell],
-        limits: &Limits,
-    ) -> Result<Solution, SolveError> {
+    fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
+        let Problem {
+            grid,
+            starts,
+            goals,
+        } = problem;
         let mut budget = Budget::start(grid, starts, goals, limits)?;
         let topo = Topology::new(grid);
         let h: Vec<Vec<u32>> = goals

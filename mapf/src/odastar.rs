@@ -68,27 +68,28 @@
 //! ```
 //! use std::sync::Arc;
 //! use buridan_env::Map;
-//! use buridan_mapf::{replay_exact, Heuristic, Limits, MaAstar, OdAstar, Planner};
+//! use buridan_mapf::{replay_exact, Heuristic, Limits, MaAstar, OdAstar, Planner, Problem};
 //! let map = Arc::new(Map::load("rm-1.1").unwrap());
 //! let scen = map.scenario.clone().unwrap();
 //! let (s, g) = (&scen.starts, &scen.goals);
-//! let od = OdAstar::default().solve(&map.grid, s, g, &Limits::default()).unwrap();
+//! let od = OdAstar::default().solve(Problem::new(&map.grid, s, g), &Limits::default()).unwrap();
 //! replay_exact(&map, s, g, &od.plan, 100).unwrap();
 //! // The same optimal makespan as MA-A* with the same heuristic (SPEC: 10).
 //! let ma = MaAstar::with_heuristic(Heuristic::MaxDistance);
-//! let reference = ma.solve(&map.grid, s, g, &Limits::default()).unwrap();
+//! let reference = ma.solve(Problem::new(&map.grid, s, g), &Limits::default()).unwrap();
 //! assert_eq!(od.plan.makespan(), reference.plan.makespan());
 //! assert_eq!(od.plan.makespan(), 10);
 //! // Sum of costs: CBS's optimum (18).
-//! let soc = OdAstar::sum_of_loss().solve(&map.grid, s, g, &Limits::default()).unwrap();
+//! let soc = OdAstar::sum_of_loss().solve(Problem::new(&map.grid, s, g), &Limits::default()).unwrap();
 //! assert_eq!(soc.plan.sum_of_costs(), 18);
 //! ```
 
+use crate::Problem;
 use std::cmp::Reverse;
 use std::collections::hash_map::Entry;
 use std::collections::BinaryHeap;
 
-use buridan_env::{Cell, Grid};
+use buridan_env::Cell;
 
 use crate::graph::{distance_table, FastMap, Topology, NONE};
 use crate::lacam::Objective;
@@ -102,11 +103,11 @@ use crate::planner::{Planner, Solution};
 ///
 /// ```
 /// use buridan_env::{Cell, Grid};
-/// use buridan_mapf::{Limits, OdAstar, Planner, SolveError};
+/// use buridan_mapf::{Limits, OdAstar, Planner, SolveError, Problem};
 /// // Two agents cannot swap in a corridor: the search proves it.
 /// let grid = Grid::from_rows(&["..."]).unwrap();
 /// let (s, g) = ([Cell::new(0, 0), Cell::new(0, 1)], [Cell::new(0, 1), Cell::new(0, 0)]);
-/// let err = OdAstar::default().solve(&grid, &s, &g, &Limits::default()).unwrap_err();
+/// let err = OdAstar::default().solve(Problem::new(&grid, &s, &g), &Limits::default()).unwrap_err();
 /// assert_eq!(err, SolveError::NoSolution);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -152,13 +153,12 @@ impl Planner for OdAstar {
         }
     }
 
-    fn solve(
-        &self,
-        grid: &Grid,
-        starts: &[Cell],
-        goals: &[Cell],
-        limits: &Limits,
-    ) -> Result<Solution, SolveError> {
+    fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
+        let Problem {
+            grid,
+            starts,
+            goals,
+        } = problem;
         let mut budget = Budget::start(grid, starts, goals, limits)?;
         let topo = Topology::new(grid);
         let n = starts.len();

@@ -92,10 +92,10 @@
 //!
 //! ```
 //! use buridan_env::Map;
-//! use buridan_mapf::{replay_exact, validate_with, Limits, Pibt, Planner, ConflictModel};
+//! use buridan_mapf::{replay_exact, validate_with, Limits, Pibt, Planner, ConflictModel, Problem};
 //! let map = std::sync::Arc::new(Map::load("rm-2.1").unwrap());
 //! let scen = map.scenario.clone().unwrap();
-//! let sol = Pibt::default().solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+//! let sol = Pibt::default().solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
 //! validate_with(&map.grid, &scen.starts, &scen.goals, &sol.plan, ConflictModel::ENV_EXECUTABLE).unwrap();
 //! replay_exact(&map, &scen.starts, &scen.goals, &sol.plan, 1000).unwrap();
 //! ```
@@ -104,7 +104,7 @@ mod generator;
 mod setup;
 mod swap;
 
-use buridan_env::{Cell, Grid};
+use crate::Problem;
 
 pub(crate) use generator::{Generator, Preference, TieBreaker};
 pub(crate) use setup::{online_step, Setup};
@@ -121,12 +121,12 @@ use crate::rules::ConflictModel;
 ///
 /// ```
 /// use buridan_env::{Cell, Grid};
-/// use buridan_mapf::{Limits, Pibt, Planner, SolveError};
+/// use buridan_mapf::{Limits, Pibt, Planner, SolveError, Problem};
 /// // Two agents must swap in a corridor: impossible, PIBT gives up.
 /// let grid = Grid::from_rows(&["..."]).unwrap();
 /// let (s, g) = ([Cell::new(0, 0), Cell::new(0, 1)], [Cell::new(0, 1), Cell::new(0, 0)]);
 /// let pibt = Pibt { max_steps: 50, ..Pibt::default() };
-/// let err = pibt.solve(&grid, &s, &g, &Limits::default()).unwrap_err();
+/// let err = pibt.solve(Problem::new(&grid, &s, &g), &Limits::default()).unwrap_err();
 /// assert_eq!(err, SolveError::StepLimit { steps: 50 });
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -168,13 +168,12 @@ impl Planner for Pibt {
         }
     }
 
-    fn solve(
-        &self,
-        grid: &Grid,
-        starts: &[Cell],
-        goals: &[Cell],
-        limits: &Limits,
-    ) -> Result<Solution, SolveError> {
+    fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
+        let Problem {
+            grid,
+            starts,
+            goals,
+        } = problem;
         let setup = Setup::new(grid, starts, goals)?;
         let mut budget = Budget::new(limits);
         let max_steps = limits

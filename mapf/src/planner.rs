@@ -1,8 +1,7 @@
 //! The [`Planner`] trait every baseline implements, and its result types.
 
+use crate::Problem;
 use std::time::Duration;
-
-use buridan_env::{Cell, Grid};
 
 use crate::limits::{Limits, SolveError};
 use crate::plan::Plan;
@@ -36,10 +35,10 @@ pub struct Stats {
 ///
 /// ```
 /// use buridan_env::Map;
-/// use buridan_mapf::{Cbs, Limits, Planner};
+/// use buridan_mapf::{Cbs, Limits, Planner, Problem};
 /// let map = Map::load("rm-1.1").unwrap();
 /// let scen = map.scenario.unwrap();
-/// let sol = Cbs::default().solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+/// let sol = Cbs::default().solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
 /// assert_eq!(sol.plan.sum_of_costs(), 18);
 /// assert!(sol.stats.expanded >= 1);
 /// ```
@@ -56,13 +55,13 @@ pub struct Solution {
 ///
 /// ```
 /// use buridan_env::Map;
-/// use buridan_mapf::{planner_by_name, Limits, Planner};
+/// use buridan_mapf::{planner_by_name, Limits, Planner, Problem};
 /// let map = Map::load("rm-1.3").unwrap();
 /// let scen = map.scenario.unwrap();
 /// let mut makespans = Vec::new();
 /// for name in ["ma-astar", "cbs"] {
 ///     let planner: Box<dyn Planner> = planner_by_name(name).unwrap();
-///     let sol = planner.solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+///     let sol = planner.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
 ///     makespans.push(sol.plan.makespan());
 /// }
 /// // SPEC's MA-A* heuristic is inadmissible: 8 steps; CBS's plan needs 7.
@@ -74,13 +73,7 @@ pub trait Planner: Send + Sync {
 
     /// Plans conflict-free paths from `starts[i]` to `goals[i]` on `grid`
     /// within `limits`.
-    fn solve(
-        &self,
-        grid: &Grid,
-        starts: &[Cell],
-        goals: &[Cell],
-        limits: &Limits,
-    ) -> Result<Solution, SolveError>;
+    fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError>;
 
     /// The conflict model its plans satisfy; [`ConflictModel::rule_set`] names the
     /// env rule set that executes them exactly. The default is the thesis
@@ -250,15 +243,15 @@ fn build(name: &str, rules: ConflictModel) -> Result<Box<dyn Planner>, PlannerLo
 ///
 /// ```
 /// use buridan_env::Map;
-/// use buridan_mapf::{Lacam, Limits, OdAstar, Planner, Portfolio};
+/// use buridan_mapf::{Lacam, Limits, OdAstar, Planner, Portfolio, Problem};
 /// let map = Map::load("rm-1.1").unwrap();
 /// let scen = map.scenario.unwrap();
 /// let both = Portfolio::new(vec![Box::new(Lacam::default()), Box::new(OdAstar::default())]);
-/// let sol = both.solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+/// let sol = both.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
 /// assert!(sol.plan.makespan() >= 10);
 /// // Within a cap of 10 steps: OD-A*'s optimal plan if LaCAM's is longer.
 /// let capped = Limits { max_makespan: Some(10), ..Limits::default() };
-/// let sol = both.solve(&map.grid, &scen.starts, &scen.goals, &capped).unwrap();
+/// let sol = both.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &capped).unwrap();
 /// assert_eq!(sol.plan.makespan(), 10);
 /// ```
 pub struct Portfolio {
@@ -300,13 +293,12 @@ impl Planner for Portfolio {
         }
     }
 
-    fn solve(
-        &self,
-        grid: &Grid,
-        starts: &[Cell],
-        goals: &[Cell],
-        limits: &Limits,
-    ) -> Result<Solution, SolveError> {
+    fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
+        let Problem {
+            grid,
+            starts,
+            goals,
+        } = problem;
         let clock = crate::limits::Budget::new(limits);
         let cap = limits.max_makespan.unwrap_or(usize::MAX);
         let mut last = SolveError::NoSolution;
@@ -317,7 +309,7 @@ impl Planner for Portfolio {
                 time: left / (self.planners.len() - k) as u32,
                 ..*limits
             };
-            match planner.solve(grid, starts, goals, &share) {
+            match planner.solve(Problem::new(grid, starts, goals), &share) {
                 Ok(mut sol) if sol.plan.makespan() <= cap => {
                     sol.stats.wall_time = clock.elapsed();
                     return Ok(sol);

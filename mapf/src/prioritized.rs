@@ -29,17 +29,17 @@
 //! ```
 //! use std::sync::Arc;
 //! use buridan_env::Map;
-//! use buridan_mapf::{replay_exact, Limits, Planner, Prioritized};
+//! use buridan_mapf::{replay_exact, Limits, Planner, Prioritized, Problem};
 //! let map = Arc::new(Map::load("rm-2.2").unwrap());
 //! let scen = map.scenario.clone().unwrap();
 //! let sol = Prioritized::default()
-//!     .solve(&map.grid, &scen.starts, &scen.goals, &Limits::default())
+//!     .solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default())
 //!     .unwrap();
 //! replay_exact(&map, &scen.starts, &scen.goals, &sol.plan, 100).unwrap();
 //! assert!(sol.stats.expanded >= 1); // orders tried
 //! ```
 
-use buridan_env::{Cell, Grid};
+use crate::Problem;
 
 use crate::graph::{distance_table, FastSet, Topology};
 use crate::limits::{Budget, Limits, SolveError};
@@ -86,13 +86,12 @@ impl Planner for Prioritized {
         }
     }
 
-    fn solve(
-        &self,
-        grid: &Grid,
-        starts: &[Cell],
-        goals: &[Cell],
-        limits: &Limits,
-    ) -> Result<Solution, SolveError> {
+    fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
+        let Problem {
+            grid,
+            starts,
+            goals,
+        } = problem;
         let mut budget = Budget::start(grid, starts, goals, limits)?;
         let topo = Topology::new(grid);
         let h: Vec<Vec<u32>> = goals.iter().map(|&g| distance_table(grid, g)).collect();

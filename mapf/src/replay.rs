@@ -111,10 +111,10 @@ pub struct Divergence {
 ///
 /// ```
 /// use buridan_env::Map;
-/// use buridan_mapf::{replay, Cbs, Limits, Planner};
+/// use buridan_mapf::{replay, Cbs, Limits, Planner, Problem};
 /// let map = std::sync::Arc::new(Map::load("rm-1.3").unwrap());
 /// let scen = map.scenario.clone().unwrap();
-/// let sol = Cbs::default().solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+/// let sol = Cbs::default().solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
 /// let r = replay(&map, &scen.starts, &scen.goals, &sol.plan, 100).unwrap();
 /// assert!(r.is_exact(sol.plan.makespan()));
 /// assert_eq!(r.terminated_at, Some(7));
@@ -257,10 +257,10 @@ pub fn blocked_following(plan: &Plan) -> Vec<BlockedFollowing> {
 ///
 /// ```
 /// use buridan_env::Map;
-/// use buridan_mapf::{replay, MaAstar, Limits, Planner};
+/// use buridan_mapf::{replay, MaAstar, Limits, Planner, Problem};
 /// let map = std::sync::Arc::new(Map::load("rm-1.1").unwrap());
 /// let scen = map.scenario.clone().unwrap();
-/// let sol = MaAstar::default().solve(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+/// let sol = MaAstar::default().solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
 /// let r = replay(&map, &scen.starts, &scen.goals, &sol.plan, 100).unwrap();
 /// assert!(r.is_exact(sol.plan.makespan()));
 /// ```

@@ -5,6 +5,7 @@
 
 mod common;
 
+use buridan_mapf::Problem;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -42,7 +43,7 @@ fn lacam_and_lacam_star_solve_every_fixed_scenario() {
         for planner in planners {
             let ctx = format!("{} on {}", planner.name(), model.id);
             let sol = planner
-                .solve(&map.grid, s, g, &limits(20))
+                .solve(Problem::new(&map.grid, s, g), &limits(20))
                 .unwrap_or_else(|e| panic!("{ctx}: {e}"));
             check(
                 &map.grid,
@@ -61,7 +62,7 @@ fn lacam_and_lacam_star_solve_every_fixed_scenario() {
             );
         }
         // PIBT is incomplete: any plan it finds must still be exact.
-        match Pibt::default().solve(&map.grid, s, g, &limits(20)) {
+        match Pibt::default().solve(Problem::new(&map.grid, s, g), &limits(20)) {
             Ok(sol) => check(
                 &map.grid,
                 s,
@@ -85,7 +86,9 @@ fn lacam_star_reaches_cbs_optimum_on_fixed_scenarios() {
         let map = Map::load(id).unwrap();
         let scen = map.scenario.clone().unwrap();
         let (s, g) = (&scen.starts, &scen.goals);
-        let cbs = Cbs::default().solve(&map.grid, s, g, &limits(20)).unwrap();
+        let cbs = Cbs::default()
+            .solve(Problem::new(&map.grid, s, g), &limits(20))
+            .unwrap();
         let out = star(Objective::SumOfLoss, ConflictModel::ENV_EXECUTABLE)
             .search(&map.grid, s, g, &limits(60))
             .unwrap();
@@ -134,12 +137,13 @@ fn lacam_family_matches_brute_force_on_random_tiny_instances() {
                 None => {
                     unsolvable += 1;
                     assert_eq!(
-                        lacam.solve(&grid, &s, &g, &limits(60)),
+                        lacam.solve(Problem::new(&grid, &s, &g), &limits(60)),
                         Err(SolveError::NoSolution),
                         "{ctx}"
                     );
                     assert_eq!(
-                        star(Objective::SumOfLoss, rules).solve(&grid, &s, &g, &limits(60)),
+                        star(Objective::SumOfLoss, rules)
+                            .solve(Problem::new(&grid, &s, &g), &limits(60)),
                         Err(SolveError::NoSolution),
                         "{ctx}"
                     );
@@ -147,7 +151,9 @@ fn lacam_family_matches_brute_force_on_random_tiny_instances() {
                 Some(best_makespan) => {
                     solvable += 1;
                     let best_soc = optimal_soc(&grid, &s, &g, follow).unwrap();
-                    let sol = lacam.solve(&grid, &s, &g, &limits(60)).unwrap();
+                    let sol = lacam
+                        .solve(Problem::new(&grid, &s, &g), &limits(60))
+                        .unwrap();
                     check(&grid, &s, &g, &sol.plan, rules, &ctx);
                     let m = star(Objective::Makespan, rules)
                         .search(&grid, &s, &g, &limits(60))
@@ -195,7 +201,9 @@ fn crafted_swaps_in_dead_ends_and_proven_unsolvable_instances() {
     for (grid, s, g) in cases {
         let ctx = format!("{s:?} -> {g:?}");
         let best = optimal_soc(grid, &s, &g, true).unwrap();
-        let sol = Lacam::default().solve(grid, &s, &g, &limits(20)).unwrap();
+        let sol = Lacam::default()
+            .solve(Problem::new(grid, &s, &g), &limits(20))
+            .unwrap();
         check(grid, &s, &g, &sol.plan, ConflictModel::ENV_EXECUTABLE, &ctx);
         let out = star(Objective::SumOfLoss, ConflictModel::ENV_EXECUTABLE)
             .search(grid, &s, &g, &limits(20))
@@ -218,7 +226,7 @@ fn crafted_swaps_in_dead_ends_and_proven_unsolvable_instances() {
         Box::new(LacamStar::default()),
     ] {
         assert_eq!(
-            planner.solve(&corridor, &s, &g, &limits(20)),
+            planner.solve(Problem::new(&corridor, &s, &g), &limits(20)),
             Err(SolveError::NoSolution)
         );
     }
@@ -228,7 +236,7 @@ fn crafted_swaps_in_dead_ends_and_proven_unsolvable_instances() {
     let ring = [c(0, 0), c(0, 1), c(1, 1), c(1, 0)];
     let goals = [ring[1], ring[2], ring[3], ring[0]];
     assert_eq!(
-        Lacam::default().solve(&square, &ring, &goals, &limits(20)),
+        Lacam::default().solve(Problem::new(&square, &ring, &goals), &limits(20)),
         Err(SolveError::NoSolution)
     );
     let simultaneous = Lacam {
@@ -236,7 +244,7 @@ fn crafted_swaps_in_dead_ends_and_proven_unsolvable_instances() {
         ..Lacam::default()
     };
     let sol = simultaneous
-        .solve(&square, &ring, &goals, &limits(20))
+        .solve(Problem::new(&square, &ring, &goals), &limits(20))
         .unwrap();
     validate_with(
         &square,
@@ -281,7 +289,7 @@ fn lacam_plans_a_dead_end_reordering_with_the_swap_operation() {
         let g: Vec<Cell> = agents.iter().map(|a| a.1).collect();
         let ctx = format!("dead-end reordering, starts {s:?}");
         let sol = Lacam::default()
-            .solve(&grid, &s, &g, &tight)
+            .solve(Problem::new(&grid, &s, &g), &tight)
             .unwrap_or_else(|e| panic!("{ctx}: {e}"));
         check(
             &grid,
@@ -297,7 +305,7 @@ fn lacam_plans_a_dead_end_reordering_with_the_swap_operation() {
             sol.plan.makespan()
         );
         let star = LacamStar::default()
-            .solve(&grid, &s, &g, &tight)
+            .solve(Problem::new(&grid, &s, &g), &tight)
             .unwrap_or_else(|e| panic!("{ctx}: {e}"));
         check(
             &grid,
@@ -313,7 +321,7 @@ fn lacam_plans_a_dead_end_reordering_with_the_swap_operation() {
             ..Pibt::default()
         };
         let sol = pibt
-            .solve(&grid, &s, &g, &tight)
+            .solve(Problem::new(&grid, &s, &g), &tight)
             .unwrap_or_else(|e| panic!("{ctx}: pibt with swap: {e}"));
         check(
             &grid,
@@ -325,7 +333,9 @@ fn lacam_plans_a_dead_end_reordering_with_the_swap_operation() {
         );
         // Without it PIBT livelocks and LaCAM needs a far larger search.
         assert!(
-            Pibt::default().solve(&grid, &s, &g, &tight).is_err(),
+            Pibt::default()
+                .solve(Problem::new(&grid, &s, &g), &tight)
+                .is_err(),
             "{ctx}"
         );
         let no_swap = Lacam {
@@ -334,7 +344,7 @@ fn lacam_plans_a_dead_end_reordering_with_the_swap_operation() {
         };
         assert!(
             matches!(
-                no_swap.solve(&grid, &s, &g, &tight),
+                no_swap.solve(Problem::new(&grid, &s, &g), &tight),
                 Err(SolveError::NodeLimit { .. })
             ),
             "{ctx}"
@@ -364,7 +374,7 @@ fn lacam_solves_random_warehouse_episodes_and_plans_replay() {
             let inst = episode_instance(&map, agents, Starts::Random, 42, e).unwrap();
             let (s, g) = (&inst.starts, &inst.goals);
             let ctx = format!("lacam {id} {agents} agents episode {e}");
-            match Lacam::default().solve(&map.grid, s, g, &limits(2)) {
+            match Lacam::default().solve(Problem::new(&map.grid, s, g), &limits(2)) {
                 Ok(sol) => check(
                     &map.grid,
                     s,
@@ -376,7 +386,7 @@ fn lacam_solves_random_warehouse_episodes_and_plans_replay() {
                 Err(SolveError::TimeLimit { .. }) => failures.push(ctx),
                 Err(err) => panic!("{ctx}: {err}"),
             }
-            if let Ok(sol) = Pibt::default().solve(&map.grid, s, g, &limits(2)) {
+            if let Ok(sol) = Pibt::default().solve(Problem::new(&map.grid, s, g), &limits(2)) {
                 check(
                     &map.grid,
                     s,
@@ -405,29 +415,32 @@ fn bad_instances_and_limits_give_typed_errors() {
     for p in &planners {
         let l = Limits::default();
         assert!(matches!(
-            p.solve(&grid, &[c(0, 0)], &[], &l),
+            p.solve(Problem::new(&grid, &[c(0, 0)], &[]), &l),
             Err(SolveError::Instance(InstanceError::LengthMismatch { .. }))
         ));
         assert!(matches!(
-            p.solve(&grid, &[c(0, 2)], &[c(0, 0)], &l),
+            p.solve(Problem::new(&grid, &[c(0, 2)], &[c(0, 0)]), &l),
             Err(SolveError::Instance(InstanceError::BadCell { .. }))
         ));
         assert!(matches!(
-            p.solve(&grid, &[c(0, 0)], &[c(9, 9)], &l),
+            p.solve(Problem::new(&grid, &[c(0, 0)], &[c(9, 9)]), &l),
             Err(SolveError::Instance(InstanceError::BadCell { .. }))
         ));
         assert!(matches!(
-            p.solve(&grid, &[c(0, 0), c(0, 0)], &[c(1, 0), c(1, 1)], &l),
+            p.solve(
+                Problem::new(&grid, &[c(0, 0), c(0, 0)], &[c(1, 0), c(1, 1)]),
+                &l
+            ),
             Err(SolveError::Instance(InstanceError::SharedCell { .. }))
         ));
         // An unreachable goal.
         let split = Grid::from_rows(&[".@."]).unwrap();
         assert_eq!(
-            p.solve(&split, &[c(0, 0)], &[c(0, 2)], &l),
+            p.solve(Problem::new(&split, &[c(0, 0)], &[c(0, 2)]), &l),
             Err(SolveError::NoSolution)
         );
         // No agents at all: the empty plan.
-        let sol = p.solve(&grid, &[], &[], &l).unwrap();
+        let sol = p.solve(Problem::new(&grid, &[], &[]), &l).unwrap();
         assert_eq!(sol.plan.agents(), 0);
     }
     // A node cap on a large unsolvable search ends it.
@@ -439,11 +452,11 @@ fn bad_instances_and_limits_give_typed_errors() {
         ..Limits::default()
     };
     assert_eq!(
-        Lacam::default().solve(&corridor, &s, &g, &capped),
+        Lacam::default().solve(Problem::new(&corridor, &s, &g), &capped),
         Err(SolveError::NodeLimit { expanded: 50 })
     );
     assert_eq!(
-        Lacam::default().solve(&corridor, &s, &g, &Limits::default()),
+        Lacam::default().solve(Problem::new(&corridor, &s, &g), &Limits::default()),
         Err(SolveError::NoSolution)
     );
     // A tiny memory budget ends it too.
@@ -452,7 +465,7 @@ fn bad_instances_and_limits_give_typed_errors() {
         ..Limits::default()
     };
     assert!(matches!(
-        Lacam::default().solve(&corridor, &s, &g, &small),
+        Lacam::default().solve(Problem::new(&corridor, &s, &g), &small),
         Err(SolveError::MemoryLimit {
             limit_bytes: 4096,
             ..
@@ -497,10 +510,12 @@ fn random_restarts_plan_the_dead_end_instance_depth_first_search_misses() {
         ..Lacam::default()
     };
     assert!(matches!(
-        no_restarts.solve(&map.grid, s, g, &tight),
+        no_restarts.solve(Problem::new(&map.grid, s, g), &tight),
         Err(SolveError::NodeLimit { .. })
     ));
-    let sol = Lacam::default().solve(&map.grid, s, g, &tight).unwrap();
+    let sol = Lacam::default()
+        .solve(Problem::new(&map.grid, s, g), &tight)
+        .unwrap();
     assert!(
         sol.stats.expanded < 20_000,
         "{} iterations",

@@ -1,6 +1,7 @@
 //! Limits are honoured with typed errors; malformed and trivial instances;
 //! planners are usable through `dyn Planner` from several threads.
 
+use buridan_mapf::Problem;
 use std::time::{Duration, Instant};
 
 use buridan_env::{episode_instance, Cell, Grid, Map, Starts};
@@ -29,7 +30,7 @@ fn time_limit_is_honoured_on_a_hard_instance() {
     let limits = Limits::with_time(Duration::from_millis(200));
     for planner in planners() {
         let t = Instant::now();
-        let res = planner.solve(&map.grid, &scen.starts, &scen.goals, &limits);
+        let res = planner.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &limits);
         let wall = t.elapsed();
         match res {
             Err(SolveError::TimeLimit { elapsed, .. }) => {
@@ -62,7 +63,7 @@ fn memory_and_node_limits() {
         memory_bytes: 1 << 20,
         ..Limits::with_time(Duration::from_secs(20))
     };
-    match MaAstar::default().solve(&grid, &starts, &goals, &small) {
+    match MaAstar::default().solve(Problem::new(&grid, &starts, &goals), &small) {
         Err(SolveError::MemoryLimit {
             estimated_bytes,
             limit_bytes,
@@ -78,7 +79,7 @@ fn memory_and_node_limits() {
         ..Limits::with_time(Duration::from_secs(20))
     };
     assert!(matches!(
-        Cbs::default().solve(&map.grid, &scen.starts, &scen.goals, &tiny),
+        Cbs::default().solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &tiny),
         Err(SolveError::MemoryLimit { .. })
     ));
     // The node cap, on rm-1.4 (four agents crossing; every planner needs
@@ -91,7 +92,7 @@ fn memory_and_node_limits() {
     };
     for planner in planners() {
         assert_eq!(
-            planner.solve(&map.grid, &scen.starts, &scen.goals, &few),
+            planner.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &few),
             Err(SolveError::NodeLimit { expanded: 10 }),
             "{}",
             planner.name()
@@ -106,7 +107,7 @@ fn unreachable_goals_and_makespan_caps() {
     let (s, g) = ([Cell::new(0, 0)], [Cell::new(1, 2)]);
     for planner in planners() {
         assert_eq!(
-            planner.solve(&grid, &s, &g, &Limits::default()),
+            planner.solve(Problem::new(&grid, &s, &g), &Limits::default()),
             Err(SolveError::NoSolution),
             "{}",
             planner.name()
@@ -126,13 +127,13 @@ fn unreachable_goals_and_makespan_caps() {
         &Cbs::default(),
     ] {
         assert_eq!(
-            planner.solve(&map.grid, &scen.starts, &scen.goals, &cap(9)),
+            planner.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &cap(9)),
             Err(SolveError::NoSolutionWithin { max_makespan: 9 }),
             "{}",
             planner.name()
         );
         let sol = planner
-            .solve(&map.grid, &scen.starts, &scen.goals, &cap(10))
+            .solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &cap(10))
             .unwrap();
         assert_eq!(sol.plan.makespan(), 10);
     }
@@ -144,17 +145,17 @@ fn unreachable_goals_and_makespan_caps() {
         [Cell::new(0, 1), Cell::new(0, 0)],
     );
     assert_eq!(
-        MaAstar::default().solve(&corridor, &s, &g, &Limits::default()),
+        MaAstar::default().solve(Problem::new(&corridor, &s, &g), &Limits::default()),
         Err(SolveError::NoSolution)
     );
     assert_eq!(
-        Cbs::default().solve(&corridor, &s, &g, &cap(8)),
+        Cbs::default().solve(Problem::new(&corridor, &s, &g), &cap(8)),
         Err(SolveError::NoSolutionWithin { max_makespan: 8 })
     );
     // Without a cap CBS runs into the time limit instead of hanging.
     let quick = Limits::with_time(Duration::from_millis(100));
     assert!(matches!(
-        Cbs::default().solve(&corridor, &s, &g, &quick),
+        Cbs::default().solve(Problem::new(&corridor, &s, &g), &quick),
         Err(SolveError::TimeLimit { .. }) | Err(SolveError::MemoryLimit { .. })
     ));
 }
@@ -165,7 +166,8 @@ fn malformed_instances_are_typed_errors() {
     let a = Cell::new(0, 0);
     let b = Cell::new(0, 2);
     for planner in planners() {
-        let solve = |s: &[Cell], g: &[Cell]| planner.solve(&grid, s, g, &Limits::default());
+        let solve =
+            |s: &[Cell], g: &[Cell]| planner.solve(Problem::new(&grid, s, g), &Limits::default());
         assert_eq!(
             solve(&[a], &[b, a]),
             Err(SolveError::Instance(InstanceError::LengthMismatch {
@@ -204,10 +206,14 @@ fn malformed_instances_are_typed_errors() {
 fn trivial_instances() {
     let grid = Grid::from_rows(&["...", "..."]).unwrap();
     for planner in planners() {
-        let sol = planner.solve(&grid, &[], &[], &Limits::default()).unwrap();
+        let sol = planner
+            .solve(Problem::new(&grid, &[], &[]), &Limits::default())
+            .unwrap();
         assert_eq!((sol.plan.agents(), sol.plan.makespan()), (0, 0));
         let s = [Cell::new(0, 0), Cell::new(1, 2)];
-        let sol = planner.solve(&grid, &s, &s, &Limits::default()).unwrap();
+        let sol = planner
+            .solve(Problem::new(&grid, &s, &s), &Limits::default())
+            .unwrap();
         assert_eq!(sol.plan.paths, vec![vec![s[0]], vec![s[1]]]);
         assert_eq!(sol.plan.sum_of_costs(), 0);
     }
@@ -232,7 +238,7 @@ fn planners_are_send_sync_and_callable_through_the_trait_from_threads() {
                     let scen = episode_instance(map, 4, Starts::Random, 42, episode).unwrap();
                     let limits = Limits::with_time(Duration::from_secs(20));
                     let sol = planner
-                        .solve(&map.grid, &scen.starts, &scen.goals, &limits)
+                        .solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &limits)
                         .unwrap();
                     validate_with(
                         &map.grid,

@@ -3,6 +3,7 @@
 //! CBS and LaCAM without PIBT's swap operation do not find within seconds;
 //! the makespan cap and the portfolio around it.
 
+use buridan_mapf::Problem;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -25,12 +26,12 @@ fn solves_a_dead_end_ordering_with_the_optimal_makespan() {
     let (map, s, g) = dead_end_episode();
     let limits = Limits::with_time(Duration::from_secs(30));
     let od = OdAstar::default()
-        .solve(&map.grid, &s, &g, &limits)
+        .solve(Problem::new(&map.grid, &s, &g), &limits)
         .unwrap();
     let replayed = replay_exact(&map, &s, &g, &od.plan, 100).unwrap();
     assert!(replayed.success);
     let reference = MaAstar::with_heuristic(Heuristic::MaxDistance)
-        .solve(&map.grid, &s, &g, &limits)
+        .solve(Problem::new(&map.grid, &s, &g), &limits)
         .unwrap();
     assert_eq!(od.plan.makespan(), reference.plan.makespan());
     assert_eq!(od.plan.makespan(), 33);
@@ -47,11 +48,11 @@ fn a_makespan_cap_below_the_optimum_is_proven_unreachable() {
         ..Limits::with_time(Duration::from_secs(30))
     };
     assert_eq!(
-        OdAstar::default().solve(&map.grid, s, g, &capped(9)),
+        OdAstar::default().solve(Problem::new(&map.grid, s, g), &capped(9)),
         Err(SolveError::NoSolutionWithin { max_makespan: 9 })
     );
     let sol = OdAstar::default()
-        .solve(&map.grid, s, g, &capped(10))
+        .solve(Problem::new(&map.grid, s, g), &capped(10))
         .unwrap();
     assert_eq!(sol.plan.makespan(), 10);
 }
@@ -65,7 +66,10 @@ fn every_fixed_scenario_replays_exactly() {
         let scen = map.scenario.clone().unwrap();
         let (s, g) = (&scen.starts, &scen.goals);
         let sol = OdAstar::default()
-            .solve(&map.grid, s, g, &Limits::with_time(Duration::from_secs(30)))
+            .solve(
+                Problem::new(&map.grid, s, g),
+                &Limits::with_time(Duration::from_secs(30)),
+            )
             .unwrap_or_else(|e| panic!("{id}: {e}"));
         replay_exact(&map, s, g, &sol.plan, 1000).unwrap_or_else(|e| panic!("{id}: {e}"));
     }
@@ -85,15 +89,17 @@ fn the_portfolio_passes_on_what_lacam_does_not_finish() {
         ..Lacam::default()
     };
     assert!(matches!(
-        no_swap.solve(&map.grid, &s, &g, &tight),
+        no_swap.solve(Problem::new(&map.grid, &s, &g), &tight),
         Err(SolveError::NodeLimit { .. })
     ));
     let both = Portfolio::new(vec![Box::new(no_swap), Box::new(OdAstar::default())]);
-    let sol = both.solve(&map.grid, &s, &g, &tight).unwrap();
+    let sol = both.solve(Problem::new(&map.grid, &s, &g), &tight).unwrap();
     replay_exact(&map, &s, &g, &sol.plan, 100).unwrap();
     assert_eq!(sol.plan.makespan(), 33);
     let lacam = planner_by_name("lacam").unwrap();
-    let sol = lacam.solve(&map.grid, &s, &g, &tight).unwrap();
+    let sol = lacam
+        .solve(Problem::new(&map.grid, &s, &g), &tight)
+        .unwrap();
     assert!(replay_exact(&map, &s, &g, &sol.plan, 100).unwrap().success);
 }
 
@@ -101,12 +107,15 @@ fn the_portfolio_passes_on_what_lacam_does_not_finish() {
 fn empty_and_single_agent_instances_are_planned() {
     let grid = buridan_env::Grid::from_rows(&["....", ".@..", "...."]).unwrap();
     let none = OdAstar::default()
-        .solve(&grid, &[], &[], &Limits::default())
+        .solve(Problem::new(&grid, &[], &[]), &Limits::default())
         .unwrap();
     assert_eq!(none.plan.agents(), 0);
     let c = buridan_env::Cell::new;
     let one = OdAstar::default()
-        .solve(&grid, &[c(0, 0)], &[c(2, 3)], &Limits::default())
+        .solve(
+            Problem::new(&grid, &[c(0, 0)], &[c(2, 3)]),
+            &Limits::default(),
+        )
         .unwrap();
     assert_eq!(one.plan.makespan(), 5);
 }

@@ -5,6 +5,7 @@
 
 mod common;
 
+use buridan_mapf::Problem;
 use std::time::Duration;
 
 use buridan_env::{Cell, Grid, Map};
@@ -51,7 +52,7 @@ fn check_instance(
             tally.solvable += 1;
             for cbs in cbs_variants {
                 let sol = cbs
-                    .solve(grid, starts, goals, &limits())
+                    .solve(Problem::new(grid, starts, goals), &limits())
                     .unwrap_or_else(|e| panic!("{}: {e} on {ctx}", cbs.name()));
                 validate_with(grid, starts, goals, &sol.plan, rules)
                     .unwrap_or_else(|e| panic!("{e} on {ctx}"));
@@ -59,7 +60,9 @@ fn check_instance(
                 assert!(sol.plan.makespan() >= makespan);
             }
             for h in [Heuristic::MaxManhattan, Heuristic::MaxDistance] {
-                let sol = astar(h).solve(grid, starts, goals, &limits()).unwrap();
+                let sol = astar(h)
+                    .solve(Problem::new(grid, starts, goals), &limits())
+                    .unwrap();
                 validate_with(grid, starts, goals, &sol.plan, rules)
                     .unwrap_or_else(|e| panic!("{e} on {ctx}"));
                 assert_eq!(sol.plan.makespan(), makespan, "{h:?} makespan on {ctx}");
@@ -67,13 +70,13 @@ fn check_instance(
             }
             if rules == ConflictModel::ENV_EXECUTABLE {
                 let sol = OdAstar::default()
-                    .solve(grid, starts, goals, &limits())
+                    .solve(Problem::new(grid, starts, goals), &limits())
                     .unwrap();
                 validate_with(grid, starts, goals, &sol.plan, rules)
                     .unwrap_or_else(|e| panic!("od-astar: {e} on {ctx}"));
                 assert_eq!(sol.plan.makespan(), makespan, "od-astar makespan on {ctx}");
                 let soc_plan = OdAstar::sum_of_loss()
-                    .solve(grid, starts, goals, &limits())
+                    .solve(Problem::new(grid, starts, goals), &limits())
                     .unwrap();
                 validate_with(grid, starts, goals, &soc_plan.plan, rules)
                     .unwrap_or_else(|e| panic!("od-astar-soc: {e} on {ctx}"));
@@ -84,7 +87,7 @@ fn check_instance(
             }
             // SPEC's inadmissible Σ Manhattan: valid, never better than optimal.
             let sol = astar(Heuristic::SumManhattan)
-                .solve(grid, starts, goals, &limits())
+                .solve(Problem::new(grid, starts, goals), &limits())
                 .unwrap();
             validate_with(grid, starts, goals, &sol.plan, rules)
                 .unwrap_or_else(|e| panic!("{e} on {ctx}"));
@@ -99,7 +102,7 @@ fn check_instance(
                 Heuristic::MaxDistance,
             ] {
                 assert_eq!(
-                    astar(h).solve(grid, starts, goals, &limits()),
+                    astar(h).solve(Problem::new(grid, starts, goals), &limits()),
                     Err(SolveError::NoSolution),
                     "{ctx}"
                 );
@@ -107,7 +110,7 @@ fn check_instance(
             if rules == ConflictModel::ENV_EXECUTABLE {
                 for od in [OdAstar::default(), OdAstar::sum_of_loss()] {
                     assert_eq!(
-                        od.solve(grid, starts, goals, &limits()),
+                        od.solve(Problem::new(grid, starts, goals), &limits()),
                         Err(SolveError::NoSolution),
                         "{} on {ctx}",
                         od.name()
@@ -120,7 +123,7 @@ fn check_instance(
                 ..limits()
             };
             for cbs in cbs_variants {
-                let res = cbs.solve(grid, starts, goals, &capped);
+                let res = cbs.solve(Problem::new(grid, starts, goals), &capped);
                 assert!(
                     matches!(
                         res,

@@ -4,6 +4,7 @@
 //! on the benchmark's warehouse instances, every plan replayed in the env
 //! under pogema rules.
 
+use buridan_mapf::Problem;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
@@ -46,7 +47,7 @@ fn plan_and_replay(name: &str, rules: RuleSet, map: &Arc<Map>, s: &[Cell], g: &[
     let planner = planner_for_rules(name, rules).unwrap();
     assert_eq!(planner.rules(), ConflictModel::from(rules), "{name}");
     let sol = planner
-        .solve(&map.grid, s, g, &limits(10))
+        .solve(Problem::new(&map.grid, s, g), &limits(10))
         .unwrap_or_else(|e| panic!("{name} under {rules}: {e}"));
     validate_with(&map.grid, s, g, &sol.plan, rules.into())
         .unwrap_or_else(|e| panic!("{name} under {rules}: {e}"));
@@ -94,7 +95,7 @@ fn a_rotation_is_one_step_under_pogema_and_unsolvable_under_thesis() {
     for name in ["lacam", "lacam-star"] {
         let thesis = planner_for_rules(name, RuleSet::Thesis).unwrap();
         assert_eq!(
-            thesis.solve(&map.grid, &ring, &goals, &limits(10)),
+            thesis.solve(Problem::new(&map.grid, &ring, &goals), &limits(10)),
             Err(SolveError::NoSolution),
             "{name}"
         );
@@ -102,7 +103,7 @@ fn a_rotation_is_one_step_under_pogema_and_unsolvable_under_thesis() {
     // The pogema plan does not replay under thesis rules: nobody can move.
     let sol = planner_for_rules("lacam", RuleSet::Pogema)
         .unwrap()
-        .solve(&map.grid, &ring, &goals, &limits(10))
+        .solve(Problem::new(&map.grid, &ring, &goals), &limits(10))
         .unwrap();
     let r = replay_with(&map, &ring, &goals, &sol.plan, 100, RuleSet::Thesis).unwrap();
     assert!(!r.is_exact(1) && !r.blocked_following.is_empty(), "{r:?}");
@@ -207,7 +208,9 @@ fn lacam_solves_pogema_warehouse_instances_and_plans_replay() {
             buridan_env::map::parse_scen(&path.display().to_string(), &text, &map.grid).unwrap();
         let (s, g) = (&scen.starts, &scen.goals);
         assert_eq!(s.len(), 32);
-        let sol = lacam.solve(&map.grid, s, g, &limits(10)).unwrap();
+        let sol = lacam
+            .solve(Problem::new(&map.grid, s, g), &limits(10))
+            .unwrap();
         validate_with(&map.grid, s, g, &sol.plan, ConflictModel::SIMULTANEOUS).unwrap();
         assert!(
             sol.plan.makespan() <= 128,

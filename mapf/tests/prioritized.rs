@@ -4,6 +4,7 @@
 
 mod common;
 
+use buridan_mapf::Problem;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -31,7 +32,7 @@ fn plans_on_random_grids_are_valid_under_both_rules() {
                 rules,
                 ..Prioritized::default()
             };
-            match pp.solve(&grid, &s, &g, &limits(200)) {
+            match pp.solve(Problem::new(&grid, &s, &g), &limits(200)) {
                 Ok(sol) => {
                     check(
                         &grid,
@@ -68,7 +69,7 @@ fn plans_are_never_shorter_than_the_optimum() {
         let Some(best) = optimal_makespan(&grid, &s, &g, true) else {
             continue;
         };
-        if let Ok(sol) = Prioritized::default().solve(&grid, &s, &g, &limits(200)) {
+        if let Ok(sol) = Prioritized::default().solve(Problem::new(&grid, &s, &g), &limits(200)) {
             assert!(
                 sol.plan.makespan() >= best,
                 "{} < optimum {best}",
@@ -86,7 +87,10 @@ fn fixed_scenarios_are_solved_or_every_order_is_shown_to_fail() {
     for model in REFERENCE_MODELS {
         let map = model.load();
         let scen = map.scenario.clone().unwrap();
-        match Prioritized::default().solve(&map.grid, &scen.starts, &scen.goals, &limits(2_000)) {
+        match Prioritized::default().solve(
+            Problem::new(&map.grid, &scen.starts, &scen.goals),
+            &limits(2_000),
+        ) {
             Ok(sol) => check(
                 &map.grid,
                 &scen.starts,
@@ -123,11 +127,12 @@ fn random_restarts_solve_crowded_instances_the_first_order_cannot() {
             max_nodes: Some(1),
             ..limits(1_000)
         };
-        if let Ok(sol) = Prioritized::default().solve(&map.grid, s, g, &one) {
+        if let Ok(sol) = Prioritized::default().solve(Problem::new(&map.grid, s, g), &one) {
             assert_eq!(sol.stats.expanded, 1);
             first_order += 1;
         }
-        if let Ok(sol) = Prioritized::default().solve(&map.grid, s, g, &limits(1_000)) {
+        if let Ok(sol) = Prioritized::default().solve(Problem::new(&map.grid, s, g), &limits(1_000))
+        {
             check(
                 &map.grid,
                 s,
@@ -151,7 +156,7 @@ fn the_makespan_cap_holds_and_a_cap_below_the_distance_is_a_proof() {
     let inst = episode_instance(&map, 8, Starts::Random, 42, 0).unwrap();
     let (s, g) = (&inst.starts, &inst.goals);
     let free = Prioritized::default()
-        .solve(&map.grid, s, g, &limits(1_000))
+        .solve(Problem::new(&map.grid, s, g), &limits(1_000))
         .unwrap();
     let longest = (0..s.len())
         .map(|i| map.grid.distances_to(g[i])[map.grid.index(s[i])] as usize)
@@ -162,7 +167,7 @@ fn the_makespan_cap_holds_and_a_cap_below_the_distance_is_a_proof() {
         ..limits(1_000)
     };
     let sol = Prioritized::default()
-        .solve(&map.grid, s, g, &capped)
+        .solve(Problem::new(&map.grid, s, g), &capped)
         .unwrap();
     assert!(sol.plan.makespan() <= free.plan.makespan());
     let too_short = Limits {
@@ -170,7 +175,7 @@ fn the_makespan_cap_holds_and_a_cap_below_the_distance_is_a_proof() {
         ..limits(1_000)
     };
     assert!(matches!(
-        Prioritized::default().solve(&map.grid, s, g, &too_short),
+        Prioritized::default().solve(Problem::new(&map.grid, s, g), &too_short),
         Err(SolveError::NoSolutionWithin { max_makespan }) if max_makespan == longest - 1
     ));
 }
@@ -180,8 +185,8 @@ fn the_same_instance_gives_the_same_plan() {
     let map = Arc::new(Map::load("rm-3.1").unwrap());
     let inst = episode_instance(&map, 16, Starts::Random, 42, 3).unwrap();
     let (s, g) = (&inst.starts, &inst.goals);
-    let a = Prioritized::default().solve(&map.grid, s, g, &limits(2_000));
-    let b = Prioritized::default().solve(&map.grid, s, g, &limits(2_000));
+    let a = Prioritized::default().solve(Problem::new(&map.grid, s, g), &limits(2_000));
+    let b = Prioritized::default().solve(Problem::new(&map.grid, s, g), &limits(2_000));
     match (a, b) {
         (Ok(a), Ok(b)) => assert_eq!(a.plan, b.plan),
         (a, b) => panic!("{:?} / {:?}", a.map(|s| s.stats), b.map(|s| s.stats)),

@@ -2,6 +2,7 @@
 //! plan found, plan valid, replay in the environment exact; hand-derived
 //! makespans and sums of costs on rm-1.1, rm-1.2 and rm-1.3.
 
+use buridan_mapf::Problem;
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Duration;
@@ -56,7 +57,7 @@ fn run_all(planner: &dyn Planner, hard: &[&str]) -> HashMap<String, Plan> {
         let scen = map.scenario.clone().unwrap();
         let is_hard = hard.contains(&model.id);
         let limits = Limits::with_time(if is_hard { HARD_LIMIT } else { EASY_LIMIT });
-        match planner.solve(&map.grid, &scen.starts, &scen.goals, &limits) {
+        match planner.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &limits) {
             Ok(sol) => {
                 check_plan(&map, &sol.plan, planner.name());
                 eprintln!(
@@ -115,7 +116,10 @@ fn solve(planner: &dyn Planner, id: &str) -> (Arc<Map>, Plan) {
     let map = Arc::new(Map::load(id).unwrap());
     let scen = map.scenario.clone().unwrap();
     let sol = planner
-        .solve(&map.grid, &scen.starts, &scen.goals, &Limits::default())
+        .solve(
+            Problem::new(&map.grid, &scen.starts, &scen.goals),
+            &Limits::default(),
+        )
         .unwrap();
     (map, sol.plan)
 }
@@ -260,7 +264,7 @@ fn survey() {
         let map = model.load();
         let scen = map.scenario.clone().unwrap();
         for p in planners {
-            match p.solve(&map.grid, &scen.starts, &scen.goals, &limits) {
+            match p.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &limits) {
                 Ok(sol) => eprintln!(
                     "{:22} {:8} n={} makespan {:3} SoC {:3} expanded {:8} generated {:10} low-level {:9} {:?}",
                     p.name(),

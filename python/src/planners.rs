@@ -1,6 +1,7 @@
 //! The classical planners of `buridan-mapf` (`plan`, `Plan`) and the
 //! evaluation harness of `buridan-eval` (`evaluate`).
 
+use buridan_mapf::Problem;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -257,7 +258,7 @@ pub fn plan(
         g.truncate(n);
     }
     let grid = &map.grid;
-    let solved = py.detach(|| solver.solve(grid, &s, &g, &limits));
+    let solved = py.detach(|| solver.solve(Problem::new(grid, &s, &g), &limits));
     let solution = solved.map_err(solve_err)?;
     Ok(PyPlan {
         plan: solution.plan,
