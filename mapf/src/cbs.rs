@@ -125,12 +125,8 @@ impl Planner for Cbs {
     }
 
     fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
-        let Problem {
-            grid,
-            starts,
-            goals,
-        } = problem;
-        let mut budget = Budget::start(grid, starts, goals, limits)?;
+        let mut budget = Budget::start(problem, limits)?;
+        let (grid, starts, goals) = (problem.grid, problem.starts, problem.goals);
         let topo = Topology::new(grid);
         let h = goals
             .iter()

@@ -227,12 +227,7 @@ impl Planner for Lacam {
     }
 
     fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
-        let Problem {
-            grid,
-            starts,
-            goals,
-        } = problem;
-        let setup = Setup::new(grid, starts, goals)?;
+        let setup = Setup::new(problem.grid, problem.starts, problem.goals)?;
         Search::new(&setup, self.generator(), None, limits)
             .run()
             .map(|o| o.solution)
@@ -299,12 +294,8 @@ impl Planner for LacamStar {
     }
 
     fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
-        let Problem {
-            grid,
-            starts,
-            goals,
-        } = problem;
-        self.search(grid, starts, goals, limits).map(|o| o.solution)
+        self.search(problem.grid, problem.starts, problem.goals, limits)
+            .map(|o| o.solution)
     }
 }
 

@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 use buridan_env::{Cell, Grid};
 
 use crate::planner::Stats;
+use crate::Problem;
 
 /// How much a solver may spend. Checked regularly (the clock every 256
 /// expansions and every 4096 generated joint moves or low-level nodes), so a
@@ -248,12 +249,8 @@ impl Budget {
     /// ([`check_instance`]), every goal reachable on the static grid (else
     /// [`SolveError::NoSolution`]) — and the budget, started before the
     /// reachability check so that it counts against the time limit.
-    pub fn start(
-        grid: &Grid,
-        starts: &[Cell],
-        goals: &[Cell],
-        limits: &Limits,
-    ) -> Result<Self, SolveError> {
+    pub fn start(problem: Problem<'_>, limits: &Limits) -> Result<Self, SolveError> {
+        let (grid, starts, goals) = (problem.grid, problem.starts, problem.goals);
         check_instance(grid, starts, goals)?;
         let budget = Self::new(limits);
         if !goals_reachable(grid, starts, goals) {

@@ -154,12 +154,8 @@ impl Planner for OdAstar {
     }
 
     fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
-        let Problem {
-            grid,
-            starts,
-            goals,
-        } = problem;
-        let mut budget = Budget::start(grid, starts, goals, limits)?;
+        let mut budget = Budget::start(problem, limits)?;
+        let (grid, starts, goals) = (problem.grid, problem.starts, problem.goals);
         let topo = Topology::new(grid);
         let n = starts.len();
         // The key holds the n cells and the next agent's index.

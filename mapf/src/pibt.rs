@@ -169,17 +169,12 @@ impl Planner for Pibt {
     }
 
     fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
-        let Problem {
-            grid,
-            starts,
-            goals,
-        } = problem;
-        let setup = Setup::new(grid, starts, goals)?;
+        let setup = Setup::new(problem.grid, problem.starts, problem.goals)?;
         let mut budget = Budget::new(limits);
         let max_steps = limits
             .max_makespan
             .map_or(self.max_steps, |m| m.min(self.max_steps));
-        let n = starts.len();
+        let n = problem.agents();
         let mut gen = Generator::new(&setup.topo, self.rules, self.seed);
         if self.swap {
             gen = gen.with_swap(&setup.dist, &setup.goals);

@@ -294,11 +294,6 @@ impl Planner for Portfolio {
     }
 
     fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
-        let Problem {
-            grid,
-            starts,
-            goals,
-        } = problem;
         let clock = crate::limits::Budget::new(limits);
         let cap = limits.max_makespan.unwrap_or(usize::MAX);
         let mut last = SolveError::NoSolution;
@@ -309,7 +304,7 @@ impl Planner for Portfolio {
                 time: left / (self.planners.len() - k) as u32,
                 ..*limits
             };
-            match planner.solve(Problem::new(grid, starts, goals), &share) {
+            match planner.solve(problem, &share) {
                 Ok(mut sol) if sol.plan.makespan() <= cap => {
                     sol.stats.wall_time = clock.elapsed();
                     return Ok(sol);

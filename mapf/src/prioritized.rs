@@ -87,12 +87,8 @@ impl Planner for Prioritized {
     }
 
     fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
-        let Problem {
-            grid,
-            starts,
-            goals,
-        } = problem;
-        let mut budget = Budget::start(grid, starts, goals, limits)?;
+        let mut budget = Budget::start(problem, limits)?;
+        let (grid, starts, goals) = (problem.grid, problem.starts, problem.goals);
         let topo = Topology::new(grid);
         let h: Vec<Vec<u32>> = goals.iter().map(|&g| distance_table(grid, g)).collect();
         let starts: Vec<u32> = starts.iter().map(|&s| topo.index(s)).collect();
