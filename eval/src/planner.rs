@@ -50,7 +50,10 @@ impl Controller for PlannerController {
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
         self.plan = None;
         self.notes = PlanNotes::default();
-        let solved = self.planner.solve(Problem::new(&env.map().grid, &env.positions(), &env.goals()), &self.limits);
+        let solved = self.planner.solve(
+            Problem::new(&env.map().grid, &env.positions(), &env.goals()),
+            &self.limits,
+        );
         match solved {
             Ok(solution) => {
                 self.notes = PlanNotes {

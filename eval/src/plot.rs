@@ -7,8 +7,8 @@
 use std::path::Path;
 
 use buridan_env::Grid;
-use buridan_study::figures::tick;
-use buridan_study::plot::err;
+use buridan_study::figures::line_frame;
+use buridan_study::plot::{err, legend_and_present};
 pub use buridan_study::plot::{register_fonts, PlotError};
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
@@ -146,27 +146,8 @@ pub fn line_chart_with_references(
     for &(x, y) in pts.filter(|(x, y)| x.is_finite() && y.is_finite()) {
         (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
     }
-    if x0 > x1 {
-        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
-    }
-    let pad_y = ((y1 - y0) * 0.05).max(1e-3);
-    let pad_x = if x1 > x0 { 0.0 } else { 0.5 };
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 18))
-        .margin(15)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d((x0 - pad_x)..(x1 + pad_x), (y0 - pad_y)..(y1 + pad_y))
-        .map_err(|e| err(path, e))?;
-    chart
-        .configure_mesh()
-        .x_desc(x_label)
-        .y_desc(y_label)
-        // 200k, 2M, 50 (not 200000.0, 50.0).
-        .x_label_formatter(&|v| tick(*v))
-        .y_label_formatter(&|v| tick(*v))
-        .draw()
-        .map_err(|e| err(path, e))?;
+    let labels = (title, x_label, y_label);
+    let mut chart = line_frame(&root, path, labels, (x0, x1, y0, y1))?;
     for (k, s) in series.iter().enumerate() {
         let color = Palette99::pick(k).to_rgba();
         chart
@@ -200,11 +181,12 @@ pub fn line_chart_with_references(
                 PathElement::new(vec![(x, y), (x + 8, y)], color.stroke_width(2))
             });
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(path, e))?;
-    root.present().map_err(|e| err(path, e))
+    // plotters' default legend position.
+    legend_and_present(
+        &mut chart,
+        &root,
+        SeriesLabelPosition::MiddleRight,
+        0.8,
+        path,
+    )
 }

@@ -223,9 +223,10 @@ impl RescueController {
             max_makespan: Some(remaining),
             ..self.limits
         };
-        let solved = self
-            .planner
-            .solve(Problem::new(&env.map().grid, &env.positions(), &env.goals()), &limits);
+        let solved = self.planner.solve(
+            Problem::new(&env.map().grid, &env.positions(), &env.goals()),
+            &limits,
+        );
         let planned = solved.ok().and_then(|solution| {
             let steps = plan_actions(&solution.plan).ok()?;
             Some((solution.plan, steps))

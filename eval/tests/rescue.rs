@@ -64,7 +64,10 @@ fn foresight_plans_jammed_episodes_from_the_start_and_leaves_solved_ones_alone()
         let l = run_episode(&mut env, &mut late, episode).unwrap();
         env.reset_to(episode).unwrap();
         let optimal = od
-            .solve(Problem::new(&env.map().grid, &env.positions(), &env.goals()), &Limits::default())
+            .solve(
+                Problem::new(&env.map().grid, &env.positions(), &env.goals()),
+                &Limits::default(),
+            )
             .unwrap()
             .plan
             .makespan() as u32;

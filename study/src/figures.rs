@@ -9,7 +9,7 @@ use std::path::Path;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use crate::plot::{err, register_fonts, PlotError};
+use crate::plot::{err, legend_and_present, register_fonts, PlotError};
 use crate::stats::{BoxStats, Interval};
 
 /// The cartesian chart of [`grouped_bars`] and [`grouped_boxes`].
@@ -138,14 +138,58 @@ pub fn grouped_bars(
         });
         chart.draw_series(whiskers).map_err(|e| err(path, e))?;
     }
+    legend_and_present(
+        &mut chart,
+        &root,
+        SeriesLabelPosition::LowerRight,
+        0.85,
+        path,
+    )
+}
+
+/// Titles of a line figure: the caption, then the x and y axis labels.
+pub type Labels<'s> = (&'s str, &'s str, &'s str);
+
+/// The frame of a line figure over the data's bounds `(x0, x1, y0, y1)`
+/// (the unit square where there is no finite point): 5 % room below and
+/// above, half a unit either side of a single x, axis ticks as people write
+/// them ([`tick`]). Line charts of the evaluation harness and the studies'
+/// banded lines share it.
+pub fn line_frame<'a, DB: DrawingBackend + 'a>(
+    root: &'a DrawingArea<DB, plotters::coord::Shift>,
+    path: &Path,
+    (title, x_label, y_label): Labels<'_>,
+    (mut x0, mut x1, mut y0, mut y1): (f64, f64, f64, f64),
+) -> Result<
+    ChartContext<
+        'a,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    PlotError,
+> {
+    if x0 > x1 {
+        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+    }
+    let pad_x = if x1 > x0 { 0.0 } else { 0.5 };
+    let pad_y = ((y1 - y0) * 0.05).max(1e-3);
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 18))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((x0 - pad_x)..(x1 + pad_x), (y0 - pad_y)..(y1 + pad_y))
+        .map_err(|e| err(path, e))?;
     chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        // 200k, 2M, 50 (not 200000.0, 50.0).
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
         .draw()
         .map_err(|e| err(path, e))?;
-    root.present().map_err(|e| err(path, e))
+    Ok(chart)
 }
 
 /// A line with a band: `(x, y, low, high)` points.
@@ -224,26 +268,8 @@ pub fn banded_lines(
             (y0, y1) = (y0.min(lo.min(y)), y1.max(hi.max(y)));
         }
     }
-    if x0 > x1 {
-        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
-    }
-    let pad_x = if x1 > x0 { 0.0 } else { 0.5 };
-    let pad_y = ((y1 - y0) * 0.05).max(1e-3);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 18))
-        .margin(15)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d((x0 - pad_x)..(x1 + pad_x), (y0 - pad_y)..(y1 + pad_y))
-        .map_err(|e| err(path, e))?;
-    chart
-        .configure_mesh()
-        .x_desc(x_label)
-        .y_desc(y_label)
-        .x_label_formatter(&|v| tick(*v))
-        .y_label_formatter(&|v| tick(*v))
-        .draw()
-        .map_err(|e| err(path, e))?;
+    let labels = (title, x_label, y_label);
+    let mut chart = line_frame(&root, path, labels, (x0, x1, y0, y1))?;
     for (k, band) in bands.iter().enumerate() {
         let color = Palette99::pick(k).to_rgba();
         let pts: Vec<_> = band
@@ -292,14 +318,13 @@ pub fn banded_lines(
                 .map_err(|e| err(path, e))?;
         }
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(path, e))?;
-    root.present().map_err(|e| err(path, e))
+    legend_and_present(
+        &mut chart,
+        &root,
+        SeriesLabelPosition::LowerRight,
+        0.85,
+        path,
+    )
 }
 
 /// One box of a box plot: the statistics of `series` in `group`.
@@ -408,14 +433,13 @@ pub fn grouped_boxes(
             }))
             .map_err(|e| err(path, e))?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(path, e))?;
-    root.present().map_err(|e| err(path, e))
+    legend_and_present(
+        &mut chart,
+        &root,
+        SeriesLabelPosition::UpperRight,
+        0.85,
+        path,
+    )
 }
 
 /// An annotated heatmap: `values[row][column]` coloured on viridis over

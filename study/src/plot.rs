@@ -60,6 +60,30 @@ pub fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
     }
 }
 
+/// Draws `chart`'s legend (a black frame on white at `opacity`, at
+/// `position`), then writes the figure `root` to `path`: how every figure
+/// of the project ends.
+pub fn legend_and_present<'a, DB, CT>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    position: SeriesLabelPosition,
+    opacity: f64,
+    path: &Path,
+) -> Result<(), PlotError>
+where
+    DB: DrawingBackend + 'a,
+    CT: CoordTranslate,
+{
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(opacity))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(path, e))?;
+    root.present().map_err(|e| err(path, e))
+}
+
 /// The value a figure shows for a trial: its score, else its last report.
 fn shown(t: &TrialRecord) -> Option<f64> {
     t.score
@@ -156,14 +180,13 @@ pub fn objective_vs_trial(path: &Path, state: &StudyState) -> Result<(), PlotErr
         .map_err(|e| err(path, e))?
         .label("best so far")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(path, e))?;
-    root.present().map_err(|e| err(path, e))
+    legend_and_present(
+        &mut chart,
+        &root,
+        SeriesLabelPosition::LowerRight,
+        0.8,
+        path,
+    )
 }
 
 /// One panel per parameter: each trial's objective against its value
