@@ -153,10 +153,10 @@ impl Expert {
     fn solve(&mut self, env: &GridEnv, key: &StateKey) {
         self.calls += 1;
         let (grid, goals, starts) = (&env.map().grid, &key.1, &key.2);
-        let plan = self
-            .planners
-            .iter()
-            .find_map(|p| p.solve(Problem::new(grid, starts, goals), &self.limits).ok());
+        let plan = self.planners.iter().find_map(|p| {
+            p.solve(Problem::new(grid, starts, goals), &self.limits)
+                .ok()
+        });
         let Some(solution) = plan else {
             self.failures += 1;
             self.known.insert(key.clone(), None);

@@ -143,10 +143,7 @@ fn learner_and_actor_processes_finish_a_run_over_loopback() {
             let check = &summary["greedy_check"];
             let solved = check["solved"].as_u64().unwrap();
             let episodes = check["episodes"].as_u64().unwrap();
-            assert!(
-                episodes > 0 && solved * 100 >= episodes * 99,
-                "{summary}"
-            );
+            assert!(episodes > 0 && solved * 100 >= episodes * 99, "{summary}");
         }
         _ => assert!(
             summary["env_steps"].as_u64().unwrap() >= 12_000,
