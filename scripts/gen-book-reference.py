@@ -67,6 +67,39 @@ def struct_fields(text: str, name: str):
     return head, fields
 
 
+# The TOML key of each `Task` variant (a `task: Task` field is written as
+# one of these keys) and the key's type.
+TASK = ("learner/src/train/config/task.rs", "Task")
+TASK_KEYS = {"Grid": ("map", "String"), "Mixture": ("maps", "Vec<WeightedMap>"), "Plant": ("plant", "String")}
+
+
+def enum_variants(text: str, name: str):
+    """The enum's variants with their doc comments: (variant, doc)."""
+    m = re.search(rf"pub enum {name}\b[^{{]*\{{(.*?)\n\}}", text, re.S)
+    if not m:
+        raise SystemExit(f"enum {name} not found")
+    variants, doc = [], []
+    for ln in m.group(1).splitlines():
+        s = ln.strip()
+        if s.startswith("///"):
+            doc.append(s[3:].strip())
+        elif re.match(r"\w+[({,]", s):
+            variants.append((re.match(r"\w+", s).group(0), " ".join(doc)))
+            doc = []
+    return variants
+
+
+def task_rows():
+    """The rows of the task keys: one per `Task` variant."""
+    path, name = TASK
+    rows = []
+    for variant, doc in enum_variants((ROOT / path).read_text(), name):
+        key, ty = TASK_KEYS[variant]
+        doc += f" A file sets at most one of `map`, `maps` and `plant` (`{name}::{variant}`)."
+        rows.append((key, ty, doc))
+    return rows
+
+
 def render() -> str:
     out = [
         "# Configuration keys",
@@ -86,7 +119,10 @@ def render() -> str:
         head, fields = struct_fields((ROOT / path).read_text(), name)
         out += [f"## {table}", "", f"`{name}` (`{path}`). {head}".rstrip(), ""]
         out += ["| key | type | meaning |", "|---|---|---|"]
+        rows = []
         for f, ty, doc in fields:
+            rows += task_rows() if ty == TASK[1] else [(f, ty, doc)]
+        for f, ty, doc in rows:
             doc = doc.replace("|", "\\|")
             out.append(f"| `{f}` | `{ty}` | {doc} |")
         out.append("")

@@ -160,20 +160,17 @@ impl Progress for DashboardProgress<'_> {
             "seed": cfg.seed,
             "steps": total_steps,
         }));
-        if cfg.plant.is_some() && self.episodes > 0 {
+        if cfg.task.is_plant() && self.episodes > 0 {
             // The evaluation plays grid episodes and draws grid replays.
             tracing::info!(
                 plant = %cfg.map_label(),
                 "the dashboard shows training only: its checkpoint evaluation plays grid layouts"
             );
         }
-        if self.episodes > 0 && self.evaluator.is_none() && cfg.plant.is_none() {
+        if self.episodes > 0 && self.evaluator.is_none() && !cfg.task.is_plant() {
+            // The first layout of a mixture.
             let job = EvalJob {
-                map: cfg
-                    .maps
-                    .as_ref()
-                    .and_then(|m| m.first())
-                    .map_or_else(|| cfg.map.clone(), |m| m.name.clone()),
+                map: cfg.layouts()[0].name.clone(),
                 agents: cfg.agents,
                 starts: cfg.starts,
                 t_max: cfg.t_max,

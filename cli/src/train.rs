@@ -324,7 +324,7 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
     // T_max) has no episode statistics: say so rather than print NaN.
     let episodes = if !summary.episode_len_mean.is_finite() {
         "no episode finished".to_string()
-    } else if cfg.plant.is_some() {
+    } else if cfg.task.is_plant() {
         // Plant episodes only end at T_max: there is no success to report.
         format!(
             "last 100 episodes: return {:.2}, length {:.1}",

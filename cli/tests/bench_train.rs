@@ -51,7 +51,10 @@ fn variants_run_alternately_with_their_overrides_and_tables_compare_them() {
     let (one, two) = (cfg("one-thread"), cfg("two-threads"));
     assert_eq!((one.ppo.update_threads, one.ppo.epochs), (1, 2));
     assert_eq!((two.ppo.update_threads, two.ppo.epochs), (2, 1));
-    assert_eq!((one.seed, two.seed, one.map.as_str()), (3, 3, "rm-1.1"));
+    assert_eq!(
+        (one.seed, two.seed, one.map_label()),
+        (3, 3, "rm-1.1".into())
+    );
 
     let rows: Vec<serde_json::Value> =
         serde_json::from_str(&std::fs::read_to_string(out.join("table.json")).unwrap()).unwrap();

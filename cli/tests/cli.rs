@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use buridan_cli::eval::{self, EvalArgs};
 use buridan_cli::train;
 use buridan_env::Starts;
+use buridan_learner::train::Task;
 use buridan_policy::Mode;
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -163,8 +164,8 @@ fn config_layers_defaults_file_flags_and_overrides() {
     args.overrides = vec!["ppo.epochs=9".into(), "hidden=[32, 32]".into()];
     let cfg = train::resolve_config(&args).unwrap();
     assert_eq!(
-        (cfg.map.as_str(), cfg.agents),
-        ("rm-3.1", 6),
+        (cfg.task.grid_map(), cfg.agents),
+        (Some("rm-3.1"), 6),
         "file values stay where no flag overrides them"
     );
     assert_eq!(cfg.ppo.lr, 5e-4);
@@ -176,6 +177,17 @@ fn config_layers_defaults_file_flags_and_overrides() {
         train::resolve_config(&args).is_err(),
         "unknown keys are rejected"
     );
+    // `--set` names a task as the flags do: it replaces the file's.
+    args.overrides = vec!["plant=dissertation".into(), "agents=2".into()];
+    let cfg = train::resolve_config(&args).unwrap();
+    assert_eq!(cfg.task, Task::Plant("dissertation".into()));
+    assert_eq!(cfg.t_max, 1000, "a plant run takes its plant's T_max");
+    args.overrides = vec!["maps=[{ name = \"rm-2.2\" }]".into()];
+    let cfg = train::resolve_config(&args).unwrap();
+    assert_eq!(cfg.map_label(), "rm-2.2:1");
+    args.overrides = vec!["plant=dissertation".into(), "map=rm-2.2".into()];
+    let cfg = train::resolve_config(&args).unwrap();
+    assert_eq!(cfg.task, Task::Grid("rm-2.2".into()));
     std::fs::write(&file, "agents = \"many\"\n").unwrap();
     args.overrides.clear();
     assert!(format!("{:#}", train::resolve_config(&args).unwrap_err()).contains("run.toml"));
@@ -272,7 +284,7 @@ fn a_policy_trained_on_two_layouts_evaluates_on_a_third() {
     one.config = Some(out.join("config.toml"));
     one.maps = None;
     let cfg = train::resolve_config(&one).unwrap();
-    assert_eq!((cfg.maps, cfg.map.as_str()), (None, "rm-1.1"));
+    assert_eq!(cfg.task, Task::Grid("rm-1.1".into()));
     for dir in [out, eval_out] {
         std::fs::remove_dir_all(dir).ok();
     }

@@ -79,7 +79,7 @@ fn a_tiny_tune_writes_its_outputs_and_resumes_without_rerunning_trials() {
         buridan_learner::train::TrainConfig::from_toml_file(&out.join("best-config.toml")).unwrap();
     let b = state.best().unwrap();
     assert_eq!(Some(best.ppo.lr), b.overrides["ppo.lr"].as_float());
-    assert_eq!((best.map.as_str(), best.ppo.epochs), ("rm-1.1", 2));
+    assert_eq!((best.task.grid_map(), best.ppo.epochs), (Some("rm-1.1"), 2));
 
     // Without --resume, the directory is refused.
     let e = tune::run(&tune_args(tune_file(dir.path(), 2), out.clone(), false)).unwrap_err();

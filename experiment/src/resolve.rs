@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use buridan_env::{ObsFeatures, Rules, Starts};
-use buridan_learner::train::{Algo, ConfigError, TrainConfig, WeightedMap};
+use buridan_learner::train::{Algo, ConfigError, Task, TrainConfig, WeightedMap};
 use buridan_policy::{Mode, PolicyError};
 
 /// The arguments of a training run that decide its configuration (`learner
@@ -142,18 +142,15 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
             .is_some_and(|t| t.contains_key("t_max")),
         None => false,
     };
+    // Each replaces the config's task; the last given wins (`--plant`).
     if let Some(v) = &args.map {
-        cfg.map = v.clone();
-        cfg.maps = None;
-        cfg.plant = None;
+        cfg.task = Task::Grid(v.clone());
     }
     if let Some(v) = &args.maps {
-        cfg.maps = Some(WeightedMap::parse_list(v)?);
-        cfg.plant = None;
+        cfg.task = Task::Mixture(WeightedMap::parse_list(v)?);
     }
     if let Some(v) = &args.plant {
-        cfg.plant = Some(v.clone());
-        cfg.maps = None;
+        cfg.task = Task::Plant(v.clone());
     }
     if let Some(v) = args.agents {
         cfg.agents = v;
@@ -196,10 +193,10 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
         for o in &args.overrides {
             set_key(&mut table, o)?;
             let key = o.split_once('=').map(|(k, _)| k.trim());
-            // Like the flags: naming one map replaces the list or the plant.
-            if key == Some("map") {
-                table.remove("maps");
-                table.remove("plant");
+            // Like the flags: naming a task (`map`, `maps` or `plant`)
+            // replaces the config's.
+            if let Some(key) = key {
+                Task::keep_only(&mut table, key);
             }
             t_max_given |= key == Some("t_max");
             set_keys.extend(key.map(str::to_string));
@@ -212,7 +209,7 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
     if args.no_stop {
         cfg.stop = None;
     }
-    if cfg.maps.is_some()
+    if cfg.task.maps().is_some()
         && args.config.is_none()
         && !set_keys.iter().any(|k| k.starts_with("stop"))
     {
@@ -221,7 +218,7 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
             stop.greedy = None;
         }
     }
-    if cfg.plant.is_some() && args.config.is_none() {
+    if cfg.task.is_plant() && args.config.is_none() {
         // The recipe's features and shaping are grid ones (a plant run
         // refuses them): left out unless set explicitly.
         if !set_keys.iter().any(|k| k.starts_with("features")) {
@@ -242,7 +239,7 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
     if !t_max_given {
         cfg.use_plant_t_max()
             .map_err(|source| ResolveError::Plant {
-                plant: cfg.plant.clone().unwrap_or_default(),
+                plant: cfg.task.plant().unwrap_or_default().to_string(),
                 source: Box::new(source),
             })?;
     }

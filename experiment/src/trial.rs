@@ -15,7 +15,7 @@ use buridan_eval::output::{write_report, OutputError};
 use buridan_eval::policy::{PolicyController, PolicyLoadError};
 use buridan_eval::{evaluate, Controller, EvalReport, EvalSpec};
 use buridan_learner::train::{
-    ConfigError, InProcess, MetricsRow, Progress, Run, Summary, TrainConfig, TrainError,
+    ConfigError, InProcess, MetricsRow, Progress, Run, Summary, Task, TrainConfig, TrainError,
 };
 use buridan_policy::{checkpoint, ActMode};
 use buridan_study::{
@@ -104,6 +104,8 @@ pub fn apply_overrides(
         toml::from_str(&base.to_toml()).expect("a configuration round-trips through TOML");
     for (key, value) in overrides {
         buridan_study::overrides::merge_key(&mut table, key, value.clone());
+        // Naming a task (`map`, `maps` or `plant`) replaces the base's.
+        Task::keep_only(&mut table, key);
     }
     let cfg: TrainConfig = table
         .try_into()
@@ -371,12 +373,13 @@ pub fn measure(
         Objective::EvalSampled => ActMode::Sample,
         Objective::EvalGreedy => ActMode::Greedy,
     };
-    if cfg.plant.is_some() {
+    if cfg.task.is_plant() {
         return Err(TrialRunError::PlantEvaluation {
             plant: cfg.map_label(),
         });
     }
-    let map = Arc::new(Map::load(&cfg.map)?);
+    // One layout: `run_trial` refuses evaluation objectives over several.
+    let map = Arc::new(Map::load(&cfg.layouts()[0].name)?);
     let eval_spec = EvalSpec {
         agents: cfg.agents,
         episodes: eval.episodes,

@@ -14,13 +14,13 @@ use buridan_actor::Collector;
 use buridan_env::{Map, ObsKind, Starts, VecEnv};
 use buridan_learner::algo::impala::{Impala, ImpalaSettings};
 use buridan_learner::algo::ppo::{Ppo, PpoSettings};
-use buridan_learner::train::{env_config, TrainConfig};
+use buridan_learner::train::{env_config, Task, TrainConfig};
 use buridan_policy::{Fragment, Inference, Mode, Policy};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use rand::SeedableRng;
 
 fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
-    let map = Arc::new(Map::load(&cfg.map).unwrap());
+    let map = Arc::new(Map::load(&cfg.map_label()).unwrap());
     let venv = VecEnv::new(
         map,
         env_config(cfg, 0),
@@ -48,7 +48,7 @@ fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
 fn bench(c: &mut Criterion) {
     buridan_policy::threads::pin_threads(1);
     let cfg = TrainConfig {
-        map: "rm-1.1".into(),
+        task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: Starts::Fixed,
         mode: Mode::Ctde,

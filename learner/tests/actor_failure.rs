@@ -6,7 +6,7 @@ use std::error::Error;
 use buridan_actor::{CollectError, Collector};
 use buridan_env::{BatchedEnv, EnvError, EpisodeStats, ObsKind, Starts};
 use buridan_learner::train::{
-    ActorEnv, ExchangeError, InProcess, NoProgress, Run, TrainConfig, TrainError,
+    ActorEnv, ExchangeError, InProcess, NoProgress, Run, Task, TrainConfig, TrainError,
 };
 
 /// A grid env batch whose simulator breaks down after `healthy_steps`.
@@ -64,7 +64,7 @@ impl BatchedEnv for BreaksDown {
 fn the_learner_names_the_failing_actors_cause() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = TrainConfig {
-        map: "rm-1.1".into(),
+        task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: Starts::Fixed,
         steps: 20_000,

@@ -7,12 +7,12 @@ use std::sync::Arc;
 use buridan_actor::Collector;
 use buridan_env::{Map, ObsKind, Starts, VecEnv};
 use buridan_learner::algo::batch::{build_net_batches, evaluate, BatchTensors};
-use buridan_learner::train::{env_config, TrainConfig};
+use buridan_learner::train::{env_config, Task, TrainConfig};
 use buridan_policy::{Inference, Mode, Policy};
 use candle_core::{Device, Tensor};
 
 fn actor(cfg: &TrainConfig, kind: ObsKind) -> (Collector, Policy) {
-    let map = Arc::new(Map::load(&cfg.map).unwrap());
+    let map = Arc::new(Map::load(&cfg.map_label()).unwrap());
     let venv = VecEnv::new(map, env_config(cfg, 3), cfg.envs_per_actor, kind, 1).unwrap();
     let spec = cfg.model_spec(venv.obs_dim());
     let policy = Policy::new(spec.clone(), 5).unwrap();
@@ -32,7 +32,7 @@ fn actor(cfg: &TrainConfig, kind: ObsKind) -> (Collector, Policy) {
 fn cfg(mode: Mode) -> TrainConfig {
     TrainConfig {
         mode,
-        map: "rm-2.1".into(),
+        task: Task::Grid("rm-2.1".into()),
         agents: 3,
         starts: Starts::Random,
         t_max: 7, // truncations inside every 20-step fragment

@@ -19,7 +19,7 @@ use std::sync::Arc;
 use buridan_env::{Map, Starts};
 use buridan_learner::train::rollout::rollout;
 use buridan_learner::train::{
-    env_config, final_checkpoint, train, Algo, MetricsRow, NoProgress, TrainConfig,
+    env_config, final_checkpoint, train, Algo, MetricsRow, NoProgress, Task, TrainConfig,
 };
 use buridan_policy::{ActMode, Mode, Policy};
 
@@ -30,7 +30,7 @@ fn ppo_ctde_solves_rm_1_1_within_200k_steps() {
     let mut cfg = TrainConfig {
         algo: Algo::Ppo,
         mode: Mode::Ctde,
-        map: "rm-1.1".into(),
+        task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: Starts::Fixed,
         steps: 200_000,

@@ -3,13 +3,13 @@
 
 use buridan_env::{EnvError, MapError, Starts};
 use buridan_learner::train::{
-    train, ConfigError, NoProgress, Run, TrainConfig, TrainError, WeightedMap,
+    train, ConfigError, NoProgress, Run, Task, TrainConfig, TrainError, WeightedMap,
 };
 use buridan_policy::{Mode, Policy};
 
 fn with_maps(list: &str) -> TrainConfig {
     TrainConfig {
-        maps: Some(WeightedMap::parse_list(list).unwrap()),
+        task: Task::Mixture(WeightedMap::parse_list(list).unwrap()),
         ..TrainConfig::default()
     }
 }
@@ -48,7 +48,7 @@ fn every_bad_maps_list_has_its_own_error() {
     assert!(matches!(err, ConfigError::MapAndMaps { .. }), "{err}");
 
     let empty = TrainConfig {
-        maps: Some(Vec::new()),
+        task: Task::Mixture(Vec::new()),
         ..TrainConfig::default()
     };
     assert!(matches!(empty.validate(), Err(ConfigError::NoMaps)));

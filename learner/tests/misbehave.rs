@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use buridan_actor::client::{run as run_actor, url_connector, ActorOptions};
 use buridan_actor::misbehave::{MisbehaveOptions, Misbehaver};
 use buridan_learner::serve::SessionLimits;
-use buridan_learner::train::{Algo, ImpalaConfig, TrainConfig};
+use buridan_learner::train::{Algo, ImpalaConfig, Task, TrainConfig};
 
 mod support;
 use support::Learner;
@@ -20,7 +20,7 @@ fn every_misbehaviour_is_refused_with_the_expected_status() {
     // the misbehaving client's first fragment (lag 8), so it replays it.
     let cfg = TrainConfig {
         algo: Algo::Impala,
-        map: "rm-1.1".into(),
+        task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: buridan_env::Starts::Fixed,
         steps: 10_000_000,

@@ -2,14 +2,14 @@
 //! plant envs, the policy reads the plant observation, and everything that
 //! counts success stays well defined though plant episodes only truncate.
 
-use buridan_learner::train::{final_checkpoint, train, Algo, NoProgress, TrainConfig};
+use buridan_learner::train::{final_checkpoint, train, Algo, NoProgress, Task, TrainConfig};
 use buridan_policy::{Mode, Policy};
 
 fn tiny(mode: Mode) -> TrainConfig {
     let mut cfg = TrainConfig {
         algo: Algo::Ppo,
         mode,
-        plant: Some("dissertation".into()),
+        task: Task::Plant("dissertation".into()),
         agents: 2,
         // Short episodes, so that some finish within the budget.
         t_max: 40,

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use buridan_actor::client::build_collector;
 use buridan_actor::misbehave::RawCodec;
 use buridan_learner::serve::SessionLimits;
-use buridan_learner::train::TrainConfig;
+use buridan_learner::train::{Task, TrainConfig};
 use buridan_proto::convert::{
     fragment_to_message, fragment_to_message_encoded, weights_from_message, WireTag,
 };
@@ -28,7 +28,7 @@ use support::Learner;
 /// with `sessions` limits.
 fn start(sessions: SessionLimits) -> Learner {
     let cfg = TrainConfig {
-        map: "rm-1.1".into(),
+        task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: buridan_env::Starts::Fixed,
         steps: 10_000_000,

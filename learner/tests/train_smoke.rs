@@ -4,7 +4,7 @@
 use buridan_env::Starts;
 use buridan_learner::algo::schedule::Schedule;
 use buridan_learner::train::{
-    final_checkpoint, train, Algo, MetricsRow, NoProgress, Progress, Summary, TrainConfig,
+    final_checkpoint, train, Algo, MetricsRow, NoProgress, Progress, Summary, Task, TrainConfig,
     TrainError,
 };
 use buridan_policy::{Mode, Policy, PolicyError};
@@ -13,7 +13,7 @@ fn tiny(algo: Algo, mode: Mode) -> TrainConfig {
     let mut cfg = TrainConfig {
         algo,
         mode,
-        map: "rm-1.1".into(),
+        task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: Starts::Fixed,
         steps: 800,

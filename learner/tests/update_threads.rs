@@ -5,7 +5,7 @@
 use buridan_env::Starts;
 use buridan_learner::algo::impala::{Impala, ImpalaSettings};
 use buridan_learner::algo::ppo::{Ppo, PpoSettings};
-use buridan_learner::train::{Run, TrainConfig};
+use buridan_learner::train::{Run, Task, TrainConfig};
 use buridan_policy::{Fragment, Mode, ModelSpec, Policy};
 use rand::SeedableRng;
 
@@ -105,7 +105,7 @@ fn assert_same_update(algo: Algo, cfg: TrainConfig) {
 fn cfg(mode: Mode, lstm: bool) -> TrainConfig {
     let mut c = TrainConfig {
         mode,
-        map: "rm-2.1".into(),
+        task: Task::Grid("rm-2.1".into()),
         agents: 4,
         starts: Starts::Random,
         envs_per_actor: 16,

@@ -6,7 +6,7 @@ use std::sync::{Arc, Mutex};
 
 use anyhow::{anyhow, Result};
 use buridan_actor::client::{ConnectError, Connector};
-use buridan_learner::train::TrainConfig;
+use buridan_learner::train::{Task, TrainConfig};
 use tokio::io::DuplexStream;
 use tokio::sync::mpsc;
 use tonic::transport::{Endpoint, Uri};
@@ -69,7 +69,7 @@ impl InMemoryNet {
 /// never leaves it; 0.05 learned in 27 of 27 runs, see deploy/README.md.)
 pub fn rm11_ppo(steps: u64, envs_per_actor: usize) -> TrainConfig {
     let mut cfg = TrainConfig {
-        map: "rm-1.1".into(),
+        task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: buridan_env::Starts::Fixed,
         steps,

@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use buridan_actor::client::{run, ActorError, ActorOptions, SetupError};
 use buridan_learner::serve::{serve, Listener, ServeError, ServeOptions};
-use buridan_learner::train::{Algo, MetricsRow, Progress, Summary, TrainConfig};
+use buridan_learner::train::{Algo, MetricsRow, Progress, Summary, Task, TrainConfig};
 use buridan_plant_server::{EnvServer, ServeConfig};
 use buridan_policy::Mode;
 use buridan_tests::InMemoryNet;
@@ -30,7 +30,7 @@ fn plant_run(steps: u64) -> TrainConfig {
     let mut cfg = TrainConfig {
         algo: Algo::Ppo,
         mode: Mode::Ctde,
-        plant: Some("dissertation".into()),
+        task: Task::Plant("dissertation".into()),
         agents: 2,
         t_max: 40,
         steps,

@@ -289,7 +289,10 @@ fn mixtures_train_on_several_maps_and_evaluate_on_the_eval_layouts() {
     );
     let cfg = x.train[0].config_in(Path::new("out")).unwrap();
     assert_eq!(cfg.layout_names(), ["rm-2.2", "rm-3.1"]);
-    assert_eq!(x.train[2].config_in(Path::new("out")).unwrap().maps, None);
+    assert_eq!(
+        x.train[2].config_in(Path::new("out")).unwrap().task.maps(),
+        None
+    );
     // Every policy on every eval layout, cbs once per eval layout.
     assert_eq!(x.evals.len(), 4 * 3 + 3);
     let first: Vec<_> = x

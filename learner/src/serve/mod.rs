@@ -196,7 +196,7 @@ pub fn serve(
     // The join reply carries one map: refuse before preparing anything. A
     // plant run's join reply carries no map: its actors step an external
     // env (`actor --env URL`, e.g. `plant-server`).
-    if cfg.maps.as_ref().is_some_and(|m| m.len() > 1) {
+    if cfg.task.maps().is_some_and(|m| m.len() > 1) {
         return Err(ServeError::SeveralLayouts(cfg.map_label()));
     }
     opts.sessions.check()?;

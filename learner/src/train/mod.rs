@@ -58,7 +58,9 @@ use learner::Learner;
 use phases::{imitate, Phase};
 use state::{read_trainer_state, restore_layout_windows};
 
-pub use config::{Algo, ConfigError, ImpalaConfig, PpoConfig, TrainConfig, WeightedMap};
+pub use config::{
+    Algo, ConfigError, ImpalaConfig, PpoConfig, Task, TaskKeysError, TrainConfig, WeightedMap,
+};
 pub use error::{ExchangeError, Interrupted, TrainError};
 pub use exchange::{Exchange, InProcess, Shared, Ticket};
 pub use metrics::{EpisodeWindow, LayoutWindows, MetricsError, MetricsRow, MetricsWriter, Summary};
@@ -164,7 +166,7 @@ pub struct Run {
     /// The training layouts with their weights (one for a single map; none
     /// for a plant run).
     layouts: Vec<WeightedLayout>,
-    /// The AGV plant of a plant run (`cfg.plant`), its T_max the run's.
+    /// The AGV plant of a plant run (`cfg.task`), its T_max the run's.
     plant: Option<Arc<Plant>>,
     spec: ModelSpec,
     policy: Policy,
@@ -202,9 +204,10 @@ impl Run {
                 (Vec::new(), obs_dim)
             }
             None => {
-                let layouts = match cfg.load_maps()? {
-                    Some(layouts) => layouts,
-                    None => vec![(Arc::new(Map::load(&cfg.map)?), 1.0)],
+                let layouts = match (cfg.load_maps()?, cfg.task.grid_map()) {
+                    (Some(layouts), _) => layouts,
+                    (None, Some(map)) => vec![(Arc::new(Map::load(map)?), 1.0)],
+                    (None, None) => unreachable!("a run without a plant has a map or a mixture"),
                 };
                 // One size on every layout: `load_maps` refuses central
                 // observations over several layouts.
@@ -563,7 +566,7 @@ impl Run {
         state.kl_coeffs = self.learner.kl_coeffs();
         state.wall_seconds = wall;
         state.recent_episodes = self.window.recent();
-        if self.cfg.maps.is_some() {
+        if self.cfg.task.maps().is_some() {
             let lw = &self.layout_windows;
             state.layouts = (self.cfg.layout_names().into_iter())
                 .zip(lw.totals().into_iter().zip(lw.recent()))
@@ -656,7 +659,7 @@ impl Run {
         let (cfg, window, state) = (&self.cfg, &self.window, &self.state);
         let names = cfg.layout_names();
         let (mut success_by_map, mut episodes_by_map) = Default::default();
-        if cfg.maps.is_some() {
+        if cfg.task.maps().is_some() {
             let lw = &self.layout_windows;
             success_by_map = names.iter().cloned().zip(lw.success_rates()).collect();
             episodes_by_map = names.iter().cloned().zip(lw.totals()).collect();
@@ -671,7 +674,7 @@ impl Run {
             agents: cfg.agents,
             starts: match cfg.starts {
                 // Plant AGVs start at random offsets on their start tracks.
-                _ if cfg.plant.is_some() => "random".into(),
+                _ if cfg.task.is_plant() => "random".into(),
                 buridan_env::Starts::Fixed => "fixed".into(),
                 buridan_env::Starts::Random => "random".into(),
             },

@@ -100,9 +100,6 @@ pub enum ConfigError {
         /// The file.
         path: PathBuf,
     },
-    /// `plant` and `maps` are both set.
-    #[error("invalid configuration: plant and maps are both set: a run trains on one AGV plant or on grid layouts, not both")]
-    PlantAndMaps,
     /// A plant run with an `[imitation]` or `[polish]` section.
     #[error("invalid configuration: [{section}] cannot be used with a plant: DAgger imitates grid planners, and the AGV plant has none")]
     PlantWithImitation {

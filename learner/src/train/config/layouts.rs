@@ -84,13 +84,14 @@ impl TrainConfig {
     ///
     /// ```
     /// use buridan_learner::train::TrainConfig;
-    /// let mut cfg = TrainConfig { plant: Some("dissertation".into()), ..TrainConfig::default() };
+    /// use buridan_learner::train::Task;
+    /// let mut cfg = TrainConfig { task: Task::Plant("dissertation".into()), ..TrainConfig::default() };
     /// assert_eq!(cfg.t_max, 100); // the grid default, until...
     /// cfg.use_plant_t_max().unwrap();
     /// assert_eq!(cfg.t_max, 1000);
     /// ```
     pub fn use_plant_t_max(&mut self) -> Result<(), ConfigError> {
-        if let Some(name) = &self.plant {
+        if let Some(name) = self.task.plant() {
             self.t_max = load_plant_file(name)?.episode.t_max;
             self.load_plant()?;
         }
@@ -102,14 +103,14 @@ impl TrainConfig {
     /// `agents` AGVs. `None` for a grid run.
     ///
     /// ```
-    /// use buridan_learner::train::{ConfigError, TrainConfig};
-    /// let mut cfg = TrainConfig { plant: Some("dissertation".into()), t_max: 50, agents: 2, ..TrainConfig::default() };
+    /// use buridan_learner::train::{ConfigError, Task, TrainConfig};
+    /// let mut cfg = TrainConfig { task: Task::Plant("dissertation".into()), t_max: 50, agents: 2, ..TrainConfig::default() };
     /// assert_eq!(cfg.load_plant().unwrap().unwrap().episode.t_max, 50);
-    /// cfg.plant = Some("no-such-plant".into());
+    /// cfg.task = Task::Plant("no-such-plant".into());
     /// assert!(matches!(cfg.load_plant(), Err(ConfigError::UnknownPlant { .. })));
     /// ```
     pub fn load_plant(&self) -> Result<Option<Plant>, ConfigError> {
-        let Some(name) = &self.plant else {
+        let Some(name) = self.task.plant() else {
             return Ok(None);
         };
         let mut plant = load_plant_file(name)?;
@@ -140,42 +141,32 @@ impl TrainConfig {
         }
     }
 
-    /// The training layouts: `maps`, or `map` with weight 1.
+    /// The training layouts: `maps`, or `map` with weight 1; none for a
+    /// plant run ([`Task::layouts`](super::Task::layouts)).
     pub fn layouts(&self) -> Vec<WeightedMap> {
-        match &self.maps {
-            Some(maps) => maps.clone(),
-            None => vec![WeightedMap {
-                name: self.map.clone(),
-                weight: 1.0,
-            }],
-        }
+        self.task.layouts()
     }
 
     /// The training layouts' names, in order (a plant run: its
     /// [`Self::map_label`], `plant:ID`).
     pub fn layout_names(&self) -> Vec<String> {
-        if self.plant.is_some() {
+        if self.task.is_plant() {
             return vec![self.map_label()];
         }
         self.layouts().into_iter().map(|m| m.name).collect()
     }
 
     /// What the run trains on, in one word: `map`, the
-    /// [`WeightedMap::label`] of `maps`, or `plant:ID` for a plant.
+    /// [`WeightedMap::label`] of `maps`, or `plant:ID` for a plant
+    /// ([`Task::map_label`](super::Task::map_label)).
     ///
     /// ```
-    /// use buridan_learner::train::TrainConfig;
-    /// let cfg = TrainConfig { plant: Some("dissertation".into()), ..TrainConfig::default() };
+    /// use buridan_learner::train::{Task, TrainConfig};
+    /// let cfg = TrainConfig { task: Task::Plant("dissertation".into()), ..TrainConfig::default() };
     /// assert_eq!(cfg.map_label(), "plant:dissertation");
     /// ```
     pub fn map_label(&self) -> String {
-        if let Some(plant) = &self.plant {
-            return format!("plant:{plant}");
-        }
-        match &self.maps {
-            Some(maps) => WeightedMap::label(maps),
-            None => self.map.clone(),
-        }
+        self.task.map_label()
     }
 
     /// Loads the layouts of `maps` with their weights, checking that each
@@ -183,14 +174,14 @@ impl TrainConfig {
     /// drawn). `None` for a single-map config.
     ///
     /// ```
-    /// use buridan_learner::train::{ConfigError, TrainConfig, WeightedMap};
-    /// let mut cfg = TrainConfig { maps: Some(WeightedMap::parse_list("rm-2.2,rm-3.1").unwrap()), ..TrainConfig::default() };
+    /// use buridan_learner::train::{ConfigError, Task, TrainConfig, WeightedMap};
+    /// let mut cfg = TrainConfig { task: Task::Mixture(WeightedMap::parse_list("rm-2.2,rm-3.1").unwrap()), ..TrainConfig::default() };
     /// assert_eq!(cfg.load_maps().unwrap().unwrap().len(), 2);
     /// cfg.agents = 200; // 400 distinct cells: more than rm-2.2 has
     /// assert!(matches!(cfg.load_maps(), Err(ConfigError::AgentsDoNotFit { .. })));
     /// ```
     pub fn load_maps(&self) -> Result<Option<Vec<WeightedLayout>>, ConfigError> {
-        let Some(maps) = &self.maps else {
+        let Some(maps) = self.task.maps() else {
             return Ok(None);
         };
         self.validate()?;

@@ -17,7 +17,9 @@ use crate::train::gate::Staleness;
 
 mod algo;
 mod error;
+mod file;
 mod layouts;
+mod task;
 #[cfg(test)]
 mod tests;
 mod validate;
@@ -25,15 +27,7 @@ mod validate;
 pub use algo::{Algo, ImpalaConfig, PpoConfig};
 pub use error::ConfigError;
 pub use layouts::WeightedMap;
-
-/// Whether failure replay is off (then `[replay]` is left out of a saved config).
-fn is_zero(n: &u8) -> bool {
-    *n == 0
-}
-
-fn replay_off(replay: &ReplayConfig) -> bool {
-    *replay == ReplayConfig::default()
-}
+pub use task::{Task, TaskKeysError};
 
 /// Everything a training run needs.
 ///
@@ -59,27 +53,16 @@ fn replay_off(replay: &ReplayConfig) -> bool {
 /// cfg.validate().unwrap();
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(try_from = "file::TrainFile", into = "file::TrainFile")]
 pub struct TrainConfig {
     /// PPO or IMPALA.
     pub algo: Algo,
     /// CTE, CTDE or DTE.
     pub mode: Mode,
-    /// Reference model id (`rm-2.1`) or a MovingAI `.map` path.
-    pub map: String,
-    /// Several layouts with weights, instead of `map`: each env draws the
-    /// layout of every episode from them (a file sets one of `map` and
-    /// `maps`; when `maps` is set, `map` is not used). CTDE and DTE only.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub maps: Option<Vec<WeightedMap>>,
-    /// Train on an AGV plant instead of a grid map: a bundled plant id
-    /// (`dissertation`, `hall`) or a plant file path ([`Plant::load`]).
-    /// Excludes `maps` (a file sets at most one of `map`, `maps` and
-    /// `plant`), `[imitation]`, `features` and `shaping`; `starts`,
-    /// `rules` and `sensor_range` do not apply. The run's label is
-    /// `plant:ID` ([`TrainConfig::map_label`]).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub plant: Option<String>,
+    /// What the run trains on ([`Task`]): one grid map (TOML `map`, by
+    /// default `rm-2.1`), several layouts with weights (`maps`), or an AGV
+    /// plant (`plant`); a file sets at most one of the three keys.
+    pub task: Task,
     /// Agents per env.
     pub agents: usize,
     /// Fixed (`.scen`) or random starts and goals.
@@ -116,7 +99,6 @@ pub struct TrainConfig {
     /// while it speeds up an actor process beside the learner; the
     /// transport bench sets both alike (README, "Measured on this 2-core
     /// machine").
-    #[serde(skip_serializing_if = "is_zero")]
     pub actor_nice: u8,
     /// Rollout fragment length T (50).
     pub fragment_len: usize,
@@ -125,7 +107,6 @@ pub struct TrainConfig {
     /// wall masks, so asking for a neighbour's cell is legal, and the env
     /// executes the shield's conflict-free joint move. Grid runs only; off
     /// by default.
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub shield_rollouts: bool,
     /// Replay of failed training episodes, TOML `[replay]`
     /// ([`buridan_env::replay`], prioritized level replay in its simplest
@@ -134,7 +115,6 @@ pub struct TrainConfig {
     /// The training success and return count fresh episodes only; remote
     /// actors get the settings with their join reply. Grid runs only; off
     /// by default (`share = 0`).
-    #[serde(skip_serializing_if = "replay_off")]
     pub replay: ReplayConfig,
     /// Discount γ (0.99).
     pub gamma: f32,
@@ -157,7 +137,6 @@ pub struct TrainConfig {
     /// success has held `success` for `hold` env steps, or (`[stop.greedy]`)
     /// the greedy policy solves a share of held-out episodes (`steps` stays
     /// the cap; [`super::stop`]). Off by default; the recipe sets it.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub stop: Option<StopRule>,
     /// Continue from this checkpoint directory (weights, optimiser, counters).
     pub resume: Option<PathBuf>,
@@ -169,14 +148,12 @@ pub struct TrainConfig {
     /// (DAgger, `buridan_imitate`): a fresh run's policy is first fitted
     /// to the planner's actions on the states it visits, then trained by
     /// `algo` for `steps` env steps (0: imitation only). Off by default.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub imitation: Option<ImitationConfig>,
     /// Imitate a planner after learning from rewards, TOML `[polish]`: the
     /// trained policy's own rollouts (greedy by default) get the planner's
     /// next steps as labels, DAgger on the states deterministic execution
     /// reaches, before the final checkpoint. With `expert_first = false`
     /// every round follows the policy. Off by default.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub polish: Option<ImitationConfig>,
 }
 
@@ -185,9 +162,7 @@ impl Default for TrainConfig {
         Self {
             algo: Algo::Ppo,
             mode: Mode::Ctde,
-            map: "rm-2.1".into(),
-            maps: None,
-            plant: None,
+            task: Task::default(),
             agents: 4,
             starts: Starts::Random,
             rules: Rules::Thesis,
@@ -285,7 +260,8 @@ impl TrainConfig {
         }
     }
 
-    /// Reads a TOML file (which sets at most one of `map` and `maps`).
+    /// Reads a TOML file (which sets at most one of `map`, `maps` and
+    /// `plant`: [`Task`]).
     pub fn from_toml_file(path: &Path) -> Result<Self, ConfigError> {
         let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
             path: path.to_path_buf(),
@@ -296,17 +272,14 @@ impl TrainConfig {
             source,
         };
         let table: toml::Table = toml::from_str(&text).map_err(parse_error)?;
-        if table.contains_key("map") && table.contains_key("maps") {
-            return Err(ConfigError::MapAndMaps {
-                path: path.to_path_buf(),
-            });
-        }
-        if table.contains_key("plant") && (table.contains_key("map") || table.contains_key("maps"))
-        {
-            return Err(ConfigError::PlantAndMap {
-                path: path.to_path_buf(),
-            });
-        }
+        let [map, maps, plant] = Task::KEYS.map(|key| table.contains_key(key));
+        Task::check_keys(map, maps, plant).map_err(|e| {
+            let path = path.to_path_buf();
+            match e {
+                TaskKeysError::MapAndMaps => ConfigError::MapAndMaps { path },
+                TaskKeysError::PlantAndMap => ConfigError::PlantAndMap { path },
+            }
+        })?;
         let t_max_given = table.contains_key("t_max");
         let mut cfg: Self = table.try_into().map_err(parse_error)?;
         if !t_max_given {
@@ -317,14 +290,23 @@ impl TrainConfig {
         Ok(cfg)
     }
 
-    /// The config as TOML (without the unused `map` when `maps` or `plant`
-    /// is set, so that the text reads back with [`Self::from_toml_file`]).
+    /// The config as TOML, its task as one of the keys `map`, `maps` and
+    /// `plant`; it reads back with [`Self::from_toml_file`]. A grid run's
+    /// keys come in field order; a mixture's or a plant's in key order, as
+    /// the configs such runs wrote before [`Task`] read.
+    ///
+    /// ```
+    /// use buridan_learner::train::{Task, TrainConfig};
+    /// let cfg = TrainConfig { task: Task::Plant("hall".into()), ..TrainConfig::default() };
+    /// let text = cfg.to_toml();
+    /// assert!(text.contains("plant = \"hall\"") && !text.contains("map"), "{text}");
+    /// assert_eq!(toml::from_str::<TrainConfig>(&text).unwrap(), cfg);
+    /// ```
     pub fn to_toml(&self) -> String {
-        if self.maps.is_none() && self.plant.is_none() {
+        if self.task.grid_map().is_some() {
             return toml::to_string_pretty(self).expect("config serialises");
         }
-        let mut table = toml::Table::try_from(self).expect("config serialises");
-        table.remove("map");
+        let table = toml::Table::try_from(self).expect("config serialises");
         toml::to_string_pretty(&table).expect("config serialises")
     }
 

@@ -9,19 +9,15 @@ fn with(change: impl Fn(&mut TrainConfig)) -> Result<(), ConfigError> {
 
 fn plant_run(change: impl Fn(&mut TrainConfig)) -> Result<(), ConfigError> {
     with(|c| {
-        c.plant = Some("dissertation".into());
+        c.task = Task::Plant("dissertation".into());
         change(c)
     })
 }
 
 #[test]
-fn a_plant_run_refuses_maps_imitation_and_grid_options() {
+fn a_plant_run_refuses_imitation_and_grid_options() {
     plant_run(|_| {}).unwrap();
     plant_run(|c| c.mode = Mode::Cte).unwrap();
-    let err = plant_run(|c| c.maps = Some(WeightedMap::parse_list("rm-2.2").unwrap()));
-    assert!(matches!(err, Err(ConfigError::PlantAndMaps)), "{err:?}");
-    let msg = err.unwrap_err().to_string();
-    assert!(msg.contains("plant and maps are both set"), "{msg}");
     let err = plant_run(|c| c.imitation = Some(ImitationConfig::default()));
     assert!(
         matches!(err, Err(ConfigError::PlantWithImitation { .. })),
@@ -197,4 +193,110 @@ fn hyperparameters_outside_their_range_are_refused_by_name() {
     for (i, change) in edges.into_iter().enumerate() {
         assert!(with(change).is_ok(), "edge {i} refused");
     }
+}
+
+/// Reads `text` as a config file.
+fn read_file(text: &str) -> Result<TrainConfig, ConfigError> {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.toml");
+    std::fs::write(&path, text).unwrap();
+    TrainConfig::from_toml_file(&path)
+}
+
+#[test]
+fn each_task_form_reads_from_its_key_and_writes_it_back() {
+    let forms = [
+        ("map = \"rm-1.1\"\n", Task::Grid("rm-1.1".into())),
+        (
+            "[[maps]]\nname = \"rm-2.2\"\nweight = 2.0\n\n[[maps]]\nname = \"rm-3.1\"\n",
+            Task::Mixture(WeightedMap::parse_list("rm-2.2:2,rm-3.1").unwrap()),
+        ),
+        (
+            "plant = \"dissertation\"\nagents = 2\n",
+            Task::Plant("dissertation".into()),
+        ),
+    ];
+    for (text, task) in forms {
+        let cfg = read_file(text).unwrap();
+        assert_eq!(cfg.task, task, "{text}");
+        assert_eq!(toml::from_str::<TrainConfig>(text).unwrap().task, task);
+        // The written config names the task by its one key, and reads back
+        // the same, from a file and from text.
+        let printed = cfg.to_toml();
+        let keys: toml::Table = toml::from_str(&printed).unwrap();
+        let set: Vec<_> = Task::KEYS
+            .iter()
+            .filter(|k| keys.contains_key(**k))
+            .collect();
+        assert_eq!(set.len(), 1, "{printed}");
+        assert_eq!(read_file(&printed).unwrap(), cfg);
+        assert_eq!(toml::from_str::<TrainConfig>(&printed).unwrap(), cfg);
+        assert_eq!(read_file(&printed).unwrap().to_toml(), printed);
+    }
+}
+
+#[test]
+fn a_grid_config_writes_its_keys_as_the_flat_struct_did() {
+    let text = TrainConfig::default().to_toml();
+    assert!(
+        text.starts_with("algo = \"ppo\"\nmode = \"ctde\"\nmap = \"rm-2.1\"\nagents = 4\n"),
+        "{text}"
+    );
+    assert!(!text.contains("maps") && !text.contains("plant"), "{text}");
+}
+
+#[test]
+fn without_a_task_key_the_task_is_the_grid_map_rm_2_1() {
+    assert_eq!(Task::default(), Task::Grid("rm-2.1".into()));
+    assert_eq!(TrainConfig::default().task, Task::default());
+    let cfg = read_file("agents = 2\n").unwrap();
+    assert_eq!(cfg.task.grid_map(), Some("rm-2.1"));
+    assert_eq!(cfg.layout_names(), ["rm-2.1"]);
+    let cfg: TrainConfig = toml::from_str("").unwrap();
+    assert_eq!(cfg, TrainConfig::default());
+}
+
+#[test]
+fn two_task_keys_are_refused_naming_both() {
+    let both = [
+        (
+            "map = \"rm-2.1\"\nmaps = [{ name = \"rm-2.2\" }]\n",
+            "sets both map and maps",
+        ),
+        (
+            "map = \"rm-2.1\"\nplant = \"dissertation\"\n",
+            "sets plant together with map or maps",
+        ),
+        (
+            "maps = [{ name = \"rm-2.2\" }]\nplant = \"dissertation\"\n",
+            "sets plant together with map or maps",
+        ),
+    ];
+    for (text, why) in both {
+        // From a file: the typed error, naming the file.
+        let err = read_file(text).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                ConfigError::MapAndMaps { .. } | ConfigError::PlantAndMap { .. }
+            ),
+            "{err:?}"
+        );
+        let msg = err.to_string();
+        assert!(msg.contains(why) && msg.contains("run.toml"), "{msg}");
+        // From text (`toml::from_str`, a `--set` table): the same words.
+        let msg = toml::from_str::<TrainConfig>(text).unwrap_err().to_string();
+        assert!(msg.contains(why), "{msg}");
+    }
+}
+
+#[test]
+fn an_unknown_key_is_still_refused_and_the_task_keys_are_listed() {
+    let msg = toml::from_str::<TrainConfig>("mapp = \"rm-2.1\"")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("unknown field `mapp`") && msg.contains("`map`, `maps`, `plant`"),
+        "{msg}"
+    );
 }

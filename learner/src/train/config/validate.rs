@@ -60,7 +60,7 @@ impl TrainConfig {
         if let Some(stop) = &self.stop {
             stop.validate().map_err(ConfigError::Invalid)?;
             ensure(
-                stop.greedy.is_none() || (self.maps.is_none() && self.plant.is_none()),
+                stop.greedy.is_none() || self.task.grid_map().is_some(),
                 "stop.greedy needs one grid map (`map`): it plays held-out episodes of that map",
             )?;
         }
@@ -77,7 +77,7 @@ impl TrainConfig {
 
     /// Checks the `maps` list without loading maps.
     fn validate_maps(&self) -> Result<(), ConfigError> {
-        let Some(maps) = &self.maps else {
+        let Some(maps) = self.task.maps() else {
             return Ok(());
         };
         if maps.is_empty() {
@@ -156,11 +156,8 @@ impl TrainConfig {
 
     /// Checks that a plant run sets nothing that only a grid run has.
     fn validate_plant(&self) -> Result<(), ConfigError> {
-        if self.plant.is_none() {
+        if !self.task.is_plant() {
             return Ok(());
-        }
-        if self.maps.is_some() {
-            return Err(ConfigError::PlantAndMaps);
         }
         if let Some((section, _)) = self.imitation_phases().next() {
             return Err(ConfigError::PlantWithImitation { section });
