@@ -86,155 +86,60 @@ impl Default for TrainFile {
     }
 }
 
-impl TryFrom<TrainFile> for TrainConfig {
-    type Error = TaskKeysError;
+/// Both conversions from one list of the fields the two forms share (every
+/// field but the task). Each side is destructured whole, so a field added
+/// to one form and not to this list fails to compile.
+macro_rules! convert_through_shared_fields {
+    ($($field:ident),* $(,)?) => {
+        impl TryFrom<TrainFile> for TrainConfig {
+            type Error = TaskKeysError;
 
-    fn try_from(file: TrainFile) -> Result<Self, TaskKeysError> {
-        let TrainFile {
-            map,
-            maps,
-            plant,
-            algo,
-            mode,
-            agents,
-            starts,
-            rules,
-            t_max,
-            sensor_range,
-            features,
-            shaping,
-            seed,
-            steps,
-            num_actors,
-            envs_per_actor,
-            actor_nice,
-            fragment_len,
-            shield_rollouts,
-            replay,
-            gamma,
-            hidden,
-            lstm,
-            lstm_cells,
-            max_seq_len,
-            checkpoint_every,
-            stop_return,
-            stop_len,
-            stop,
-            resume,
-            ppo,
-            impala,
-            imitation,
-            polish,
-        } = file;
-        Ok(TrainConfig {
-            task: Task::from_keys(map, maps, plant)?,
-            algo,
-            mode,
-            agents,
-            starts,
-            rules,
-            t_max,
-            sensor_range,
-            features,
-            shaping,
-            seed,
-            steps,
-            num_actors,
-            envs_per_actor,
-            actor_nice,
-            fragment_len,
-            shield_rollouts,
-            replay,
-            gamma,
-            hidden,
-            lstm,
-            lstm_cells,
-            max_seq_len,
-            checkpoint_every,
-            stop_return,
-            stop_len,
-            stop,
-            resume,
-            ppo,
-            impala,
-            imitation,
-            polish,
-        })
-    }
-}
-
-impl From<TrainConfig> for TrainFile {
-    fn from(cfg: TrainConfig) -> Self {
-        let TrainConfig {
-            task,
-            algo,
-            mode,
-            agents,
-            starts,
-            rules,
-            t_max,
-            sensor_range,
-            features,
-            shaping,
-            seed,
-            steps,
-            num_actors,
-            envs_per_actor,
-            actor_nice,
-            fragment_len,
-            shield_rollouts,
-            replay,
-            gamma,
-            hidden,
-            lstm,
-            lstm_cells,
-            max_seq_len,
-            checkpoint_every,
-            stop_return,
-            stop_len,
-            stop,
-            resume,
-            ppo,
-            impala,
-            imitation,
-            polish,
-        } = cfg;
-        let (map, maps, plant) = task.into_keys();
-        TrainFile {
-            map,
-            maps,
-            plant,
-            algo,
-            mode,
-            agents,
-            starts,
-            rules,
-            t_max,
-            sensor_range,
-            features,
-            shaping,
-            seed,
-            steps,
-            num_actors,
-            envs_per_actor,
-            actor_nice,
-            fragment_len,
-            shield_rollouts,
-            replay,
-            gamma,
-            hidden,
-            lstm,
-            lstm_cells,
-            max_seq_len,
-            checkpoint_every,
-            stop_return,
-            stop_len,
-            stop,
-            resume,
-            ppo,
-            impala,
-            imitation,
-            polish,
+            fn try_from(file: TrainFile) -> Result<Self, TaskKeysError> {
+                let TrainFile { map, maps, plant, $($field),* } = file;
+                Ok(TrainConfig { task: Task::from_keys(map, maps, plant)?, $($field),* })
+            }
         }
-    }
+
+        impl From<TrainConfig> for TrainFile {
+            fn from(cfg: TrainConfig) -> Self {
+                let TrainConfig { task, $($field),* } = cfg;
+                let (map, maps, plant) = task.into_keys();
+                TrainFile { map, maps, plant, $($field),* }
+            }
+        }
+    };
 }
+
+convert_through_shared_fields!(
+    algo,
+    mode,
+    agents,
+    starts,
+    rules,
+    t_max,
+    sensor_range,
+    features,
+    shaping,
+    seed,
+    steps,
+    num_actors,
+    envs_per_actor,
+    actor_nice,
+    fragment_len,
+    shield_rollouts,
+    replay,
+    gamma,
+    hidden,
+    lstm,
+    lstm_cells,
+    max_seq_len,
+    checkpoint_every,
+    stop_return,
+    stop_len,
+    stop,
+    resume,
+    ppo,
+    impala,
+    imitation,
+    polish,
+);
