@@ -69,7 +69,7 @@
 //! let (s, g) = (&scen.starts, &scen.goals);
 //! let fast = Lacam::default().solve(Problem::new(&map.grid, s, g), &Limits::default()).unwrap();
 //! replay_exact(&map, s, g, &fast.plan, 1000).unwrap();
-//! let star = LacamStar::default().search(&map.grid, s, g, &Limits::default()).unwrap();
+//! let star = LacamStar::default().search(Problem::new(&map.grid, s, g), &Limits::default()).unwrap();
 //! assert!(star.proven_optimal);
 //! let cbs = Cbs::default().solve(Problem::new(&map.grid, s, g), &Limits::default()).unwrap();
 //! assert_eq!(star.solution.plan.sum_of_costs(), cbs.plan.sum_of_costs()); // 18
@@ -78,8 +78,6 @@
 use crate::Problem;
 use std::collections::VecDeque;
 use std::time::Duration;
-
-use buridan_env::{Cell, Grid};
 
 use crate::graph::{FastMap, NONE};
 use crate::limits::{Budget, Limits, SolveError};
@@ -227,7 +225,7 @@ impl Planner for Lacam {
     }
 
     fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
-        let setup = Setup::new(problem.grid, problem.starts, problem.goals)?;
+        let setup = Setup::new(problem)?;
         Search::new(&setup, self.generator(), None, limits)
             .run()
             .map(|o| o.solution)
@@ -250,21 +248,15 @@ impl LacamStar {
     ///
     /// ```
     /// use buridan_env::Map;
-    /// use buridan_mapf::{LacamStar, Limits};
+    /// use buridan_mapf::{LacamStar, Limits, Problem};
     /// let map = Map::load("rm-1.3").unwrap();
     /// let scen = map.scenario.unwrap();
-    /// let out = LacamStar::default().search(&map.grid, &scen.starts, &scen.goals, &Limits::default()).unwrap();
+    /// let out = LacamStar::default().search(Problem::new(&map.grid, &scen.starts, &scen.goals), &Limits::default()).unwrap();
     /// assert!(out.proven_optimal && out.cost <= out.first_cost);
     /// assert_eq!(out.solution.plan.makespan(), 7);
     /// ```
-    pub fn search(
-        &self,
-        grid: &Grid,
-        starts: &[Cell],
-        goals: &[Cell],
-        limits: &Limits,
-    ) -> Result<Outcome, SolveError> {
-        let setup = Setup::new(grid, starts, goals)?;
+    pub fn search(&self, problem: Problem<'_>, limits: &Limits) -> Result<Outcome, SolveError> {
+        let setup = Setup::new(problem)?;
         let star = Star {
             objective: self.objective,
             refine_time: self.refine_time,
@@ -294,8 +286,7 @@ impl Planner for LacamStar {
     }
 
     fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
-        self.search(problem.grid, problem.starts, problem.goals, limits)
-            .map(|o| o.solution)
+        self.search(problem, limits).map(|o| o.solution)
     }
 }
 

@@ -169,7 +169,7 @@ impl Planner for Pibt {
     }
 
     fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
-        let setup = Setup::new(problem.grid, problem.starts, problem.goals)?;
+        let setup = Setup::new(problem)?;
         let mut budget = Budget::new(limits);
         let max_steps = limits
             .max_makespan

@@ -90,7 +90,7 @@ fn lacam_star_reaches_cbs_optimum_on_fixed_scenarios() {
             .solve(Problem::new(&map.grid, s, g), &limits(20))
             .unwrap();
         let out = star(Objective::SumOfLoss, ConflictModel::ENV_EXECUTABLE)
-            .search(&map.grid, s, g, &limits(60))
+            .search(Problem::new(&map.grid, s, g), &limits(60))
             .unwrap();
         check(
             &map.grid,
@@ -156,13 +156,13 @@ fn lacam_family_matches_brute_force_on_random_tiny_instances() {
                         .unwrap();
                     check(&grid, &s, &g, &sol.plan, rules, &ctx);
                     let m = star(Objective::Makespan, rules)
-                        .search(&grid, &s, &g, &limits(60))
+                        .search(Problem::new(&grid, &s, &g), &limits(60))
                         .unwrap();
                     check(&grid, &s, &g, &m.solution.plan, rules, &ctx);
                     assert!(m.proven_optimal, "{ctx}");
                     assert_eq!(m.solution.plan.makespan(), best_makespan, "{ctx}");
                     let l = star(Objective::SumOfLoss, rules)
-                        .search(&grid, &s, &g, &limits(60))
+                        .search(Problem::new(&grid, &s, &g), &limits(60))
                         .unwrap();
                     check(&grid, &s, &g, &l.solution.plan, rules, &ctx);
                     assert!(l.proven_optimal, "{ctx}");
@@ -206,7 +206,7 @@ fn crafted_swaps_in_dead_ends_and_proven_unsolvable_instances() {
             .unwrap();
         check(grid, &s, &g, &sol.plan, ConflictModel::ENV_EXECUTABLE, &ctx);
         let out = star(Objective::SumOfLoss, ConflictModel::ENV_EXECUTABLE)
-            .search(grid, &s, &g, &limits(20))
+            .search(Problem::new(grid, &s, &g), &limits(20))
             .unwrap();
         check(
             grid,
@@ -479,7 +479,7 @@ fn bad_instances_and_limits_give_typed_errors() {
         ..Limits::default()
     };
     let out = star(Objective::SumOfLoss, ConflictModel::ENV_EXECUTABLE)
-        .search(&open, &s, &g, &tight)
+        .search(Problem::new(&open, &s, &g), &tight)
         .unwrap();
     assert!(!out.proven_optimal && out.cost <= out.first_cost);
     check(

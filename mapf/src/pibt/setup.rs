@@ -2,11 +2,10 @@
 //! as cell indices with its distance tables, PIBT's priorities, and one step
 //! of online PIBT.
 
-use buridan_env::{Cell, Grid};
-
 use crate::graph::{distance_table, Topology};
 use crate::limits::{check_instance, goals_reachable, SolveError};
 use crate::plan::Plan;
+use crate::Problem;
 
 use super::generator::{Generator, Preference};
 
@@ -21,7 +20,8 @@ pub(crate) struct Setup {
 
 impl Setup {
     /// Checks the instance (typed errors, unreachable goals → `NoSolution`).
-    pub fn new(grid: &Grid, starts: &[Cell], goals: &[Cell]) -> Result<Self, SolveError> {
+    pub fn new(problem: Problem<'_>) -> Result<Self, SolveError> {
+        let (grid, starts, goals) = (problem.grid, problem.starts, problem.goals);
         check_instance(grid, starts, goals)?;
         if !goals_reachable(grid, starts, goals) {
             return Err(SolveError::NoSolution);

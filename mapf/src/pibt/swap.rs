@@ -233,6 +233,7 @@ mod tests {
     use super::*;
     use crate::pibt::Setup;
     use crate::rules::ConflictModel;
+    use crate::Problem;
 
     /// A dead-end aisle `(1, 1..=4)` off a junction `(1, 0)`.
     const AISLE: [&str; 3] = [".@@@@", ".....", ".@@@@"];
@@ -249,7 +250,7 @@ mod tests {
         let grid = Grid::from_rows(rows).unwrap();
         let cells =
             |v: &[(usize, usize)]| v.iter().map(|&(r, c)| Cell::new(r, c)).collect::<Vec<_>>();
-        let setup = Setup::new(&grid, &cells(starts), &cells(goals)).unwrap();
+        let setup = Setup::new(Problem::new(&grid, &cells(starts), &cells(goals))).unwrap();
         let mut gen = Generator::new(&setup.topo, ConflictModel::ENV_EXECUTABLE, 0);
         if swap {
             gen = gen.with_swap(&setup.dist, &setup.goals);
@@ -279,7 +280,12 @@ mod tests {
         let grid = Grid::from_rows(&AISLE).unwrap();
         let c = Cell::new;
         // Agent 0 at (1, 2) bound for the end (1, 4); agent 1 rests on (1, 3).
-        let setup = Setup::new(&grid, &[c(1, 2), c(1, 3)], &[c(1, 4), c(1, 3)]).unwrap();
+        let setup = Setup::new(Problem::new(
+            &grid,
+            &[c(1, 2), c(1, 3)],
+            &[c(1, 4), c(1, 3)],
+        ))
+        .unwrap();
         let gen = placed_swap_generator(&setup);
         let info = gen.swap.unwrap();
         let (a, b, junction) = (setup.starts[0], setup.starts[1], setup.topo.index(c(1, 0)));
@@ -306,7 +312,12 @@ mod tests {
         );
         // Without a branching cell anywhere (a plain corridor) no swap.
         let line = Grid::from_rows(&["....."]).unwrap();
-        let setup = Setup::new(&line, &[c(0, 2), c(0, 3)], &[c(0, 4), c(0, 3)]).unwrap();
+        let setup = Setup::new(Problem::new(
+            &line,
+            &[c(0, 2), c(0, 3)],
+            &[c(0, 4), c(0, 3)],
+        ))
+        .unwrap();
         let gen = placed_swap_generator(&setup);
         let info = gen.swap.unwrap();
         assert!(gen.swap_required(info, 0, 1, setup.starts[0], setup.starts[1]));
