@@ -30,6 +30,12 @@
 //! 1 wall, 2+2i agent i, 3+2i goal of agent i, agents over goals — come from
 //! [`write_central_codes`](crate::GridEnv::write_central_codes). The joint
 //! mask is the `5n` per-agent masks in agent order.
+//!
+//! With any recipe feature on ([`crate::ObsFeatures`]), every agent's local
+//! observation (with those features) follows the planes, in agent order:
+//! `n · local_obs_dim` more floats. The joint policy then sees what each
+//! CTDE agent sees — its way to its goal above all, which a network finds
+//! hard to compute from one-hot planes — and the whole grid besides.
 
 use crate::error::EnvError;
 use crate::recipe::Feature;
@@ -83,13 +89,35 @@ pub const fn local_obs_dim(sensor_range: usize) -> usize {
     side * side * NUM_LOCAL_CODES + 4
 }
 
-/// Floats in one central observation.
+/// Floats in the planes of one central observation (all of it without
+/// recipe features; [`ObsKind::obs_dim`] counts the features too).
 ///
 /// ```
 /// assert_eq!(buridan_env::central_obs_dim(10, 20, 4), 9 * 200);
 /// ```
 pub const fn central_obs_dim(height: usize, width: usize, agents: usize) -> usize {
     (1 + 2 * agents) * height * width
+}
+
+/// Floats every agent's local observation adds to the central one: none
+/// without recipe features, else `agents` local observations with them.
+///
+/// ```
+/// use buridan_env::{obs::central_locals_dim, ObsFeatures};
+/// assert_eq!(central_locals_dim(4, 2, &ObsFeatures::default()), 0);
+/// let path = ObsFeatures { path: true, ..ObsFeatures::default() };
+/// assert_eq!(central_locals_dim(4, 2, &path), 4 * 134);
+/// ```
+pub const fn central_locals_dim(
+    agents: usize,
+    sensor_range: usize,
+    features: &crate::ObsFeatures,
+) -> usize {
+    if features.is_none() {
+        0
+    } else {
+        agents * (local_obs_dim(sensor_range) + features.extra_dim(sensor_range))
+    }
 }
 
 /// Which observation a policy consumes.
@@ -114,13 +142,19 @@ impl ObsKind {
     /// let path = ObsFeatures { path: true, ..ObsFeatures::default() };
     /// let cfg = EnvConfig { features: path, ..cfg };
     /// assert_eq!(ObsKind::Local.obs_dim(&map, &cfg), 134);
+    /// // Central: the planes, then both agents' local observations.
+    /// let planes = buridan_env::central_obs_dim(map.grid.height(), map.grid.width(), 2);
+    /// assert_eq!(ObsKind::Central.obs_dim(&map, &cfg), planes + 2 * 134);
     /// ```
     pub fn obs_dim(self, map: &crate::Map, cfg: &crate::EnvConfig) -> usize {
         match self {
             ObsKind::Local => {
                 local_obs_dim(cfg.sensor_range) + cfg.features.extra_dim(cfg.sensor_range)
             }
-            ObsKind::Central => central_obs_dim(map.grid.height(), map.grid.width(), cfg.agents),
+            ObsKind::Central => {
+                central_obs_dim(map.grid.height(), map.grid.width(), cfg.agents)
+                    + central_locals_dim(cfg.agents, cfg.sensor_range, &cfg.features)
+            }
         }
     }
 
@@ -158,13 +192,15 @@ impl GridEnv {
             + self.config().features.extra_dim(self.config().sensor_range)
     }
 
-    /// Floats of one central observation of this env.
+    /// Floats of one central observation of this env (the recipe
+    /// features' local observations included).
     pub fn central_obs_dim(&self) -> usize {
+        let cfg = self.config();
         central_obs_dim(
             self.map().grid.height(),
             self.map().grid.width(),
             self.agents(),
-        )
+        ) + central_locals_dim(self.agents(), cfg.sensor_range, &cfg.features)
     }
 
     /// Writes agent `i`'s window codes, `(2R+1)²` bytes row-major.
@@ -395,7 +431,9 @@ impl GridEnv {
         Ok(())
     }
 
-    /// Writes the central one-hot planes (layout in the module docs).
+    /// Writes the central observation: the one-hot planes, then (with
+    /// recipe features) every agent's local observation (layout in the
+    /// module docs).
     pub fn write_central_obs(&self, out: &mut [f32]) -> Result<(), EnvError> {
         check_len(
             "central observation floats",
@@ -405,13 +443,19 @@ impl GridEnv {
         let grid = &self.map().grid;
         let plane = grid.height() * grid.width();
         let n = self.agents();
-        out.fill(0.0);
-        for (o, &wall) in out[..plane].iter_mut().zip(grid.walls()) {
+        let (planes, locals) = out.split_at_mut((1 + 2 * n) * plane);
+        planes.fill(0.0);
+        for (o, &wall) in planes[..plane].iter_mut().zip(grid.walls()) {
             *o = f32::from(u8::from(wall));
         }
         for i in 0..n {
-            out[(1 + i) * plane + grid.index(self.position(i))] = 1.0;
-            out[(1 + n + i) * plane + grid.index(self.goal(i))] = 1.0;
+            planes[(1 + i) * plane + grid.index(self.position(i))] = 1.0;
+            planes[(1 + n + i) * plane + grid.index(self.goal(i))] = 1.0;
+        }
+        if !locals.is_empty() {
+            for (i, local) in locals.chunks_exact_mut(self.local_obs_dim()).enumerate() {
+                self.write_local_obs(i, local)?;
+            }
         }
         Ok(())
     }

@@ -6,7 +6,9 @@ mod common;
 
 use std::sync::Arc;
 
-use buridan_env::{central_obs_dim, local_obs_dim, EnvConfig, GridEnv, Map, Starts};
+use buridan_env::{
+    central_obs_dim, local_obs_dim, EnvConfig, GridEnv, Map, ObsFeatures, ObsKind, Starts,
+};
 use common::map_from_rows;
 
 /// A 5x6 grid with walls at (0,2) and (2,5) and four agents:
@@ -225,6 +227,40 @@ fn central_planes_by_hand() {
     assert_eq!(ones(6), [1]); // goal 1 at (0,1)
     assert_eq!(ones(7), [14]); // goal 2 at (2,2), under agent 1: planes do not hide it
     assert_eq!(ones(8), [7]); // goal 3 at (1,1)
+}
+
+#[test]
+fn central_observation_with_features_carries_every_local_observation() {
+    let plain = scene(2);
+    let features = ObsFeatures {
+        path: true,
+        intent: true,
+        ..ObsFeatures::default()
+    };
+    let cfg = EnvConfig {
+        features,
+        ..plain.config().clone()
+    };
+    let env = GridEnv::new(plain.map().clone(), cfg.clone()).unwrap();
+    let local = env.local_obs_dim();
+    assert_eq!(env.central_obs_dim(), 270 + 4 * local);
+    assert_eq!(
+        ObsKind::Central.obs_dim(env.map(), &cfg),
+        env.central_obs_dim()
+    );
+    let mut out = vec![f32::NAN; env.central_obs_dim()];
+    env.write_central_obs(&mut out).unwrap();
+    // The planes as without features, then agent i's own local row.
+    let mut planes = vec![f32::NAN; 270];
+    plain.write_central_obs(&mut planes).unwrap();
+    assert_eq!(&out[..270], &planes[..]);
+    for i in 0..4 {
+        let mut row = vec![f32::NAN; local];
+        env.write_local_obs(i, &mut row).unwrap();
+        assert_eq!(&out[270 + i * local..270 + (i + 1) * local], &row[..], "agent {i}");
+    }
+    // A buffer sized for the planes alone is refused.
+    assert!(env.write_central_obs(&mut planes).is_err());
 }
 
 #[test]

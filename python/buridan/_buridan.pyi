@@ -100,7 +100,8 @@ class GridEnv:
     def masks(self) -> npt.NDArray[np.uint8]:
         """Action masks ``(agents, 5)``, 1 = legal."""
     def central_obs(self) -> npt.NDArray[np.float32]:
-        """The CTE observation: ``1 + 2n`` one-hot planes, flat."""
+        """The CTE observation: ``1 + 2n`` one-hot planes, flat, then (with
+        recipe features) every agent's local observation."""
     def joint_mask(self) -> npt.NDArray[np.uint8]:
         """The agents' masks in order, ``(5n,)``."""
     def positions(self) -> list[Cell]: ...

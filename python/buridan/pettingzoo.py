@@ -161,7 +161,8 @@ class ParallelEnv(_PzParallelEnv):
 
     def state(self) -> np.ndarray:
         """The central observation: ``1 + 2n`` one-hot planes (walls, each
-        agent, each goal) of ``height x width``, flat."""
+        agent, each goal) of ``height x width``, flat; with recipe features
+        on, every agent's local observation follows, in agent order."""
         return self._env.central_obs()
 
     def render(self) -> Optional[str]:

@@ -116,8 +116,9 @@ impl PyGridEnv {
             .into_pyarray(py))
     }
 
-    /// The central (CTE) observation, `(1 + 2n)` one-hot planes of
-    /// `height x width`, flat float32.
+    /// The central (CTE) observation, flat float32: `(1 + 2n)` one-hot
+    /// planes of `height x width`, followed, with recipe features, by every
+    /// agent's local observation (layout in `env/src/obs.rs`).
     fn central_obs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f32>>> {
         let mut buf = vec![0.0f32; self.env.central_obs_dim()];
         self.env.write_central_obs(&mut buf).map_err(env_err)?;
