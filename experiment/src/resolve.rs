@@ -168,11 +168,6 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
         cfg.rules = v;
         cfg.t_max = v.default_t_max();
     }
-    if args.config.is_none() && cfg.mode == Mode::Cte {
-        // The recipe's features extend local observations; CTE's central
-        // observation already shows the whole layout.
-        cfg.features = ObsFeatures::default();
-    }
     if let Some(v) = args.steps {
         cfg.steps = v;
     }

@@ -22,10 +22,6 @@ impl TrainConfig {
             self.shaping.is_finite() && self.shaping >= 0.0,
             "shaping must be finite and at least 0",
         )?;
-        ensure(
-            self.features.is_none() || self.mode != Mode::Cte,
-            "observation features apply to local observations (CTDE, DTE), not CTE's central one",
-        )?;
         ensure(self.num_actors >= 1, "num_actors must be at least 1")?;
         ensure(
             self.envs_per_actor >= 1,
