@@ -1,17 +1,22 @@
 //! Success rate on POGEMA's maze instances under pogema rules
 //! (`../shared/pogema/mazes/`: 19×19 maze maps `validation-mazes-seed-NNN.map`
-//! with one `.scen` per agent count), beside lacam3's published results.
+//! with one `.scen` per agent count), or on its warehouse set
+//! (`../shared/pogema/`, `--warehouse`), beside lacam3's published results.
 //!
 //! ```text
 //! cargo run --release -p buridan-mapf --example mazes -- \
 //!     [--dir ../shared/pogema/mazes] [--every 4] [--offset 0] [--maps 1,5,9] \
 //!     [--agents 48,64] [--time 10] [--t-max 128] [--jobs 1] \
 //!     [--planner lacam] [--swap on|off] [--restart 0.1] [--seed 0] > run.csv
+//! cargo run --release -p buridan-mapf --example mazes -- --warehouse \
+//!     --dir ../shared/pogema --agents 32,64,96,128,160,192 --time 10 > run.csv
 //! ```
 //!
 //! Instances are the maps `validation-mazes-seed-NNN` with `NNN` from
 //! `--maps`, or every `--every`-th of the maps in `--dir` (sorted, starting
-//! at `--offset`), at each count of `--agents`. The planner is
+//! at `--offset`), at each count of `--agents`. With `--warehouse` they are
+//! `warehouse.map` with `warehouse-<agents>-<seed>.scen`, the seeds from
+//! `--maps` or every `--every`-th of 0..128 from `--offset`. The planner is
 //! `planner_for_rules(--planner, Rules::Pogema)`; `--swap`, `--restart` or
 //! `--seed` instead configure a [`Lacam`] under
 //! [`ConflictModel::SIMULTANEOUS`] directly (defaults from
@@ -35,8 +40,8 @@ use std::time::{Duration, Instant};
 
 use buridan_env::{Map, Rules};
 use buridan_mapf::{
-    planner_for_rules, replay_exact_with, validate_with, ConflictModel, Lacam, Limits, Planner,
-    Problem,
+    planner_for_rules, replay_exact_with, validate_with, ConflictModel, Lacam, LacamStar, Limits,
+    Objective, Planner, Problem,
 };
 
 struct Args {
@@ -44,7 +49,7 @@ struct Args {
     every: usize,
     offset: usize,
     maps: Option<Vec<u32>>,
-    agents: Vec<usize>,
+    agents: Option<Vec<usize>>,
     time: f64,
     t_max: u32,
     jobs: usize,
@@ -52,6 +57,7 @@ struct Args {
     swap: Option<bool>,
     restart: Option<f64>,
     seed: Option<u64>,
+    warehouse: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -60,7 +66,7 @@ fn parse_args() -> Result<Args, String> {
         every: 1,
         offset: 0,
         maps: None,
-        agents: vec![8, 16, 24, 32, 48, 64],
+        agents: None,
         time: 10.0,
         t_max: 128,
         jobs: 1,
@@ -68,6 +74,7 @@ fn parse_args() -> Result<Args, String> {
         swap: None,
         restart: None,
         seed: None,
+        warehouse: false,
     };
     let raw: Vec<String> = std::env::args().skip(1).collect();
     let mut it = raw.iter();
@@ -77,6 +84,10 @@ fn parse_args() -> Result<Args, String> {
             .collect()
     };
     while let Some(flag) = it.next() {
+        if flag == "--warehouse" {
+            args.warehouse = true;
+            continue;
+        }
         let value = it
             .next()
             .ok_or_else(|| format!("{flag} needs a value"))?
@@ -87,7 +98,9 @@ fn parse_args() -> Result<Args, String> {
             "--every" => args.every = num(value)? as usize,
             "--offset" => args.offset = num(value)? as usize,
             "--maps" => args.maps = Some(list(value)?.into_iter().map(|x| x as u32).collect()),
-            "--agents" => args.agents = list(value)?.into_iter().map(|x| x as usize).collect(),
+            "--agents" => {
+                args.agents = Some(list(value)?.into_iter().map(|x| x as usize).collect());
+            }
             "--time" => args.time = num(value)?,
             "--t-max" => args.t_max = num(value)? as u32,
             "--jobs" => args.jobs = (num(value)? as usize).clamp(1, 2),
@@ -105,13 +118,34 @@ fn planner(args: &Args) -> Box<dyn Planner> {
     if args.swap.is_none() && args.restart.is_none() && args.seed.is_none() {
         return planner_for_rules(&args.planner, Rules::Pogema).expect("a known planner");
     }
-    let base = Lacam::default();
-    Box::new(Lacam {
-        rules: ConflictModel::SIMULTANEOUS,
-        swap: args.swap.unwrap_or(base.swap),
-        restart: args.restart.unwrap_or(base.restart),
-        seed: args.seed.unwrap_or(base.seed),
-    })
+    let rules = ConflictModel::SIMULTANEOUS;
+    match args.planner.as_str() {
+        "lacam" => {
+            let base = Lacam::default();
+            Box::new(Lacam {
+                rules,
+                swap: args.swap.unwrap_or(base.swap),
+                restart: args.restart.unwrap_or(base.restart),
+                seed: args.seed.unwrap_or(base.seed),
+            })
+        }
+        "lacam-star" | "lacam-star-makespan" => {
+            let base = LacamStar::default();
+            Box::new(LacamStar {
+                rules,
+                swap: args.swap.unwrap_or(base.swap),
+                restart: args.restart.unwrap_or(base.restart),
+                seed: args.seed.unwrap_or(base.seed),
+                objective: if args.planner == "lacam-star" {
+                    Objective::SumOfLoss
+                } else {
+                    Objective::Makespan
+                },
+                ..base
+            })
+        }
+        other => panic!("--swap, --restart and --seed configure lacam or lacam-star*, not {other}"),
+    }
 }
 
 /// The maze map names in `dir`, sorted.
@@ -137,8 +171,13 @@ struct Row {
 }
 
 /// Published lacam3 result of an instance: success and runtime.
-fn published(dir: &Path) -> HashMap<(String, usize), (bool, f64)> {
-    let Ok(text) = std::fs::read_to_string(dir.join("published.csv")) else {
+fn published(dir: &Path, warehouse: bool) -> HashMap<(String, usize), (bool, f64)> {
+    let file = if warehouse {
+        "warehouse-published.csv"
+    } else {
+        "published.csv"
+    };
+    let Ok(text) = std::fs::read_to_string(dir.join(file)) else {
         return HashMap::new();
     };
     text.lines()
@@ -146,8 +185,13 @@ fn published(dir: &Path) -> HashMap<(String, usize), (bool, f64)> {
         .filter_map(|l| {
             let f: Vec<&str> = l.split(',').collect();
             (f.get(3) == Some(&"LaCAM")).then(|| {
+                let name = if warehouse {
+                    format!("{}-{}", f[0], f[2])
+                } else {
+                    f[0].to_string()
+                };
                 (
-                    (f[0].to_string(), f[1].parse().unwrap_or(0)),
+                    (name, f[1].parse().unwrap_or(0)),
                     (f[4] == "1", f[9].parse().unwrap_or(f64::NAN)),
                 )
             })
@@ -156,9 +200,16 @@ fn published(dir: &Path) -> HashMap<(String, usize), (bool, f64)> {
 }
 
 fn solve_one(planner: &dyn Planner, args: &Args, name: &str, agents: usize) -> Row {
-    let map = Map::from_file(&args.dir.join(format!("{name}.map")))
-        .and_then(|m| m.with_scenario_file(&args.dir.join(format!("{name}-{agents}-0.scen"))))
-        .expect("a maze instance");
+    let (map, scen) = match name.strip_prefix("warehouse-") {
+        Some(seed) => (
+            "warehouse.map".to_string(),
+            format!("warehouse-{agents}-{seed}.scen"),
+        ),
+        None => (format!("{name}.map"), format!("{name}-{agents}-0.scen")),
+    };
+    let map = Map::from_file(&args.dir.join(map))
+        .and_then(|m| m.with_scenario_file(&args.dir.join(scen)))
+        .expect("an instance");
     let map = Arc::new(map);
     let scen = map.scenario.clone().expect("loaded with its scenario");
     let (s, g) = (&scen.starts, &scen.goals);
@@ -169,17 +220,16 @@ fn solve_one(planner: &dyn Planner, args: &Args, name: &str, agents: usize) -> R
     let (status, makespan, soc) = match res {
         Ok(sol) => {
             let plan = &sol.plan;
-            let status = if validate_with(&map.grid, s, g, plan, ConflictModel::SIMULTANEOUS)
-                .is_err()
-            {
-                "invalid"
-            } else if plan.makespan() > args.t_max as usize {
-                "too-long"
-            } else if replay_exact_with(&map, s, g, plan, args.t_max, Rules::Pogema).is_err() {
-                "invalid"
-            } else {
-                "ok"
-            };
+            let status =
+                if validate_with(&map.grid, s, g, plan, ConflictModel::SIMULTANEOUS).is_err() {
+                    "invalid"
+                } else if plan.makespan() > args.t_max as usize {
+                    "too-long"
+                } else if replay_exact_with(&map, s, g, plan, args.t_max, Rules::Pogema).is_err() {
+                    "invalid"
+                } else {
+                    "ok"
+                };
             (
                 status.to_string(),
                 Some(plan.makespan()),
@@ -225,6 +275,12 @@ fn main() {
         }
     };
     let names: Vec<String> = match &args.maps {
+        Some(seeds) if args.warehouse => seeds.iter().map(|s| format!("warehouse-{s}")).collect(),
+        None if args.warehouse => (0..128)
+            .skip(args.offset)
+            .step_by(args.every.max(1))
+            .map(|s| format!("warehouse-{s}"))
+            .collect(),
         Some(seeds) => seeds
             .iter()
             .map(|s| format!("validation-mazes-seed-{s:03}"))
@@ -235,8 +291,14 @@ fn main() {
             .step_by(args.every.max(1))
             .collect(),
     };
-    let jobs: Vec<(usize, &str)> = args
-        .agents
+    let agents = args.agents.clone().unwrap_or_else(|| {
+        if args.warehouse {
+            vec![32, 64, 96, 128, 160, 192]
+        } else {
+            vec![8, 16, 24, 32, 48, 64]
+        }
+    });
+    let jobs: Vec<(usize, &str)> = agents
         .iter()
         .flat_map(|&a| names.iter().map(move |n| (a, n.as_str())))
         .collect();
@@ -246,7 +308,7 @@ fn main() {
         "{} instances ({} maps × {:?} agents), planner {pname}, {} s CPU each, {} thread(s)",
         jobs.len(),
         names.len(),
-        args.agents,
+        agents,
         args.time,
         args.jobs
     );
@@ -277,7 +339,7 @@ fn main() {
         }
     });
     let rows = rows.into_inner().expect("no panics while held");
-    let published = published(&args.dir);
+    let published = published(&args.dir, args.warehouse);
     eprintln!("wall time {:.1} s", started.elapsed().as_secs_f64());
     eprintln!("agents  n   success  median_cpu  worst_cpu | lacam3: success  median_s  worst_s  | failures");
     let mut by_count: BTreeMap<usize, Vec<&Row>> = BTreeMap::new();

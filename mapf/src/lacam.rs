@@ -119,9 +119,16 @@ pub struct Lacam {
     /// Seed of PIBT's tie-breaking.
     pub seed: u64,
     /// PIBT's *swap* operation in the configuration generator (default
-    /// on; see [`crate::pibt`]): agents that must pass each other in a
-    /// single lane back out to where it branches. [`crate::planner_for_rules`]
-    /// turns it off under pogema rules (not measured there).
+    /// on under both rule sets; see [`crate::pibt`]): agents that must pass
+    /// each other in a single lane back out to where it branches. Measured
+    /// under pogema rules ([`ConflictModel::SIMULTANEOUS`]) on POGEMA's
+    /// maze instances (`mazes` example, 10 s CPU, T_max 128): without it
+    /// LaCAM plans 19 and 14 of 24 maps (every 4th) at 48 and 64 agents,
+    /// the rest run out of time; with it all 96 maps at every count are
+    /// planned within 0.9 s, and 86–93 of the 96 plans at 64 agents
+    /// (seeds 0–4) are within T_max. On the warehouse set (every 4th
+    /// seed, 32–192 agents) both plan all instances in milliseconds, with
+    /// sums of costs within 0.5 %.
     #[serde(default = "swap_default")]
     pub swap: bool,
     /// Probability that reaching a known configuration sends the search

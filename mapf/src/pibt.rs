@@ -60,7 +60,9 @@
 //! away alone, and at the next step the two stand one cell apart; the swap
 //! decision recognises that gap too (`j` beyond `i`'s empty best cell) and
 //! pulls `j` into the empty cell, which is free at `t` whatever the order, so
-//! the pair keeps moving at full speed.
+//! the pair keeps moving at full speed. Under [`ConflictModel::SIMULTANEOUS`]
+//! following is legal, so the pull is always made in the same step (as in
+//! LaCAM3).
 //!
 //! With the swap operation the generator also moves **queues** in a lane
 //! under the index order (*waiting chains*): an agent that must leave a
@@ -72,7 +74,9 @@
 //! neighbour to clear the cell; the neighbour, pushed by a waiting agent,
 //! may in turn wait and pass the request on, until the head of the queue
 //! moves. The failed attempt is undone first (an undo log of the
-//! reservations), so the agents it touched decide afresh.
+//! reservations), so the agents it touched decide afresh. Under
+//! [`ConflictModel::SIMULTANEOUS`] a push moves a queue in one step, so
+//! there are no waiting chains.
 //!
 //! The operation is off by default
 //! (the collision shield and lifelong PIBT do not use it) and enabled by

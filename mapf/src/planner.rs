@@ -199,22 +199,19 @@ fn build(name: &str, rules: ConflictModel) -> Result<Box<dyn Planner>, PlannerLo
             rules,
             ..crate::Prioritized::default()
         }),
-        // PIBT's swap operation is measured under the thesis rules only;
-        // under pogema rules LaCAM stays as benchmarked there (no swap).
+        // PIBT's swap operation is on under both rule sets (measured under
+        // each, see `Lacam::swap`).
         "lacam" => Box::new(crate::Lacam {
             rules,
-            swap: rules.forbid_following,
             ..crate::Lacam::default()
         }),
         "lacam-star" | "lacam*" | "lacam_star" | "lacamstar" => Box::new(crate::LacamStar {
             rules,
-            swap: rules.forbid_following,
             ..crate::LacamStar::default()
         }),
         "lacam-star-makespan" => Box::new(crate::LacamStar {
             rules,
             objective: crate::Objective::Makespan,
-            swap: rules.forbid_following,
             ..crate::LacamStar::default()
         }),
         _ => {

@@ -187,8 +187,10 @@ impl<'a> Generator<'a> {
         let cands = &mut cands[..k];
         cands.sort_unstable();
         // Pushed by an agent that waits for `here` to clear: `i` may wait
-        // too (a *waiting chain*, see the module docs).
-        let chained = self.swap.is_some() && self.occ_next[here as usize] == BLOCKED;
+        // too (a *waiting chain*, see the module docs; only under the
+        // index order, where it is the only way to move a queue).
+        let chains = self.swap.is_some() && self.rules.forbid_following;
+        let chained = chains && self.occ_next[here as usize] == BLOCKED;
         // Swap: back away from the best cell and pull the partner along.
         let swap = self
             .swap
@@ -214,7 +216,8 @@ impl<'a> Generator<'a> {
             if !self.may_enter(i, v, cur) {
                 // Not pushed by anyone (nobody reserved `here`), or in a
                 // waiting chain: `i` may wait while it clears its way.
-                if self.occ_next[here as usize] == NONE || chained {
+                if self.rules.forbid_following && (self.occ_next[here as usize] == NONE || chained)
+                {
                     // Wait on `here` (reserved first, so that nobody pushed
                     // by the clearing comes back to push `i`).
                     let mark = self.undo.len();
@@ -240,7 +243,7 @@ impl<'a> Generator<'a> {
             let undecided = j != NONE && j != i && self.next[j as usize] == NONE;
             if undecided && !self.pibt(pref, j, cur) {
                 let free = self.occ_next[here as usize];
-                if self.swap.is_some() && (free == NONE || chained) {
+                if chains && (free == NONE || chained) {
                     // `j` could not leave: if `i` may wait (nobody pushes
                     // it, or it is in a waiting chain) it waits instead and
                     // lets `j` wait in turn while the agent ahead of it

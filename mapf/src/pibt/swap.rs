@@ -247,11 +247,30 @@ mod tests {
         order: &[u32],
         swap: bool,
     ) -> Vec<(usize, usize)> {
+        step_with(
+            ConflictModel::ENV_EXECUTABLE,
+            rows,
+            starts,
+            goals,
+            order,
+            swap,
+        )
+    }
+
+    /// [`step`] under the conflict model `rules`.
+    fn step_with(
+        rules: ConflictModel,
+        rows: &[&str],
+        starts: &[(usize, usize)],
+        goals: &[(usize, usize)],
+        order: &[u32],
+        swap: bool,
+    ) -> Vec<(usize, usize)> {
         let grid = Grid::from_rows(rows).unwrap();
         let cells =
             |v: &[(usize, usize)]| v.iter().map(|&(r, c)| Cell::new(r, c)).collect::<Vec<_>>();
         let setup = Setup::new(Problem::new(&grid, &cells(starts), &cells(goals))).unwrap();
-        let mut gen = Generator::new(&setup.topo, ConflictModel::ENV_EXECUTABLE, 0);
+        let mut gen = Generator::new(&setup.topo, rules, 0);
         if swap {
             gen = gen.with_swap(&setup.dist, &setup.goals);
         }
@@ -367,5 +386,27 @@ mod tests {
         assert_eq!(step(&AISLE, &s, &g, &[1, 0], true), [(1, 2), (1, 0)]);
         // Without swap 1 walks back in instead.
         assert_eq!(step(&AISLE, &s, &g, &[1, 0], false), [(1, 3), (1, 2)]);
+    }
+
+    #[test]
+    fn under_simultaneous_rules_any_partner_follows_in_the_same_step() {
+        let sim = ConflictModel::SIMULTANEOUS;
+        // Agent 0 rests on (1, 3), agent 1 at (1, 2) is bound for the end:
+        // 1 backs out and pulls the lower-index 0 along at once.
+        let (s, g) = ([(1, 3), (1, 2)], [(1, 3), (1, 4)]);
+        assert_eq!(
+            step_with(sim, &AISLE, &s, &g, &[1, 0], true),
+            [(1, 2), (1, 1)]
+        );
+        // Without swap 1 pushes 0 to the end of the aisle.
+        assert_eq!(
+            step_with(sim, &AISLE, &s, &g, &[1, 0], false),
+            [(1, 4), (1, 3)]
+        );
+        // A queue whose indices rise towards its head moves in one step by
+        // plain pushes (following is legal): no waiting chain.
+        let (s, g) = ([(1, 3), (1, 2), (1, 4)], [(1, 3), (1, 2), (0, 0)]);
+        let next = step_with(sim, &AISLE, &s, &g, &[2, 0, 1], true);
+        assert_eq!(next[2], (1, 3));
     }
 }
