@@ -7,7 +7,8 @@
 //! cargo run --release -p buridan-mapf --example mazes -- \
 //!     [--dir ../shared/pogema/mazes] [--every 4] [--offset 0] [--maps 1,5,9] \
 //!     [--agents 48,64] [--time 10] [--t-max 128] [--jobs 1] \
-//!     [--planner lacam] [--swap on|off] [--restart 0.1] [--seed 0] > run.csv
+//!     [--planner lacam] [--swap on|off] [--restart 0.1] [--seed 0] [--generators 1] \
+//!     [--within-cap on|off] > run.csv
 //! cargo run --release -p buridan-mapf --example mazes -- --warehouse \
 //!     --dir ../shared/pogema --agents 32,64,96,128,160,192 --time 10 > run.csv
 //! ```
@@ -17,10 +18,11 @@
 //! at `--offset`), at each count of `--agents`. With `--warehouse` they are
 //! `warehouse.map` with `warehouse-<agents>-<seed>.scen`, the seeds from
 //! `--maps` or every `--every`-th of 0..128 from `--offset`. The planner is
-//! `planner_for_rules(--planner, Rules::Pogema)`; `--swap`, `--restart` or
-//! `--seed` instead configure a [`Lacam`] under
-//! [`ConflictModel::SIMULTANEOUS`] directly (defaults from
-//! [`Lacam::default`]). Each instance gets `--time` seconds of CPU time
+//! `planner_for_rules(--planner, Rules::Pogema)`; `--swap`, `--restart`,
+//! `--seed`, `--generators` or `--within-cap` instead configure a [`Lacam`] or
+//! [`LacamStar`] (`--planner lacam-star` or `lacam-star-makespan`) under
+//! [`ConflictModel::SIMULTANEOUS`] directly (defaults from their
+//! `Default`). [`Limits::max_makespan`] is `--t-max`. Each instance gets `--time` seconds of CPU time
 //! ([`Limits::time`]); `--jobs` threads (1 or 2) share the instances.
 //!
 //! A plan succeeds if it is valid under [`ConflictModel::SIMULTANEOUS`]
@@ -57,6 +59,8 @@ struct Args {
     swap: Option<bool>,
     restart: Option<f64>,
     seed: Option<u64>,
+    generators: Option<u32>,
+    within_cap: Option<bool>,
     warehouse: bool,
 }
 
@@ -74,6 +78,8 @@ fn parse_args() -> Result<Args, String> {
         swap: None,
         restart: None,
         seed: None,
+        generators: None,
+        within_cap: None,
         warehouse: false,
     };
     let raw: Vec<String> = std::env::args().skip(1).collect();
@@ -108,6 +114,8 @@ fn parse_args() -> Result<Args, String> {
             "--swap" => args.swap = Some(matches!(value, "on" | "true" | "1")),
             "--restart" => args.restart = Some(num(value)?),
             "--seed" => args.seed = Some(num(value)? as u64),
+            "--generators" => args.generators = Some(num(value)? as u32),
+            "--within-cap" => args.within_cap = Some(matches!(value, "on" | "true" | "1")),
             _ => return Err(format!("unknown flag {flag}")),
         }
     }
@@ -115,7 +123,12 @@ fn parse_args() -> Result<Args, String> {
 }
 
 fn planner(args: &Args) -> Box<dyn Planner> {
-    if args.swap.is_none() && args.restart.is_none() && args.seed.is_none() {
+    if args.swap.is_none()
+        && args.restart.is_none()
+        && args.seed.is_none()
+        && args.generators.is_none()
+        && args.within_cap.is_none()
+    {
         return planner_for_rules(&args.planner, Rules::Pogema).expect("a known planner");
     }
     let rules = ConflictModel::SIMULTANEOUS;
@@ -127,6 +140,8 @@ fn planner(args: &Args) -> Box<dyn Planner> {
                 swap: args.swap.unwrap_or(base.swap),
                 restart: args.restart.unwrap_or(base.restart),
                 seed: args.seed.unwrap_or(base.seed),
+                generators: args.generators.unwrap_or(base.generators),
+                within_cap: args.within_cap.unwrap_or(base.within_cap),
             })
         }
         "lacam-star" | "lacam-star-makespan" => {
@@ -136,6 +151,7 @@ fn planner(args: &Args) -> Box<dyn Planner> {
                 swap: args.swap.unwrap_or(base.swap),
                 restart: args.restart.unwrap_or(base.restart),
                 seed: args.seed.unwrap_or(base.seed),
+                generators: args.generators.unwrap_or(base.generators),
                 objective: if args.planner == "lacam-star" {
                     Objective::SumOfLoss
                 } else {
@@ -213,7 +229,10 @@ fn solve_one(planner: &dyn Planner, args: &Args, name: &str, agents: usize) -> R
     let map = Arc::new(map);
     let scen = map.scenario.clone().expect("loaded with its scenario");
     let (s, g) = (&scen.starts, &scen.goals);
-    let limits = Limits::with_time(Duration::from_secs_f64(args.time));
+    let limits = Limits {
+        max_makespan: Some(args.t_max as usize),
+        ..Limits::with_time(Duration::from_secs_f64(args.time))
+    };
     let cpu = cpu_time::ThreadTime::now();
     let res = planner.solve(Problem::new(&map.grid, s, g), &limits);
     let cpu = cpu.elapsed().as_secs_f64();

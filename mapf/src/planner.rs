@@ -231,8 +231,9 @@ fn build(name: &str, rules: ConflictModel) -> Result<Box<dyn Planner>, PlannerLo
 /// budget is shared: planner `k` of `m` may use an equal share of what is
 /// left, `remaining / (m - k)`, so time one planner does not need passes to
 /// the next. A plan longer than [`Limits::max_makespan`] (LaCAM does not
-/// search within a cap) does not end the turn: the next planner tries, and
-/// if none does better the shortest plan found is returned. A proof
+/// search within a cap unless [`crate::Lacam::within_cap`]) does not end
+/// the turn: the next planner tries, and if none does better the shortest
+/// plan found is returned. A proof
 /// ([`SolveError::NoSolution`], [`SolveError::NoSolutionWithin`]) or a
 /// malformed instance ends the call at once; otherwise the error is the
 /// last planner's. Stats are the successful planner's, except the wall

@@ -524,3 +524,62 @@ fn random_restarts_plan_the_dead_end_instance_depth_first_search_misses() {
     let rules = ConflictModel::ENV_EXECUTABLE;
     check(&map.grid, s, g, &sol.plan, rules, "rm-2.1b episode 2");
 }
+
+/// LaCAM within a makespan cap: on seed-42 episodes of rm-2.1b with 16
+/// agents, a cap one step below the first plan's makespan is met (or
+/// proven impossible), under both rule sets; a cap below the longest
+/// distance is proven impossible at once.
+#[test]
+fn within_a_cap_lacam_refines_a_first_plan_that_is_too_long() {
+    let map = Map::load("rm-2.1b").unwrap();
+    let mut refined = 0;
+    for rules in [ConflictModel::ENV_EXECUTABLE, ConflictModel::SIMULTANEOUS] {
+        let free = Lacam {
+            rules,
+            ..Lacam::default()
+        };
+        let capped = Lacam {
+            within_cap: true,
+            ..free
+        };
+        for e in 0..4 {
+            let inst = episode_instance(&map, 16, Starts::Random, 42, e).unwrap();
+            let (s, g) = (&inst.starts, &inst.goals);
+            let ctx = format!("episode {e} {rules:?}");
+            let Ok(first) = free.solve(Problem::new(&map.grid, s, g), &limits(5)) else {
+                continue;
+            };
+            let cap = first.plan.makespan() - 1;
+            let within = Limits {
+                max_makespan: Some(cap),
+                ..limits(5)
+            };
+            match capped.solve(Problem::new(&map.grid, s, g), &within) {
+                Ok(sol) => {
+                    check(&map.grid, s, g, &sol.plan, rules, &ctx);
+                    refined += usize::from(sol.plan.makespan() <= cap);
+                }
+                Err(SolveError::NoSolutionWithin { max_makespan }) => {
+                    assert_eq!(max_makespan, cap, "{ctx}");
+                }
+                Err(err) => panic!("{ctx}: {err}"),
+            }
+            let longest = (0..s.len())
+                .map(|i| map.grid.distances_to(g[i])[map.grid.index(s[i])] as usize)
+                .max()
+                .unwrap();
+            let below = Limits {
+                max_makespan: Some(longest - 1),
+                ..limits(5)
+            };
+            assert_eq!(
+                capped.solve(Problem::new(&map.grid, s, g), &below),
+                Err(SolveError::NoSolutionWithin {
+                    max_makespan: longest - 1
+                }),
+                "{ctx}"
+            );
+        }
+    }
+    assert!(refined >= 4, "{refined} plans refined within the cap");
+}

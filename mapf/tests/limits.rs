@@ -6,8 +6,8 @@ use std::time::{Duration, Instant};
 
 use buridan_env::{episode_instance, Cell, Grid, Map, Starts};
 use buridan_mapf::{
-    planner_by_name, validate_with, Cbs, ConflictModel, Heuristic, InstanceError, Limits, MaAstar,
-    Planner, SolveError,
+    planner_by_name, validate_with, Cbs, ConflictModel, Heuristic, InstanceError, Lacam, Limits,
+    MaAstar, Planner, SolveError,
 };
 
 fn planners() -> Vec<Box<dyn Planner>> {
@@ -121,10 +121,15 @@ fn unreachable_goals_and_makespan_caps() {
         max_makespan: Some(c),
         ..Limits::default()
     };
+    let lacam = Lacam {
+        within_cap: true,
+        ..Lacam::default()
+    };
     for planner in [
         &MaAstar::with_heuristic(Heuristic::MaxManhattan) as &dyn Planner,
         &MaAstar::default(),
         &Cbs::default(),
+        &lacam,
     ] {
         assert_eq!(
             planner.solve(Problem::new(&map.grid, &scen.starts, &scen.goals), &cap(9)),
