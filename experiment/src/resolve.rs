@@ -241,3 +241,25 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
     cfg.validate()?;
     Ok(cfg)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_recipe_keeps_its_features_in_every_mode() {
+        let recipe = TrainConfig::recipe();
+        for mode in [Mode::Ctde, Mode::Dte, Mode::Cte] {
+            let args = RunArgs {
+                map: Some("rm-2.1".into()),
+                mode: Some(mode),
+                out: PathBuf::from("unused"),
+                ..RunArgs::default()
+            };
+            let cfg = resolve(&args).unwrap();
+            assert_eq!(cfg.mode, mode);
+            assert_eq!(cfg.features, recipe.features, "{mode:?}");
+            assert_eq!(cfg.imitation, recipe.imitation, "{mode:?}");
+        }
+    }
+}
