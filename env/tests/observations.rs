@@ -257,7 +257,11 @@ fn central_observation_with_features_carries_every_local_observation() {
     for i in 0..4 {
         let mut row = vec![f32::NAN; local];
         env.write_local_obs(i, &mut row).unwrap();
-        assert_eq!(&out[270 + i * local..270 + (i + 1) * local], &row[..], "agent {i}");
+        assert_eq!(
+            &out[270 + i * local..270 + (i + 1) * local],
+            &row[..],
+            "agent {i}"
+        );
     }
     // A buffer sized for the planes alone is refused.
     assert!(env.write_central_obs(&mut planes).is_err());

@@ -9,6 +9,19 @@
 //! batch, `R` the GAE value targets. After each train batch, `β` (initially
 //! 0.2) is multiplied by 1.5 if the mean KL exceeded `2·kl_target` and by
 //! 0.5 if it fell below `kl_target / 2` (RLlib's `update_kl`).
+//!
+//! # Critic warm-up
+//!
+//! A policy warm-started by imitation comes with a critic that has never
+//! seen a return. Its first advantages are noise, and with an LSTM the
+//! value head reads the same recurrent features as the policy, so the
+//! value loss (large while the critic is random) rewrites the features the
+//! imitation taught. While [`Ppo::critic_only`] is set, an update fits the
+//! value weights alone (`value.*`, and `vf.*` of a separate value MLP) to
+//! `c_vf·mean(min((V − R)², vf_clip))`; every other weight keeps its value
+//! (its gradient is zeroed, Adam's moments stay at zero) and the KL
+//! coefficients do not adapt. The learner sets it for the first
+//! `critic_warmup` env steps of the run.
 
 use buridan_policy::{dist, Policy};
 use candle_core::Tensor;
@@ -111,6 +124,35 @@ pub fn ppo_loss(
     Ok((total, terms))
 }
 
+/// The critic warm-up's loss ([module docs](self#critic-warm-up)):
+/// `c_vf·mean(min((V − R)², vf_clip))`; the terms report the policy's
+/// entropy and KL to the behaviour policy as they stand (the surrogate as
+/// 0).
+pub fn critic_loss(
+    logits: &Tensor,
+    values: &Tensor,
+    bt: &BatchTensors,
+    targets: &Tensor,
+    p: &PpoLossParams,
+) -> Result<(Tensor, LossTerms)> {
+    let lp_all = dist::masked_log_probs(logits, &bt.mask_bias, bt.heads)?;
+    let vf = (values - targets)?
+        .sqr()?
+        .clamp(0.0, p.vf_clip)?
+        .mean_all()?;
+    let total = (&vf * p.vf_coeff as f64)?;
+    let terms = LossTerms {
+        total: total.to_scalar::<f32>()? as f64,
+        policy: 0.0,
+        vf: vf.to_scalar::<f32>()? as f64,
+        entropy: dist::entropy(&lp_all)?.mean_all()?.to_scalar::<f32>()? as f64,
+        kl: dist::kl(&bt.behaviour_log_probs, &lp_all)?
+            .mean_all()?
+            .to_scalar::<f32>()? as f64,
+    };
+    Ok((total, terms))
+}
+
 /// RLlib's adaptive KL coefficient rule.
 ///
 /// ```
@@ -175,6 +217,10 @@ pub struct Ppo {
     pub kl_coeffs: Vec<f64>,
     /// The optimiser over all weights.
     pub optim: ClippedAdam,
+    /// Fit the value weights alone ([critic warm-up](self#critic-warm-up)).
+    pub critic_only: bool,
+    /// Per optimiser variable: whether it is a value weight.
+    value_vars: Vec<bool>,
 }
 
 /// One weight set's train batch with its GAE advantages and value targets.
@@ -223,10 +269,19 @@ impl EpochPlan {
 impl Ppo {
     /// A PPO learner for `policy`.
     pub fn new(policy: &Policy, settings: PpoSettings) -> Self {
+        let optim = ClippedAdam::new(policy, settings.lr, settings.grad_clip);
+        let value_vars = optim
+            .adam
+            .vars()
+            .iter()
+            .map(|(name, _)| is_value_weight(name))
+            .collect();
         Self {
             kl_coeffs: vec![settings.kl_coeff; policy.spec().nets()],
-            optim: ClippedAdam::new(policy, settings.lr, settings.grad_clip),
+            optim,
             settings,
+            critic_only: false,
+            value_vars,
         }
     }
 
@@ -274,11 +329,22 @@ impl Ppo {
                 for (k, t) in terms.iter().enumerate() {
                     kl_sums[k] += t.map_or(0.0, |t| t.kl);
                 }
+                if self.critic_only {
+                    for (g, value) in grads.iter_mut().zip(&self.value_vars) {
+                        if !value {
+                            g.fill(0.0);
+                        }
+                    }
+                }
                 let grad_norm = self.optim.step_grads(&mut grads)?;
                 stats.add_minibatch(&terms.into_iter().flatten().collect::<Vec<_>>(), grad_norm);
             }
         }
-        let kl_mean = self.adapt_kl(&kl_sums, stats.grad_steps);
+        let kl_mean = if self.critic_only {
+            kl_sums.iter().sum::<f64>() / (kl_sums.len() * stats.grad_steps.max(1)) as f64
+        } else {
+            self.adapt_kl(&kl_sums, stats.grad_steps)
+        };
         stats.finish();
         stats.kl = kl_mean;
         stats.kl_coeff = self.kl_coeffs.iter().sum::<f64>() / self.kl_coeffs.len() as f64;
@@ -414,7 +480,11 @@ impl Ppo {
             entropy_coeff: s.entropy_coeff,
             kl_coeff: self.kl_coeffs[k] as f32,
         };
-        ppo_loss(&logits, &values, &sub, &advantages, &targets, &params)
+        if self.critic_only {
+            critic_loss(&logits, &values, &sub, &targets, &params)
+        } else {
+            ppo_loss(&logits, &values, &sub, &advantages, &targets, &params)
+        }
     }
 
     /// RLlib's `update_kl` per weight set from the mean KL of its gradient
@@ -430,4 +500,18 @@ impl Ppo {
         }
         kl_mean
     }
+}
+
+/// Whether the optimiser variable `name` (`net{k}.…`, [`buridan_policy::Net`]'s
+/// names) is a value weight: the value head or the separate value MLP.
+///
+/// ```
+/// use buridan_learner::algo::ppo::is_value_weight;
+/// assert!(is_value_weight("net0.value.weight") && is_value_weight("net1.vf.0.bias"));
+/// assert!(!is_value_weight("net0.pi.0.weight") && !is_value_weight("net0.lstm.weight_hh_l0"));
+/// assert!(!is_value_weight("net0.logits.bias"));
+/// ```
+pub fn is_value_weight(name: &str) -> bool {
+    let local = name.split_once('.').map_or(name, |(_, rest)| rest);
+    local.starts_with("value.") || local.starts_with("vf.")
 }

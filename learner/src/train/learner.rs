@@ -52,7 +52,12 @@ impl Learner {
 
     /// Sets the learning rate and entropy coefficient the config's
     /// schedules give at `env_steps` (unscheduled ones stay as configured).
+    /// Also keeps PPO to its critic warm-up while fewer than
+    /// `ppo.critic_warmup` env steps have been sampled.
     pub(super) fn follow_schedules(&mut self, cfg: &TrainConfig, env_steps: u64) {
+        if let Learner::Ppo(p) = self {
+            p.critic_only = env_steps < cfg.ppo.critic_warmup;
+        }
         let (lr, entropy) = match cfg.algo {
             Algo::Ppo => (&cfg.ppo.lr_schedule, &cfg.ppo.entropy_schedule),
             Algo::Impala => (&cfg.impala.lr_schedule, &cfg.impala.entropy_schedule),

@@ -85,6 +85,18 @@ pub struct PpoConfig {
     /// rounding. While PPO updates, its actors wait for the new weights,
     /// so the cores they leave are free.
     pub update_threads: usize,
+    /// Env steps of critic warm-up (0, the default: none): the first
+    /// updates fit only the value head (and a separate value MLP) to the
+    /// returns of the policy as it stands, every other weight frozen, so
+    /// that the policy gradient starts from a critic that knows the
+    /// imitated policy instead of rewriting it through a random one
+    /// ([`crate::algo::ppo`], "Critic warm-up").
+    #[serde(skip_serializing_if = "is_zero")]
+    pub critic_warmup: u64,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }
 
 impl Default for PpoConfig {
@@ -107,6 +119,7 @@ impl Default for PpoConfig {
             lr_schedule: None,
             entropy_schedule: None,
             update_threads: 0,
+            critic_warmup: 0,
         }
     }
 }
