@@ -161,6 +161,9 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
     if let Some(v) = args.mode {
         cfg.mode = v;
     }
+    if args.config.is_none() {
+        cfg.apply_recipe_mode();
+    }
     if let Some(v) = args.starts {
         cfg.starts = v;
     }
@@ -260,6 +263,8 @@ mod tests {
             assert_eq!(cfg.mode, mode);
             assert_eq!(cfg.features, recipe.features, "{mode:?}");
             assert_eq!(cfg.imitation, recipe.imitation, "{mode:?}");
+            let warmup = if mode == Mode::Cte { 20_000 } else { 0 };
+            assert_eq!(cfg.ppo.critic_warmup, warmup, "{mode:?}");
         }
     }
 }

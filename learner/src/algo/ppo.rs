@@ -20,8 +20,12 @@
 //! value weights alone (`value.*`, and `vf.*` of a separate value MLP) to
 //! `c_vf·mean(min((V − R)², vf_clip))`; every other weight keeps its value
 //! (its gradient is zeroed, Adam's moments stay at zero) and the KL
-//! coefficients do not adapt. The learner sets it for the first
-//! `critic_warmup` env steps of the run.
+//! coefficients do not adapt. Each such update first shifts the value
+//! bias by the batch's mean of `R − V`, the best constant correction: a
+//! fresh head predicts about 0 where returns are several units, a scale
+//! gradient steps at the policy's learning rate take thousands of steps
+//! to reach. The learner sets it for the first `critic_warmup` env steps
+//! of the run.
 
 use buridan_policy::{dist, Policy};
 use candle_core::Tensor;
@@ -228,6 +232,8 @@ struct Prepared {
     bt: BatchTensors,
     advantages: Tensor,
     targets: Tensor,
+    /// Mean of `targets − V` over the batch (before standardising).
+    residual: f64,
 }
 
 /// One minibatch's gradient (one buffer per variable, in the optimiser's
@@ -310,6 +316,11 @@ impl Ppo {
             .enumerate()
             .map(|(k, b)| self.prepare(policy, k, b))
             .collect::<Result<Vec<_>>>()?;
+        if self.critic_only {
+            for (k, p) in prepared.iter().enumerate() {
+                self.shift_value_bias(k, p.residual)?;
+            }
+        }
         let recurrent = policy.spec().is_recurrent();
         let mut stats = UpdateStats::default();
         let mut kl_sums = vec![0.0f64; batches.len()];
@@ -429,6 +440,8 @@ impl Ppo {
             },
         );
         let mut advantages = g.advantages;
+        let residual =
+            advantages.iter().map(|&a| f64::from(a)).sum::<f64>() / advantages.len().max(1) as f64;
         if s.standardize_advantages {
             standardize(&mut advantages);
         }
@@ -437,7 +450,19 @@ impl Ppo {
             bt,
             advantages: Tensor::from_vec(advantages, n, &dev)?,
             targets: Tensor::from_vec(g.targets, n, &dev)?,
+            residual,
         })
+    }
+
+    /// Adds `by` to weight set `k`'s value bias: the closed-form best
+    /// constant correction of a critic whose scale is off (a fresh value
+    /// head predicts about 0 where returns are several units).
+    fn shift_value_bias(&self, k: usize, by: f64) -> Result<()> {
+        let name = format!("net{k}.value.bias");
+        if let Some((_, var)) = self.optim.adam.vars().iter().find(|(n, _)| *n == name) {
+            var.set(&(var.as_tensor() + by)?)?;
+        }
+        Ok(())
     }
 
     /// The PPO loss of weight set `k` on the given units (samples, or

@@ -260,6 +260,29 @@ impl TrainConfig {
         }
     }
 
+    /// The recipe's settings that depend on the mode, for a run whose
+    /// mode is set: CTE's joint policy warms its critic up for 20k env
+    /// steps ([`PpoConfig::critic_warmup`]) before the policy gradient
+    /// starts. Without it PPO undoes most of what the imitation taught
+    /// the joint policy (rm-2.1, 4 agents, 100k env steps, seeds 0–2:
+    /// `docs/results/recipe-cte/RESULTS.md`).
+    ///
+    /// ```
+    /// use buridan_learner::train::TrainConfig;
+    /// use buridan_policy::Mode;
+    /// let mut cte = TrainConfig { mode: Mode::Cte, ..TrainConfig::recipe() };
+    /// cte.apply_recipe_mode();
+    /// assert_eq!(cte.ppo.critic_warmup, 20_000);
+    /// let mut ctde = TrainConfig::recipe();
+    /// ctde.apply_recipe_mode();
+    /// assert_eq!(ctde, TrainConfig::recipe());
+    /// ```
+    pub fn apply_recipe_mode(&mut self) {
+        if self.mode == Mode::Cte {
+            self.ppo.critic_warmup = 20_000;
+        }
+    }
+
     /// Reads a TOML file (which sets at most one of `map`, `maps` and
     /// `plant`: [`Task`]).
     pub fn from_toml_file(path: &Path) -> Result<Self, ConfigError> {
