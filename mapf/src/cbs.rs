@@ -362,10 +362,7 @@ impl HighLevel<'_> {
     }
 
     fn no_solution(&self) -> SolveError {
-        match self.budget.max_makespan() {
-            Some(max_makespan) if self.capped => SolveError::NoSolutionWithin { max_makespan },
-            _ => SolveError::NoSolution,
-        }
+        self.budget.exhausted(self.capped)
     }
 
     fn add_node(&mut self, parent: u32, constraint: Option<Constraint>, paths: Vec<Path>) -> u32 {

@@ -105,6 +105,7 @@
 pub mod cbs;
 pub mod dead_ends;
 mod graph;
+mod joint;
 pub mod lacam;
 pub mod lanes;
 pub mod lifelong;

@@ -307,10 +307,32 @@ impl Budget {
             }
         }
         if self.expanded & 255 == 0 {
-            self.check_time()?;
-            self.check_memory(bytes_in_use())?;
+            self.check(bytes_in_use())?;
         }
         Ok(())
+    }
+
+    /// Counts a generated node; true every 4096th, when the caller runs
+    /// [`Budget::check`].
+    pub fn count_generated(&mut self) -> bool {
+        self.generated += 1;
+        self.generated & 4095 == 0
+    }
+
+    /// Checks the clock and the memory estimate `bytes_in_use` now.
+    pub fn check(&self, bytes_in_use: usize) -> Result<(), SolveError> {
+        self.check_time()?;
+        self.check_memory(bytes_in_use)
+    }
+
+    /// The error of a search whose open list ran dry:
+    /// [`SolveError::NoSolutionWithin`] where the makespan cap cut a node
+    /// off (`capped`), [`SolveError::NoSolution`] otherwise.
+    pub fn exhausted(&self, capped: bool) -> SolveError {
+        match self.max_makespan() {
+            Some(max_makespan) if capped => SolveError::NoSolutionWithin { max_makespan },
+            _ => SolveError::NoSolution,
+        }
     }
 
     pub fn check_memory(&self, bytes: usize) -> Result<(), SolveError> {

@@ -20,9 +20,9 @@ use crate::Problem;
 use std::cmp::Reverse;
 use std::collections::hash_map::Entry;
 use std::collections::BinaryHeap;
-use std::hash::Hash;
 
 use crate::graph::{distance_table, manhattan_table, FastMap, Topology, NONE};
+use crate::joint::{chain_plan, index_bytes, run_keyed, JointKey, JointSearch};
 use crate::limits::{Budget, Limits, SolveError};
 use crate::plan::Plan;
 use crate::planner::{Planner, Solution};
@@ -126,42 +126,11 @@ impl Planner for MaAstar {
             budget: &mut budget,
         };
         let start: Vec<u32> = starts.iter().map(|&s| topo.index(s)).collect();
-        let plan = if n as u32 * bits <= 128 {
-            search.run::<u128>(&start)
-        } else {
-            search.run::<Box<[u32]>>(&start)
-        }?;
+        let plan = run_keyed(&mut search, &start, n, bits)?;
         Ok(Solution {
             plan,
             stats: budget.stats(),
         })
-    }
-}
-
-/// A joint state as a hash key (also OD-A*'s, with the next agent appended).
-pub(crate) trait JointKey: Hash + Eq {
-    fn pack(cells: &[u32], bits: u32) -> Self;
-    /// Heap bytes owned by a key beyond `size_of::<Self>()`.
-    fn heap_bytes(n: usize) -> usize;
-}
-
-impl JointKey for u128 {
-    fn pack(cells: &[u32], bits: u32) -> Self {
-        cells
-            .iter()
-            .fold(0u128, |acc, &c| (acc << bits) | u128::from(c))
-    }
-    fn heap_bytes(_: usize) -> usize {
-        0
-    }
-}
-
-impl JointKey for Box<[u32]> {
-    fn pack(cells: &[u32], _: u32) -> Self {
-        cells.into()
-    }
-    fn heap_bytes(n: usize) -> usize {
-        4 * n + 16
     }
 }
 
@@ -200,54 +169,12 @@ impl Search<'_> {
         }
     }
 
-    /// Bytes held by the search, from the allocated capacities (a hash
-    /// table slot is a `(K, u32)` pair plus a control byte).
+    /// Bytes held by the search, from the allocated capacities.
     fn bytes<K: JointKey>(&self, index: &FastMap<K, u32>) -> usize {
         self.states.capacity() * 4
             + self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.open.capacity() * std::mem::size_of::<OpenEntry>()
-            + index.capacity() * (std::mem::size_of::<(K, u32)>() + 1) * 8 / 7
-            + index.len() * K::heap_bytes(self.n)
-    }
-
-    fn run<K: JointKey>(&mut self, start: &[u32]) -> Result<Plan, SolveError> {
-        let n = self.n;
-        let mut index: FastMap<K, u32> = FastMap::default();
-        index.insert(K::pack(start, self.bits), 0);
-        self.states.extend_from_slice(start);
-        self.nodes.push(Node {
-            parent: NONE,
-            g: 0,
-            closed: false,
-        });
-        self.open
-            .push((Reverse(self.heuristic(start)), 0, Reverse(0)));
-        let cap = self.budget.max_makespan();
-        let mut capped = false;
-        let mut cur = vec![0u32; n];
-        let mut next = vec![0u32; n];
-        while let Some((_, g, Reverse(id))) = self.open.pop() {
-            let node = self.nodes[id as usize];
-            if node.closed || node.g != g {
-                continue;
-            }
-            self.nodes[id as usize].closed = true;
-            let bytes = self.bytes::<K>(&index);
-            self.budget.on_expand(|| bytes)?;
-            cur.copy_from_slice(&self.states[id as usize * n..(id as usize + 1) * n]);
-            if cur == self.goals {
-                return Ok(self.reconstruct(id));
-            }
-            if cap.is_some_and(|c| g as usize >= c) {
-                capped = true;
-                continue;
-            }
-            self.expand(0, &cur, &mut next, id, g + 1, &mut index)?;
-        }
-        Err(match cap {
-            Some(max_makespan) if capped => SolveError::NoSolutionWithin { max_makespan },
-            _ => SolveError::NoSolution,
-        })
+            + index_bytes(index, self.n)
     }
 
     /// Places agent `i` (agents `< i` are placed in `next`), recursing to the
@@ -294,10 +221,8 @@ impl Search<'_> {
         g: u32,
         index: &mut FastMap<K, u32>,
     ) -> Result<(), SolveError> {
-        self.budget.generated += 1;
-        if self.budget.generated & 4095 == 0 {
-            self.budget.check_time()?;
-            self.budget.check_memory(self.bytes::<K>(index))?;
+        if self.budget.count_generated() {
+            self.budget.check(self.bytes::<K>(index))?;
         }
         match index.entry(K::pack(next, self.bits)) {
             Entry::Occupied(e) => {
@@ -327,20 +252,46 @@ impl Search<'_> {
     }
 
     fn reconstruct(&self, goal: u32) -> Plan {
+        let parent = |id: u32| self.nodes[id as usize].parent;
+        chain_plan(self.topo, self.n, &self.states, goal, parent, |_| true)
+    }
+}
+
+impl JointSearch for Search<'_> {
+    fn run<K: JointKey>(&mut self, start: &[u32]) -> Result<Plan, SolveError> {
         let n = self.n;
-        let mut chain = Vec::new();
-        let mut id = goal;
-        while id != NONE {
-            chain.push(id);
-            id = self.nodes[id as usize].parent;
+        let mut index: FastMap<K, u32> = FastMap::default();
+        index.insert(K::pack(start, self.bits), 0);
+        self.states.extend_from_slice(start);
+        self.nodes.push(Node {
+            parent: NONE,
+            g: 0,
+            closed: false,
+        });
+        self.open
+            .push((Reverse(self.heuristic(start)), 0, Reverse(0)));
+        let cap = self.budget.max_makespan();
+        let mut capped = false;
+        let mut cur = vec![0u32; n];
+        let mut next = vec![0u32; n];
+        while let Some((_, g, Reverse(id))) = self.open.pop() {
+            let node = self.nodes[id as usize];
+            if node.closed || node.g != g {
+                continue;
+            }
+            self.nodes[id as usize].closed = true;
+            let bytes = self.bytes::<K>(&index);
+            self.budget.on_expand(|| bytes)?;
+            cur.copy_from_slice(&self.states[id as usize * n..(id as usize + 1) * n]);
+            if cur == self.goals {
+                return Ok(self.reconstruct(id));
+            }
+            if cap.is_some_and(|c| g as usize >= c) {
+                capped = true;
+                continue;
+            }
+            self.expand(0, &cur, &mut next, id, g + 1, &mut index)?;
         }
-        chain.reverse();
-        let states = &self.states;
-        self.topo.plan(
-            n,
-            chain
-                .iter()
-                .map(|&k| &states[k as usize * n..(k as usize + 1) * n]),
-        )
+        Err(self.budget.exhausted(capped))
     }
 }

@@ -92,9 +92,9 @@ use std::collections::BinaryHeap;
 use buridan_env::Cell;
 
 use crate::graph::{distance_table, FastMap, Topology, NONE};
+use crate::joint::{chain_plan, index_bytes, run_keyed, JointKey, JointSearch};
 use crate::lacam::Objective;
 use crate::limits::{Budget, Limits, SolveError};
-use crate::maastar::JointKey;
 use crate::plan::Plan;
 use crate::planner::{Planner, Solution};
 
@@ -184,11 +184,7 @@ impl Planner for OdAstar {
             budget: &mut budget,
         };
         let start: Vec<u32> = starts.iter().map(|&s| topo.index(s)).collect();
-        let plan = if (n as u32 + 1) * bits <= 128 {
-            search.run::<u128>(&start)
-        } else {
-            search.run::<Box<[u32]>>(&start)
-        }?;
+        let plan = run_keyed(&mut search, &start, n + 1, bits)?;
         Ok(Solution {
             plan,
             stats: budget.stats(),
@@ -270,10 +266,52 @@ impl Search<'_> {
             + self.states.capacity() * 4
             + self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.open.capacity() * std::mem::size_of::<OpenEntry>()
-            + index.capacity() * (std::mem::size_of::<(K, u32)>() + 1) * 8 / 7
-            + index.len() * K::heap_bytes(self.n + 1)
+            + index_bytes(index, self.n + 1)
     }
 
+    fn insert<K: JointKey>(
+        &mut self,
+        p: &[u32],
+        node: Node,
+        index: &mut FastMap<K, u32>,
+        scratch: &mut Vec<u32>,
+    ) -> Result<(), SolveError> {
+        if self.budget.count_generated() {
+            self.budget.check(self.bytes::<K>(index))?;
+        }
+        match index.entry(self.key(p, node.next, scratch)) {
+            Entry::Occupied(e) => {
+                let id = *e.get();
+                let known = self.nodes[id as usize];
+                // Reopened if closed: the pairwise bound is admissible,
+                // not consistent.
+                if node.g < known.g {
+                    self.nodes[id as usize] = node;
+                    let entry = self.entry(p, &node, id);
+                    self.open.push(entry);
+                }
+            }
+            Entry::Vacant(e) => {
+                let id = self.nodes.len() as u32;
+                e.insert(id);
+                self.states.extend_from_slice(p);
+                self.nodes.push(node);
+                let entry = self.entry(p, &node, id);
+                self.open.push(entry);
+            }
+        }
+        Ok(())
+    }
+
+    /// The plan: the configurations between steps along the parent chain.
+    fn reconstruct(&self, goal: u32) -> Plan {
+        let node = |id: u32| self.nodes[id as usize];
+        let (parent, between_steps) = (|id| node(id).parent, |id| node(id).next == 0);
+        chain_plan(self.topo, self.n, &self.states, goal, parent, between_steps)
+    }
+}
+
+impl JointSearch for Search<'_> {
     fn run<K: JointKey>(&mut self, start: &[u32]) -> Result<Plan, SolveError> {
         let n = self.n;
         let mut scratch = Vec::with_capacity(n + 1);
@@ -338,69 +376,7 @@ impl Search<'_> {
                 cur[k] = here;
             }
         }
-        Err(match cap {
-            Some(c) if capped => SolveError::NoSolutionWithin {
-                max_makespan: c as usize,
-            },
-            _ => SolveError::NoSolution,
-        })
-    }
-
-    fn insert<K: JointKey>(
-        &mut self,
-        p: &[u32],
-        node: Node,
-        index: &mut FastMap<K, u32>,
-        scratch: &mut Vec<u32>,
-    ) -> Result<(), SolveError> {
-        self.budget.generated += 1;
-        if self.budget.generated & 4095 == 0 {
-            self.budget.check_time()?;
-            self.budget.check_memory(self.bytes::<K>(index))?;
-        }
-        match index.entry(self.key(p, node.next, scratch)) {
-            Entry::Occupied(e) => {
-                let id = *e.get();
-                let known = self.nodes[id as usize];
-                // Reopened if closed: the pairwise bound is admissible,
-                // not consistent.
-                if node.g < known.g {
-                    self.nodes[id as usize] = node;
-                    let entry = self.entry(p, &node, id);
-                    self.open.push(entry);
-                }
-            }
-            Entry::Vacant(e) => {
-                let id = self.nodes.len() as u32;
-                e.insert(id);
-                self.states.extend_from_slice(p);
-                self.nodes.push(node);
-                let entry = self.entry(p, &node, id);
-                self.open.push(entry);
-            }
-        }
-        Ok(())
-    }
-
-    /// The plan: the configurations between steps along the parent chain.
-    fn reconstruct(&self, goal: u32) -> Plan {
-        let n = self.n;
-        let mut chain = Vec::new();
-        let mut id = goal;
-        while id != NONE {
-            if self.nodes[id as usize].next == 0 {
-                chain.push(id);
-            }
-            id = self.nodes[id as usize].parent;
-        }
-        chain.reverse();
-        let states = &self.states;
-        self.topo.plan(
-            n,
-            chain
-                .iter()
-                .map(|&k| &states[k as usize * n..(k as usize + 1) * n]),
-        )
+        Err(self.budget.exhausted(capped))
     }
 }
 
