@@ -47,6 +47,11 @@ impl Topology {
         (cell.row * self.width + cell.col) as u32
     }
 
+    /// The indices of `cells`.
+    pub fn indices(&self, cells: &[Cell]) -> Vec<u32> {
+        cells.iter().map(|&c| self.index(c)).collect()
+    }
+
     pub fn cell(&self, index: u32) -> Cell {
         let i = index as usize;
         Cell::new(i / self.width, i % self.width)

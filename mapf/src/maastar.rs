@@ -19,10 +19,9 @@
 use crate::Problem;
 use std::cmp::Reverse;
 use std::collections::hash_map::Entry;
-use std::collections::BinaryHeap;
 
 use crate::graph::{distance_table, manhattan_table, FastMap, Topology, NONE};
-use crate::joint::{chain_plan, index_bytes, run_keyed, JointKey, JointSearch};
+use crate::joint::{solve_keyed, Arena, JointKey, JointSearch};
 use crate::limits::{Budget, Limits, SolveError};
 use crate::plan::Plan;
 use crate::planner::{Planner, Solution};
@@ -110,27 +109,17 @@ impl Planner for MaAstar {
                 Heuristic::MaxDistance => distance_table(grid, g),
             })
             .collect();
-        let n = starts.len();
         let bits = usize::BITS - (topo.cells().max(2) - 1).leading_zeros();
         let mut search = Search {
             topo: &topo,
             h,
             sum: self.heuristic == Heuristic::SumManhattan,
             forbid_following: self.rules.forbid_following,
-            n,
             bits,
-            goals: goals.iter().map(|&g| topo.index(g)).collect(),
-            states: Vec::new(),
-            nodes: Vec::new(),
-            open: BinaryHeap::new(),
-            budget: &mut budget,
+            goals: topo.indices(goals),
+            joint: Arena::new(goals.len(), &mut budget),
         };
-        let start: Vec<u32> = starts.iter().map(|&s| topo.index(s)).collect();
-        let plan = run_keyed(&mut search, &start, n, bits)?;
-        Ok(Solution {
-            plan,
-            stats: budget.stats(),
-        })
+        solve_keyed(&mut search, &topo, starts, starts.len(), bits)
     }
 }
 
@@ -149,14 +138,11 @@ struct Search<'a> {
     h: Vec<Vec<u32>>,
     sum: bool,
     forbid_following: bool,
-    n: usize,
+    /// Bits per cell in a packed key.
     bits: u32,
+    /// The goal configuration.
     goals: Vec<u32>,
-    /// Joint positions of node `k` at `states[k * n..(k + 1) * n]`.
-    states: Vec<u32>,
-    nodes: Vec<Node>,
-    open: BinaryHeap<OpenEntry>,
-    budget: &'a mut Budget,
+    joint: Arena<'a, Node, OpenEntry>,
 }
 
 impl Search<'_> {
@@ -171,10 +157,7 @@ impl Search<'_> {
 
     /// Bytes held by the search, from the allocated capacities.
     fn bytes<K: JointKey>(&self, index: &FastMap<K, u32>) -> usize {
-        self.states.capacity() * 4
-            + self.nodes.capacity() * std::mem::size_of::<Node>()
-            + self.open.capacity() * std::mem::size_of::<OpenEntry>()
-            + index_bytes(index, self.n)
+        self.joint.bytes(index, self.joint.n)
     }
 
     /// Places agent `i` (agents `< i` are placed in `next`), recursing to the
@@ -188,7 +171,7 @@ impl Search<'_> {
         g: u32,
         index: &mut FastMap<K, u32>,
     ) -> Result<(), SolveError> {
-        if i == self.n {
+        if i == self.joint.n {
             return self.insert(next, parent, g, index);
         }
         let here = cur[i];
@@ -221,68 +204,73 @@ impl Search<'_> {
         g: u32,
         index: &mut FastMap<K, u32>,
     ) -> Result<(), SolveError> {
-        if self.budget.count_generated() {
-            self.budget.check(self.bytes::<K>(index))?;
+        if self.joint.budget.count_generated() {
+            self.joint.budget.check(self.bytes::<K>(index))?;
         }
         match index.entry(K::pack(next, self.bits)) {
             Entry::Occupied(e) => {
                 let id = *e.get();
-                let node = &mut self.nodes[id as usize];
+                let node = &mut self.joint.nodes[id as usize];
                 if !node.closed && g < node.g {
                     node.g = g;
                     node.parent = parent;
                     let f = g + self.heuristic(next);
-                    self.open.push((Reverse(f), g, Reverse(id)));
+                    self.joint.open.push((Reverse(f), g, Reverse(id)));
                 }
             }
             Entry::Vacant(e) => {
-                let id = self.nodes.len() as u32;
+                let id = self.joint.nodes.len() as u32;
                 e.insert(id);
-                self.states.extend_from_slice(next);
-                self.nodes.push(Node {
+                self.joint.states.extend_from_slice(next);
+                self.joint.nodes.push(Node {
                     parent,
                     g,
                     closed: false,
                 });
                 let f = g + self.heuristic(next);
-                self.open.push((Reverse(f), g, Reverse(id)));
+                self.joint.open.push((Reverse(f), g, Reverse(id)));
             }
         }
         Ok(())
     }
 
     fn reconstruct(&self, goal: u32) -> Plan {
-        let parent = |id: u32| self.nodes[id as usize].parent;
-        chain_plan(self.topo, self.n, &self.states, goal, parent, |_| true)
+        self.joint
+            .plan(self.topo, goal, |node| node.parent, |_| true)
     }
 }
 
 impl JointSearch for Search<'_> {
+    fn budget(&self) -> &Budget {
+        self.joint.budget
+    }
+
     fn run<K: JointKey>(&mut self, start: &[u32]) -> Result<Plan, SolveError> {
-        let n = self.n;
+        let n = self.joint.n;
         let mut index: FastMap<K, u32> = FastMap::default();
         index.insert(K::pack(start, self.bits), 0);
-        self.states.extend_from_slice(start);
-        self.nodes.push(Node {
+        self.joint.states.extend_from_slice(start);
+        self.joint.nodes.push(Node {
             parent: NONE,
             g: 0,
             closed: false,
         });
-        self.open
+        self.joint
+            .open
             .push((Reverse(self.heuristic(start)), 0, Reverse(0)));
-        let cap = self.budget.max_makespan();
+        let cap = self.joint.budget.max_makespan();
         let mut capped = false;
         let mut cur = vec![0u32; n];
         let mut next = vec![0u32; n];
-        while let Some((_, g, Reverse(id))) = self.open.pop() {
-            let node = self.nodes[id as usize];
+        while let Some((_, g, Reverse(id))) = self.joint.open.pop() {
+            let node = self.joint.nodes[id as usize];
             if node.closed || node.g != g {
                 continue;
             }
-            self.nodes[id as usize].closed = true;
+            self.joint.nodes[id as usize].closed = true;
             let bytes = self.bytes::<K>(&index);
-            self.budget.on_expand(|| bytes)?;
-            cur.copy_from_slice(&self.states[id as usize * n..(id as usize + 1) * n]);
+            self.joint.budget.on_expand(|| bytes)?;
+            cur.copy_from_slice(self.joint.cells(id));
             if cur == self.goals {
                 return Ok(self.reconstruct(id));
             }
@@ -292,6 +280,6 @@ impl JointSearch for Search<'_> {
             }
             self.expand(0, &cur, &mut next, id, g + 1, &mut index)?;
         }
-        Err(self.budget.exhausted(capped))
+        Err(self.joint.budget.exhausted(capped))
     }
 }

@@ -87,12 +87,11 @@
 use crate::Problem;
 use std::cmp::Reverse;
 use std::collections::hash_map::Entry;
-use std::collections::BinaryHeap;
 
 use buridan_env::Cell;
 
 use crate::graph::{distance_table, FastMap, Topology, NONE};
-use crate::joint::{chain_plan, index_bytes, run_keyed, JointKey, JointSearch};
+use crate::joint::{solve_keyed, Arena, JointKey, JointSearch};
 use crate::lacam::Objective;
 use crate::limits::{Budget, Limits, SolveError};
 use crate::plan::Plan;
@@ -175,20 +174,11 @@ impl Planner for OdAstar {
             pairs,
             topo: &topo,
             dist: goals.iter().map(|&g| distance_table(grid, g)).collect(),
-            n,
             bits,
-            goals: goals.iter().map(|&g| topo.index(g)).collect(),
-            states: Vec::new(),
-            nodes: Vec::new(),
-            open: BinaryHeap::new(),
-            budget: &mut budget,
+            goals: topo.indices(goals),
+            joint: Arena::new(goals.len(), &mut budget),
         };
-        let start: Vec<u32> = starts.iter().map(|&s| topo.index(s)).collect();
-        let plan = run_keyed(&mut search, &start, n + 1, bits)?;
-        Ok(Solution {
-            plan,
-            stats: budget.stats(),
-        })
+        solve_keyed(&mut search, &topo, starts, n + 1, bits)
     }
 }
 
@@ -215,21 +205,18 @@ struct Search<'a> {
     topo: &'a Topology,
     /// Per agent, per cell: shortest-path distance to the agent's goal.
     dist: Vec<Vec<u32>>,
-    n: usize,
+    /// Bits per cell in a packed key.
     bits: u32,
+    /// The goal configuration.
     goals: Vec<u32>,
-    /// Cells of node `k` at `states[k * n..(k + 1) * n]`.
-    states: Vec<u32>,
-    nodes: Vec<Node>,
-    open: BinaryHeap<OpenEntry>,
-    budget: &'a mut Budget,
+    joint: Arena<'a, Node, OpenEntry>,
 }
 
 impl Search<'_> {
     /// The open-list entry of node `id` with cells `p` (see the module docs).
     fn entry(&self, p: &[u32], node: &Node, id: u32) -> OpenEntry {
         let (g, k) = (node.g, node.next as usize);
-        let depth = node.steps * self.n as u32 + k as u32;
+        let depth = node.steps * self.joint.n as u32 + k as u32;
         let (mut sum, mut f) = (0, g + u32::from(k > 0));
         for (i, (&c, d)) in p.iter().zip(&self.dist).enumerate() {
             let d = d[c as usize];
@@ -263,10 +250,7 @@ impl Search<'_> {
             .iter()
             .map(|(_, _, t)| t.len() * 2)
             .sum::<usize>()
-            + self.states.capacity() * 4
-            + self.nodes.capacity() * std::mem::size_of::<Node>()
-            + self.open.capacity() * std::mem::size_of::<OpenEntry>()
-            + index_bytes(index, self.n + 1)
+            + self.joint.bytes(index, self.joint.n + 1)
     }
 
     fn insert<K: JointKey>(
@@ -276,28 +260,28 @@ impl Search<'_> {
         index: &mut FastMap<K, u32>,
         scratch: &mut Vec<u32>,
     ) -> Result<(), SolveError> {
-        if self.budget.count_generated() {
-            self.budget.check(self.bytes::<K>(index))?;
+        if self.joint.budget.count_generated() {
+            self.joint.budget.check(self.bytes::<K>(index))?;
         }
         match index.entry(self.key(p, node.next, scratch)) {
             Entry::Occupied(e) => {
                 let id = *e.get();
-                let known = self.nodes[id as usize];
+                let known = self.joint.nodes[id as usize];
                 // Reopened if closed: the pairwise bound is admissible,
                 // not consistent.
                 if node.g < known.g {
-                    self.nodes[id as usize] = node;
+                    self.joint.nodes[id as usize] = node;
                     let entry = self.entry(p, &node, id);
-                    self.open.push(entry);
+                    self.joint.open.push(entry);
                 }
             }
             Entry::Vacant(e) => {
-                let id = self.nodes.len() as u32;
+                let id = self.joint.nodes.len() as u32;
                 e.insert(id);
-                self.states.extend_from_slice(p);
-                self.nodes.push(node);
+                self.joint.states.extend_from_slice(p);
+                self.joint.nodes.push(node);
                 let entry = self.entry(p, &node, id);
-                self.open.push(entry);
+                self.joint.open.push(entry);
             }
         }
         Ok(())
@@ -305,15 +289,19 @@ impl Search<'_> {
 
     /// The plan: the configurations between steps along the parent chain.
     fn reconstruct(&self, goal: u32) -> Plan {
-        let node = |id: u32| self.nodes[id as usize];
-        let (parent, between_steps) = (|id| node(id).parent, |id| node(id).next == 0);
-        chain_plan(self.topo, self.n, &self.states, goal, parent, between_steps)
+        let between_steps = |node: &Node| node.next == 0;
+        self.joint
+            .plan(self.topo, goal, |node| node.parent, between_steps)
     }
 }
 
 impl JointSearch for Search<'_> {
+    fn budget(&self) -> &Budget {
+        self.joint.budget
+    }
+
     fn run<K: JointKey>(&mut self, start: &[u32]) -> Result<Plan, SolveError> {
-        let n = self.n;
+        let n = self.joint.n;
         let mut scratch = Vec::with_capacity(n + 1);
         let mut index: FastMap<K, u32> = FastMap::default();
         index.insert(self.key(start, 0, &mut scratch), 0);
@@ -324,21 +312,21 @@ impl JointSearch for Search<'_> {
             next: 0,
             closed: false,
         };
-        self.states.extend_from_slice(start);
-        self.nodes.push(root);
-        self.open.push(self.entry(start, &root, 0));
-        let cap = self.budget.max_makespan().map(|c| c as u32);
+        self.joint.states.extend_from_slice(start);
+        self.joint.nodes.push(root);
+        self.joint.open.push(self.entry(start, &root, 0));
+        let cap = self.joint.budget.max_makespan().map(|c| c as u32);
         let mut capped = false;
         let mut cur = vec![0u32; n];
-        while let Some((_, _, _, Reverse(id))) = self.open.pop() {
-            let node = self.nodes[id as usize];
+        while let Some((_, _, _, Reverse(id))) = self.joint.open.pop() {
+            let node = self.joint.nodes[id as usize];
             if node.closed {
                 continue;
             }
-            self.nodes[id as usize].closed = true;
+            self.joint.nodes[id as usize].closed = true;
             let bytes = self.bytes::<K>(&index);
-            self.budget.on_expand(|| bytes)?;
-            cur.copy_from_slice(&self.states[id as usize * n..(id as usize + 1) * n]);
+            self.joint.budget.on_expand(|| bytes)?;
+            cur.copy_from_slice(self.joint.cells(id));
             if node.next == 0 && cur == self.goals {
                 return Ok(self.reconstruct(id));
             }
@@ -376,7 +364,7 @@ impl JointSearch for Search<'_> {
                 cur[k] = here;
             }
         }
-        Err(self.budget.exhausted(capped))
+        Err(self.joint.budget.exhausted(capped))
     }
 }
 
