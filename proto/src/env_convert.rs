@@ -243,20 +243,10 @@ pub fn finished_episode(
     e: &EpisodeStats,
     kpis: impl IntoIterator<Item = (String, f64)>,
 ) -> v1::FinishedEpisode {
-    v1::FinishedEpisode {
+    with_episode_fields!(v1::FinishedEpisode, e, {
         env: env as u32,
-        episode: e.episode,
-        reward: e.reward,
-        length: e.length,
-        success: e.success,
-        agents_at_goal: e.agents_at_goal,
-        blocked_moves: e.blocked_moves,
-        goals_reached: e.goals_reached,
-        deadlock_steps: e.deadlock_steps,
-        livelock_steps: e.livelock_steps,
-        deadlock_events: e.deadlock_events,
         kpis: kpis.into_iter().collect(),
-    }
+    })
 }
 
 /// A finished episode from the wire: its statistics (layout 0) and its
@@ -272,20 +262,7 @@ pub fn episode_from_message(
             "episodes.kpis[{name:?}] is {value} (must be finite)"
         )));
     }
-    let stats = EpisodeStats {
-        episode: m.episode,
-        reward: m.reward,
-        length: m.length,
-        success: m.success,
-        agents_at_goal: m.agents_at_goal,
-        blocked_moves: m.blocked_moves,
-        goals_reached: m.goals_reached,
-        deadlock_steps: m.deadlock_steps,
-        livelock_steps: m.livelock_steps,
-        deadlock_events: m.deadlock_events,
-        layout: 0,
-        replay: 0,
-    };
+    let stats = with_episode_fields!(EpisodeStats, m, { layout: 0, replay: 0 });
     Ok((stats, kpis))
 }
 

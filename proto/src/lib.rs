@@ -9,6 +9,29 @@
 //! assert_eq!(join.api_version, 2);
 //! ```
 
+/// `$ty { … }` built from `$src`, copying the ten statistics an episode
+/// carries under the same names in `buridan_env::EpisodeStats` and on both
+/// wires (`v1::EpisodeStats`, `v1::FinishedEpisode`); `$rest` names the
+/// other fields. A macro: the four types share field names, not a trait.
+macro_rules! with_episode_fields {
+    ($ty:path, $src:expr, { $($rest:tt)* }) => {{
+        let s = $src;
+        $ty {
+            episode: s.episode,
+            reward: s.reward,
+            length: s.length,
+            success: s.success,
+            agents_at_goal: s.agents_at_goal,
+            blocked_moves: s.blocked_moves,
+            goals_reached: s.goals_reached,
+            deadlock_steps: s.deadlock_steps,
+            livelock_steps: s.livelock_steps,
+            deadlock_events: s.deadlock_events,
+            $($rest)*
+        }
+    }};
+}
+
 pub mod codec;
 pub mod convert;
 pub mod env_convert;

@@ -272,37 +272,11 @@ fn state_from_message(m: v1::RecurrentState) -> Result<RecurrentState, ConvertEr
 }
 
 fn episode_to_message(e: &EpisodeStats) -> v1::EpisodeStats {
-    v1::EpisodeStats {
-        episode: e.episode,
-        reward: e.reward,
-        length: e.length,
-        success: e.success,
-        agents_at_goal: e.agents_at_goal,
-        blocked_moves: e.blocked_moves,
-        goals_reached: e.goals_reached,
-        deadlock_steps: e.deadlock_steps,
-        livelock_steps: e.livelock_steps,
-        deadlock_events: e.deadlock_events,
-        layout: e.layout,
-        replay: e.replay,
-    }
+    with_episode_fields!(v1::EpisodeStats, e, { layout: e.layout, replay: e.replay })
 }
 
 fn episode_from_message(m: &v1::EpisodeStats) -> EpisodeStats {
-    EpisodeStats {
-        episode: m.episode,
-        reward: m.reward,
-        length: m.length,
-        success: m.success,
-        agents_at_goal: m.agents_at_goal,
-        blocked_moves: m.blocked_moves,
-        goals_reached: m.goals_reached,
-        deadlock_steps: m.deadlock_steps,
-        livelock_steps: m.livelock_steps,
-        deadlock_events: m.deadlock_events,
-        layout: m.layout,
-        replay: m.replay,
-    }
+    with_episode_fields!(EpisodeStats, m, { layout: m.layout, replay: m.replay })
 }
 
 #[cfg(test)]
