@@ -35,13 +35,7 @@ pub enum PolicyLoadError {
 
 /// Drives all agents with a trained policy: greedy or sampled actions.
 pub struct PolicyController {
-    inference: Inference,
-    mode: Mode,
-    act_mode: ActMode,
-    obs: Vec<f32>,
-    masks: Vec<u8>,
-    actions: Vec<u8>,
-    logp: Vec<f32>,
+    runner: PolicyRunner,
     name: String,
     features: ObsFeatures,
     sensor_range: usize,
@@ -57,20 +51,80 @@ impl PolicyController {
     ) -> Result<Self, PolicyLoadError> {
         let (_, policy, rows) = load_for_agents(path, agents)?;
         let spec = policy.spec().clone();
-        let inference = Inference::new(policy, rows, seed);
-        let heads = spec.heads;
         Ok(Self {
-            mode: spec.mode,
-            act_mode,
-            obs: vec![0.0; rows * spec.obs_dim],
-            masks: vec![0; rows * heads * NUM_ACTIONS],
-            actions: vec![0; rows * heads],
-            logp: vec![0.0; rows],
+            runner: PolicyRunner::new(policy, rows, act_mode, seed),
             name: format!("{:?}-policy", spec.mode).to_lowercase(),
             features: spec.features,
             sensor_range: spec.sensor_range,
-            inference,
         })
+    }
+}
+
+/// A loaded policy with its inference buffers, as the grid's and the
+/// plant's policy controllers drive it: the env writes `obs` and `masks`,
+/// [`PolicyRunner::act`] chooses, [`PolicyRunner::observe`] feeds a
+/// recurrent policy the step taken.
+pub(crate) struct PolicyRunner {
+    inference: Inference,
+    /// The policy's mode (CTE: one row of the central observation).
+    pub mode: Mode,
+    act_mode: ActMode,
+    /// Observation rows, written by the env before each decision.
+    pub obs: Vec<f32>,
+    /// Action masks, `NUM_ACTIONS` per agent, written by the env.
+    pub masks: Vec<u8>,
+    /// The actions of the last decision (or, after
+    /// [`PolicyController::record_taken`], the ones executed).
+    pub actions: Vec<u8>,
+    logp: Vec<f32>,
+}
+
+impl PolicyRunner {
+    /// `policy` run on `rows` rows ([`load_for_agents`]), acting by
+    /// `act_mode` (sampling seeded `seed`).
+    pub fn new(policy: Policy, rows: usize, act_mode: ActMode, seed: u64) -> Self {
+        let spec = policy.spec().clone();
+        Self {
+            mode: spec.mode,
+            act_mode,
+            obs: vec![0.0; rows * spec.obs_dim],
+            masks: vec![0; rows * spec.heads * NUM_ACTIONS],
+            actions: vec![0; rows * spec.heads],
+            logp: vec![0.0; rows],
+            inference: Inference::new(policy, rows, seed),
+        }
+    }
+
+    /// Floats of one observation row.
+    pub fn obs_dim(&self) -> usize {
+        self.obs.len() / self.inference.rows()
+    }
+
+    /// Chooses every agent's action from `obs` under `masks`.
+    pub fn act(&mut self) -> Result<Decision<'_>, PolicyError> {
+        let logits = self.inference.act(
+            &self.obs,
+            &self.masks,
+            self.act_mode,
+            &mut self.actions,
+            &mut self.logp,
+        )?;
+        Ok(Decision {
+            actions: &self.actions,
+            logits,
+            masks: &self.masks,
+        })
+    }
+
+    /// Starts a new episode ([`reset_recurrent_state`]).
+    pub fn begin_episode(&mut self) {
+        reset_recurrent_state(&mut self.inference);
+    }
+
+    /// Feeds the step just taken with `actions` its `rewards`
+    /// ([`observe_step`]).
+    pub fn observe(&mut self, rewards: &[f32]) {
+        observe_step(&mut self.inference, self.mode, &self.actions, rewards);
     }
 }
 
@@ -164,42 +218,31 @@ impl PolicyController {
         env: &GridEnv,
         mask: MaskKind,
     ) -> Result<Decision<'_>, PolicyError> {
-        if self.mode == Mode::Cte {
-            env.write_central_obs(&mut self.obs).expect("sized at load");
-            env.write_joint_mask(&mut self.masks)
-                .expect("sized at load");
+        let r = &mut self.runner;
+        if r.mode == Mode::Cte {
+            env.write_central_obs(&mut r.obs).expect("sized at load");
+            env.write_joint_mask(&mut r.masks).expect("sized at load");
         } else {
             let d = env.local_obs_dim();
             for i in 0..env.agents() {
-                env.write_local_obs(i, &mut self.obs[i * d..(i + 1) * d])
+                env.write_local_obs(i, &mut r.obs[i * d..(i + 1) * d])
                     .expect("sized at load");
-                env.write_action_mask(i, &mut self.masks[i * NUM_ACTIONS..(i + 1) * NUM_ACTIONS])
+                env.write_action_mask(i, &mut r.masks[i * NUM_ACTIONS..(i + 1) * NUM_ACTIONS])
                     .expect("sized at load");
             }
         }
         if mask == MaskKind::Walls {
-            for (i, out) in self.masks.chunks_mut(NUM_ACTIONS).enumerate() {
+            for (i, out) in r.masks.chunks_mut(NUM_ACTIONS).enumerate() {
                 env.write_wall_mask(i, out).expect("sized at load");
             }
         }
-        let logits = self.inference.act(
-            &self.obs,
-            &self.masks,
-            self.act_mode,
-            &mut self.actions,
-            &mut self.logp,
-        )?;
-        Ok(Decision {
-            actions: &self.actions,
-            logits,
-            masks: &self.masks,
-        })
+        r.act()
     }
 
     /// Records the actions actually sent to the env, which a recurrent
     /// policy sees as its previous actions at the next step.
     pub(crate) fn record_taken(&mut self, actions: &[u8]) {
-        self.actions.copy_from_slice(actions);
+        self.runner.actions.copy_from_slice(actions);
     }
 }
 
@@ -217,8 +260,8 @@ impl Controller for PolicyController {
     }
 
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
-        let expected = self.obs.len() / self.inference.rows();
-        let dim = if self.mode == Mode::Cte {
+        let expected = self.runner.obs_dim();
+        let dim = if self.runner.mode == Mode::Cte {
             env.central_obs_dim()
         } else {
             env.local_obs_dim()
@@ -228,7 +271,7 @@ impl Controller for PolicyController {
                 "the policy expects {expected} observation floats, this env gives {dim}"
             )));
         }
-        reset_recurrent_state(&mut self.inference);
+        self.runner.begin_episode();
         Ok(())
     }
 
@@ -241,6 +284,6 @@ impl Controller for PolicyController {
     }
 
     fn after_step(&mut self, rewards: &[f32]) {
-        observe_step(&mut self.inference, self.mode, &self.actions, rewards);
+        self.runner.observe(rewards);
     }
 }

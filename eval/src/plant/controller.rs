@@ -7,21 +7,15 @@ use std::sync::Arc;
 use buridan_env::{ObsKind, NUM_ACTIONS};
 use buridan_plant::controllers::{RandomController, ReservationController};
 use buridan_plant::{Plant, PlantEnv};
-use buridan_policy::{checkpoint, ActMode, Inference, Mode};
+use buridan_policy::{checkpoint, ActMode, Mode};
 
 use super::{eval_config, PlantEvalError, PlantEvalSpec};
-use crate::policy::{load_for_agents, observe_step, reset_recurrent_state, PolicyLoadError};
+use crate::policy::{load_for_agents, PolicyLoadError, PolicyRunner};
 
 /// A trained policy driving all AGVs, loaded from a checkpoint of
 /// `learner train --plant`.
 pub struct PlantPolicy {
-    inference: Inference,
-    mode: Mode,
-    act_mode: ActMode,
-    obs: Vec<f32>,
-    masks: Vec<u8>,
-    actions: Vec<u8>,
-    logp: Vec<f32>,
+    runner: PolicyRunner,
     trained_on: String,
 }
 
@@ -66,13 +60,7 @@ impl PlantPolicy {
             });
         }
         Ok(Self {
-            mode: spec.mode,
-            act_mode,
-            obs: vec![0.0; rows * spec.obs_dim],
-            masks: vec![0; agents * NUM_ACTIONS],
-            actions: vec![0; agents],
-            logp: vec![0.0; rows],
-            inference: Inference::new(policy, rows, seed),
+            runner: PolicyRunner::new(policy, rows, act_mode, seed),
             trained_on,
         })
     }
@@ -84,35 +72,28 @@ impl PlantPolicy {
     }
 
     fn begin_episode(&mut self) {
-        reset_recurrent_state(&mut self.inference);
+        self.runner.begin_episode();
     }
 
     fn act(&mut self, env: &PlantEnv, out: &mut [u8]) -> Result<(), PlantEvalError> {
-        let n = env.agents();
-        if self.mode == Mode::Cte {
-            env.write_central_obs(&mut self.obs)?;
+        let (n, r) = (env.agents(), &mut self.runner);
+        if r.mode == Mode::Cte {
+            env.write_central_obs(&mut r.obs)?;
         } else {
             let d = env.local_obs_dim();
             for i in 0..n {
-                env.write_local_obs(i, &mut self.obs[i * d..(i + 1) * d])?;
+                env.write_local_obs(i, &mut r.obs[i * d..(i + 1) * d])?;
             }
         }
         for i in 0..n {
-            env.write_mask(i, &mut self.masks[i * NUM_ACTIONS..(i + 1) * NUM_ACTIONS])?;
+            env.write_mask(i, &mut r.masks[i * NUM_ACTIONS..(i + 1) * NUM_ACTIONS])?;
         }
-        self.inference.act(
-            &self.obs,
-            &self.masks,
-            self.act_mode,
-            &mut self.actions,
-            &mut self.logp,
-        )?;
-        out.copy_from_slice(&self.actions);
+        out.copy_from_slice(r.act()?.actions);
         Ok(())
     }
 
     fn after_step(&mut self, rewards: &[f32]) {
-        observe_step(&mut self.inference, self.mode, &self.actions, rewards);
+        self.runner.observe(rewards);
     }
 }
 
@@ -213,7 +194,7 @@ impl PlantController {
         match self {
             Self::Reservation(_) => "reservation".into(),
             Self::Random { .. } => "random".into(),
-            Self::Policy(p) => format!("{:?}-policy", p.mode).to_lowercase(),
+            Self::Policy(p) => format!("{:?}-policy", p.runner.mode).to_lowercase(),
         }
     }
 
