@@ -24,13 +24,13 @@
 use std::path::{Path, PathBuf};
 
 use buridan_plant::{Agv, Load, Plant, PlantEnv, Task};
-use buridan_study::plot::err;
+use buridan_study::plot::{canvas, err};
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
 use serde::Serialize;
 
 use crate::output::{io, OutputError};
-use crate::plot::{colour_bar, register_fonts, PlotError};
+use crate::plot::{colour_bar, PlotError};
 
 /// What an AGV did in one step, judged from its state after the step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -241,11 +241,9 @@ pub fn write_timeline(dir: &Path, title: &str, t: &Timeline) -> Result<Vec<PathB
 }
 
 fn draw_timeline(path: &Path, title: &str, t: &Timeline) -> Result<(), PlotError> {
-    register_fonts();
     let seconds = t.steps() as f64 * t.step_seconds;
     let size = (1100, 120 + 40 * t.agents.max(1) as u32 + 40);
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let root = canvas(path, size)?;
     let (plot_area, legend) = root.split_vertically(size.1 - 40);
     let mut chart = ChartBuilder::on(&plot_area)
         .caption(title, ("sans-serif", 18))
@@ -347,13 +345,11 @@ pub fn write_track_usage(
 /// The track drawn to scale, each segment coloured by `values` (viridis,
 /// 0 to the largest value), stations labelled.
 fn draw_track(path: &Path, title: &str, plant: &Plant, values: &[f64]) -> Result<(), PlotError> {
-    register_fonts();
     let (x0, y0, x1, y1) = plant.bounds();
     let (w, h) = ((x1 - x0).max(1.0), (y1 - y0).max(1.0));
     let px_per_m = (900.0 / w).min(600.0 / h);
     let size = ((w * px_per_m) as u32 + 200, (h * px_per_m) as u32 + 140);
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let root = canvas(path, size)?;
     let (plot_area, legend) = root.split_horizontally(size.0 - 100);
     let pad = 0.05 * w.max(h);
     let mut chart = ChartBuilder::on(&plot_area)

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use buridan_env::Grid;
 use buridan_study::figures::line_frame;
-use buridan_study::plot::{err, legend_and_present};
+use buridan_study::plot::{canvas, err, legend_and_present};
 pub use buridan_study::plot::{register_fonts, PlotError};
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
@@ -22,12 +22,10 @@ use plotters::style::colors::colormaps::ViridisRGB;
 /// buridan_eval::plot::heatmap(std::path::Path::new("h.png"), "visits", &grid, &visits).unwrap();
 /// ```
 pub fn heatmap(path: &Path, title: &str, grid: &Grid, visits: &[u64]) -> Result<(), PlotError> {
-    register_fonts();
     let (h, w) = (grid.height(), grid.width());
     let cell_px = (900 / w.max(1)).clamp(8, 40) as u32;
     let size = (w as u32 * cell_px + 120, h as u32 * cell_px + 80);
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let root = canvas(path, size)?;
     let (plot_area, legend) = root.split_horizontally(size.0 - 90);
     let mut chart = ChartBuilder::on(&plot_area)
         .caption(title, ("sans-serif", 18))
@@ -135,9 +133,7 @@ pub fn line_chart_with_references(
     series: &[Series],
     references: &[Series],
 ) -> Result<(), PlotError> {
-    register_fonts();
-    let root = BitMapBackend::new(path, (900, 540)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let root = canvas(path, (900, 540))?;
     let pts = series
         .iter()
         .chain(references)

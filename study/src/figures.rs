@@ -9,15 +9,36 @@ use std::path::Path;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use crate::plot::{err, legend_and_present, register_fonts, PlotError};
+use crate::plot::{canvas, err, legend_and_present, PlotError};
 use crate::stats::{BoxStats, Interval};
 
-/// The cartesian chart of [`grouped_bars`] and [`grouped_boxes`].
-type GroupedChart<'a, 'b> = ChartContext<
+/// A chart with real coordinates on both axes, as every figure here draws.
+pub type F64Chart<'a, DB> = ChartContext<
     'a,
-    BitMapBackend<'b>,
+    DB,
     Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
 >;
+
+/// The cartesian chart of [`grouped_bars`] and [`grouped_boxes`].
+type GroupedChart<'a, 'b> = F64Chart<'a, BitMapBackend<'b>>;
+
+/// A chart on `root` captioned `title` over `x` × `y`, with the figures'
+/// margin and label areas (`y_label_area` pixels wide for the y labels).
+fn f64_chart<'a, DB: DrawingBackend + 'a>(
+    root: &'a DrawingArea<DB, plotters::coord::Shift>,
+    path: &Path,
+    title: &str,
+    y_label_area: u32,
+    (x, y): (std::ops::Range<f64>, std::ops::Range<f64>),
+) -> Result<F64Chart<'a, DB>, PlotError> {
+    ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 18))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(y_label_area)
+        .build_cartesian_2d(x, y)
+        .map_err(|e| err(path, e))
+}
 
 /// The frame the grouped figures share: one slot per group (x = its index,
 /// named under it), y from 0 to `top`, the mesh drawn.
@@ -30,13 +51,7 @@ fn grouped_frame<'a, 'b>(
     top: f64,
 ) -> Result<GroupedChart<'a, 'b>, PlotError> {
     let n = groups.len().max(1) as f64;
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 18))
-        .margin(15)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(-0.5..(n - 0.5), 0.0..top)
-        .map_err(|e| err(path, e))?;
+    let mut chart = f64_chart(root, path, title, 60, (-0.5..(n - 0.5), 0.0..top))?;
     let label = |x: &f64| {
         let i = x.round();
         if (x - i).abs() < 1e-6 && i >= 0.0 {
@@ -90,9 +105,7 @@ pub fn grouped_bars(
     series: &[String],
     bars: &[Bar],
 ) -> Result<(), PlotError> {
-    register_fonts();
-    let root = BitMapBackend::new(path, (1000, 560)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let root = canvas(path, (1000, 560))?;
     let top = bars
         .iter()
         .map(|b| b.ci.map_or(b.value, |c| c.high.max(b.value)))
@@ -160,26 +173,14 @@ pub fn line_frame<'a, DB: DrawingBackend + 'a>(
     path: &Path,
     (title, x_label, y_label): Labels<'_>,
     (mut x0, mut x1, mut y0, mut y1): (f64, f64, f64, f64),
-) -> Result<
-    ChartContext<
-        'a,
-        DB,
-        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
-    >,
-    PlotError,
-> {
+) -> Result<F64Chart<'a, DB>, PlotError> {
     if x0 > x1 {
         (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
     }
     let pad_x = if x1 > x0 { 0.0 } else { 0.5 };
     let pad_y = ((y1 - y0) * 0.05).max(1e-3);
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 18))
-        .margin(15)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d((x0 - pad_x)..(x1 + pad_x), (y0 - pad_y)..(y1 + pad_y))
-        .map_err(|e| err(path, e))?;
+    let ranges = ((x0 - pad_x)..(x1 + pad_x), (y0 - pad_y)..(y1 + pad_y));
+    let mut chart = f64_chart(root, path, title, 60, ranges)?;
     chart
         .configure_mesh()
         .x_desc(x_label)
@@ -258,9 +259,7 @@ pub fn banded_lines(
     y_label: &str,
     bands: &[Band],
 ) -> Result<(), PlotError> {
-    register_fonts();
-    let root = BitMapBackend::new(path, (1000, 560)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let root = canvas(path, (1000, 560))?;
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for &(x, y, lo, hi) in bands.iter().flat_map(|b| b.points.iter()) {
         if [x, y, lo, hi].iter().all(|v| v.is_finite()) {
@@ -360,9 +359,7 @@ pub fn grouped_boxes(
     series: &[String],
     boxes: &[BoxData],
 ) -> Result<(), PlotError> {
-    register_fonts();
-    let root = BitMapBackend::new(path, (1000, 560)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let root = canvas(path, (1000, 560))?;
     let stats: Vec<(&BoxData, [f64; 5])> = boxes
         .iter()
         .map(|b| {
@@ -462,21 +459,13 @@ pub fn heatmap(
     values: &[Vec<Option<f64>>],
     range: (f64, f64),
 ) -> Result<(), PlotError> {
-    register_fonts();
     let (w, h) = (
         (260 + 60 * columns.len()).clamp(600, 1600) as u32,
         (140 + 34 * rows.len()).clamp(300, 1400) as u32,
     );
-    let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let root = canvas(path, (w, h))?;
     let (nc, nr) = (columns.len().max(1) as f64, rows.len().max(1) as f64);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 18))
-        .margin(15)
-        .x_label_area_size(40)
-        .y_label_area_size(220)
-        .build_cartesian_2d(0.0..nc, 0.0..nr)
-        .map_err(|e| err(path, e))?;
+    let mut chart = f64_chart(&root, path, title, 220, (0.0..nc, 0.0..nr))?;
     // Row 0 at the top, as a table reads.
     let name = |names: &[String], i: f64| -> String {
         let k = i.floor();

@@ -47,6 +47,27 @@ pub fn register_fonts() {
     });
 }
 
+/// A white canvas of `size` pixels that draws to the PNG `path`, the
+/// embedded fonts registered ([`register_fonts`]): how every figure of the
+/// project starts.
+///
+/// ```
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("blank.png");
+/// let root = buridan_study::plot::canvas(&path, (40, 30)).unwrap();
+/// root.present().unwrap();
+/// assert!(path.is_file());
+/// ```
+pub fn canvas(
+    path: &Path,
+    size: (u32, u32),
+) -> Result<DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>, PlotError> {
+    register_fonts();
+    let root = BitMapBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    Ok(root)
+}
+
 /// A [`PlotError`] for `path`.
 ///
 /// ```
@@ -130,7 +151,6 @@ fn value_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
 /// # }
 /// ```
 pub fn objective_vs_trial(path: &Path, state: &StudyState) -> Result<(), PlotError> {
-    register_fonts();
     let points: Vec<(f64, f64, TrialStatus)> = state
         .trials
         .iter()
@@ -138,8 +158,7 @@ pub fn objective_vs_trial(path: &Path, state: &StudyState) -> Result<(), PlotErr
         .collect();
     let n = state.trials.len().max(1) as f64;
     let (lo, hi) = value_range(points.iter().map(|p| p.1));
-    let root = BitMapBackend::new(path, (900, 500)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let root = canvas(path, (900, 500))?;
     let title = format!(
         "{}: {} per trial",
         state.config.name,
@@ -198,12 +217,10 @@ pub fn objective_vs_trial(path: &Path, state: &StudyState) -> Result<(), PlotErr
 /// # }
 /// ```
 pub fn parameter_effects(path: &Path, state: &StudyState) -> Result<(), PlotError> {
-    register_fonts();
     let params = state.config.space.params();
     let cols = (params.len() as f64).sqrt().ceil().max(1.0) as usize;
     let rows = params.len().div_ceil(cols).max(1);
-    let root = BitMapBackend::new(path, (420 * cols as u32, 320 * rows as u32)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let root = canvas(path, (420 * cols as u32, 320 * rows as u32))?;
     let (lo, hi) = value_range(state.trials.iter().filter_map(shown));
     for (param, area) in params.iter().zip(root.split_evenly((rows, cols))) {
         let x_of = |v: &toml::Value| -> Option<f64> {
