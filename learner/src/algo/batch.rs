@@ -398,15 +398,7 @@ impl BatchTensors {
     /// stays time-major.
     pub fn select_rows(&self, rows: &Tensor) -> Result<Self> {
         let (t, r) = (self.t, self.rows);
-        let sel = |x: &Tensor| -> Result<Tensor> {
-            let dims = x.dims().to_vec();
-            let mut shape = vec![t, r];
-            shape.extend_from_slice(&dims[1..]);
-            let y = x.reshape(shape)?.index_select(rows, 1)?;
-            let mut flat = vec![t * rows.elem_count()];
-            flat.extend_from_slice(&dims[1..]);
-            Ok(y.reshape(flat)?)
-        };
+        let sel = |x: &Tensor| Self::select_rows_of(x, t, r, rows);
         let recurrent = match &self.recurrent {
             None => None,
             Some(rc) => Some(RecurrentTensors {
