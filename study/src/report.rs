@@ -5,7 +5,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::stats::Aggregate;
+use crate::stats::{Aggregate, Interval};
 
 /// One table cell.
 ///
@@ -60,12 +60,7 @@ impl Cell {
     /// assert_eq!(buridan_study::report::Cell::mean(&a, 100.0, 1).markdown(), "100.0 [100.0, 100.0]");
     /// ```
     pub fn mean(a: &Aggregate, scale: f64, decimals: usize) -> Cell {
-        Cell::Estimate {
-            value: a.mean * scale,
-            low: a.mean_ci.low * scale,
-            high: a.mean_ci.high * scale,
-            decimals,
-        }
+        Cell::scaled(a.mean, a.mean_ci, scale, decimals)
     }
 
     /// The interquartile mean of an aggregate with its bootstrap interval, scaled.
@@ -75,10 +70,15 @@ impl Cell {
     /// assert_eq!(buridan_study::report::Cell::iqm(&a, 1.0, 2).markdown(), "0.50 [0.50, 0.50]");
     /// ```
     pub fn iqm(a: &Aggregate, scale: f64, decimals: usize) -> Cell {
+        Cell::scaled(a.iqm, a.iqm_ci, scale, decimals)
+    }
+
+    /// An estimate `value` with its interval `ci`, both scaled.
+    fn scaled(value: f64, ci: Interval, scale: f64, decimals: usize) -> Cell {
         Cell::Estimate {
-            value: a.iqm * scale,
-            low: a.iqm_ci.low * scale,
-            high: a.iqm_ci.high * scale,
+            value: value * scale,
+            low: ci.low * scale,
+            high: ci.high * scale,
             decimals,
         }
     }
