@@ -197,21 +197,21 @@ pub fn evaluate_policy(
 /// assert_eq!((m.step, m.train_success), (4000, None));
 /// ```
 pub fn measurement(row: &MetricsRow) -> Measurement {
-    let finite = |x: f64| x.is_finite().then_some(x);
-    Measurement {
-        step: row.env_steps,
-        train_success: finite(row.success_rate),
-        train_len: finite(row.episode_len_mean),
-        ..Measurement::default()
-    }
+    train_measurement(row.env_steps, row.success_rate, row.episode_len_mean)
 }
 
 fn summary_measurement(s: &Summary) -> Measurement {
+    train_measurement(s.env_steps, s.success_rate, s.episode_len_mean)
+}
+
+/// A measurement at env step `step` of the training success rate and
+/// episode length (`None` where not finite: no episode finished yet).
+fn train_measurement(step: u64, success_rate: f64, episode_len_mean: f64) -> Measurement {
     let finite = |x: f64| x.is_finite().then_some(x);
     Measurement {
-        step: s.env_steps,
-        train_success: finite(s.success_rate),
-        train_len: finite(s.episode_len_mean),
+        step,
+        train_success: finite(success_rate),
+        train_len: finite(episode_len_mean),
         ..Measurement::default()
     }
 }
