@@ -177,18 +177,24 @@ mod tests {
     use super::*;
     use crate::{evaluate, RandomController};
 
+    /// rm-2.1 and an evaluation of `episodes` episodes with `agents` agents.
+    fn rm21(agents: usize, episodes: usize) -> (Arc<Map>, EvalSpec) {
+        let map = Arc::new(Map::load("rm-2.1").unwrap());
+        let spec = EvalSpec {
+            agents,
+            episodes,
+            ..EvalSpec::default()
+        };
+        (map, spec)
+    }
+
     fn random() -> Box<dyn Controller> {
         Box::new(RandomController::new(42))
     }
 
     #[test]
     fn every_episode_matches_the_harness() {
-        let map = Arc::new(Map::load("rm-2.1").unwrap());
-        let spec = EvalSpec {
-            agents: 6,
-            episodes: 4,
-            ..EvalSpec::default()
-        };
+        let (map, spec) = rm21(6, 4);
         let report = evaluate(&map, &spec, &random, &|_| {}).unwrap();
         for r in &report.records {
             let trace = record_episode(&map, &spec, &random, r.episode, Warmup::Fresh).unwrap();
@@ -205,12 +211,7 @@ mod tests {
 
     #[test]
     fn a_random_crowd_shows_stuck_agents() {
-        let map = Arc::new(Map::load("rm-2.1").unwrap());
-        let spec = EvalSpec {
-            agents: 16,
-            episodes: 1,
-            ..EvalSpec::default()
-        };
+        let (map, spec) = rm21(16, 1);
         let trace = record_episode(&map, &spec, &random, 0, Warmup::Preceding).unwrap();
         assert!(trace
             .snapshots

@@ -1,18 +1,28 @@
 use super::*;
 use buridan_policy::{ActMode, Mode, Policy};
 
+/// The evaluation of `episodes` episodes with `agents` AGVs, seed `seed`.
+fn eval_spec(agents: usize, episodes: usize, seed: u64) -> PlantEvalSpec {
+    PlantEvalSpec {
+        agents,
+        episodes,
+        seed,
+    }
+}
+
+/// Controller `name` for `spec`'s episodes on `plant`, acting greedily.
+fn controller(name: &str, plant: &Arc<Plant>, spec: &PlantEvalSpec) -> PlantController {
+    PlantController::by_name(name, plant, spec.agents, spec.seed, ActMode::Greedy).unwrap()
+}
+
 fn plant(t_max: u32) -> Arc<Plant> {
     Arc::new(load_plant("dissertation", Some(t_max)).unwrap())
 }
 
 fn run(name: &str, agents: usize, episodes: usize, t_max: u32) -> PlantEvalReport {
     let plant = plant(t_max);
-    let spec = PlantEvalSpec {
-        agents,
-        episodes,
-        seed: 42,
-    };
-    let mut c = PlantController::by_name(name, &plant, agents, 42, ActMode::Greedy).unwrap();
+    let spec = eval_spec(agents, episodes, 42);
+    let mut c = controller(name, &plant, &spec);
     evaluate_plant(&plant, &spec, &mut c, &|_| {}).unwrap()
 }
 
@@ -58,12 +68,8 @@ fn episodes_are_the_seeded_envs_and_random_draws_depend_on_the_episode_only() {
     assert_eq!(rows(&a), rows(&b));
     // Episode 2 alone plays as it did third in a row.
     let plant = plant(200);
-    let spec = PlantEvalSpec {
-        agents: 3,
-        episodes: 3,
-        seed: 42,
-    };
-    let mut c = PlantController::by_name("random", &plant, 3, 42, ActMode::Greedy).unwrap();
+    let spec = eval_spec(3, 3, 42);
+    let mut c = controller("random", &plant, &spec);
     let mut env = PlantEnv::new(plant.clone(), eval_config(&spec)).unwrap();
     env.reset_to(2);
     c.begin_episode(2);
@@ -99,23 +105,15 @@ fn files_and_bad_input() {
         assert!(json[key].is_number(), "{key}: {json}");
     }
     let plant = plant(100);
-    let spec = PlantEvalSpec {
-        agents: 2,
-        episodes: 0,
-        seed: 0,
-    };
-    let mut c = PlantController::by_name("random", &plant, 2, 0, ActMode::Greedy).unwrap();
+    let spec = eval_spec(2, 0, 0);
+    let mut c = controller("random", &plant, &spec);
     assert!(matches!(
         evaluate_plant(&plant, &spec, &mut c, &|_| {}),
         Err(PlantEvalError::NoEpisodes)
     ));
     // More AGVs than the plant has starts: the env says so.
-    let spec = PlantEvalSpec {
-        agents: 9,
-        episodes: 1,
-        seed: 0,
-    };
-    let mut c = PlantController::by_name("reservation", &plant, 9, 0, ActMode::Greedy).unwrap();
+    let spec = eval_spec(9, 1, 0);
+    let mut c = controller("reservation", &plant, &spec);
     let err = evaluate_plant(&plant, &spec, &mut c, &|_| {}).unwrap_err();
     assert!(matches!(err, PlantEvalError::Env(_)), "{err:?}");
     let err = PlantController::by_name("checkpoint:", &plant, 2, 0, ActMode::Greedy)
@@ -180,11 +178,7 @@ fn a_checkpoint_must_come_from_a_plant_run_of_the_right_size() {
     )
     .unwrap();
     assert_eq!(c.name(), "ctde-policy");
-    let spec = PlantEvalSpec {
-        agents: 2,
-        episodes: 1,
-        seed: 0,
-    };
+    let spec = eval_spec(2, 1, 0);
     let report = evaluate_plant(&plant, &spec, &mut c, &|_| {}).unwrap();
     assert_eq!(
         report.summary.trained_on.as_deref(),
