@@ -12,8 +12,11 @@ pub enum GiveUp {
     TimeLimit,
     /// The memory cap was reached.
     MemoryLimit,
-    /// The instance has no solution (or none within the horizon).
+    /// The instance has no solution.
     NoSolution,
+    /// No plan is at most this many steps long (the steps left in the
+    /// episode): the planner proved it.
+    NoSolutionWithin(usize),
     /// Anything else, in words.
     Other(String),
 }
@@ -24,6 +27,7 @@ impl std::fmt::Display for GiveUp {
             GiveUp::TimeLimit => f.write_str("time limit"),
             GiveUp::MemoryLimit => f.write_str("memory limit"),
             GiveUp::NoSolution => f.write_str("no solution"),
+            GiveUp::NoSolutionWithin(steps) => write!(f, "no solution within {steps} steps"),
             GiveUp::Other(why) => f.write_str(why),
         }
     }

@@ -1,5 +1,12 @@
 //! Classical planners of `buridan-mapf` as [`Controller`]s: plan once at the
 //! start of an episode within the limits, then follow the plan step by step.
+//!
+//! A plan is asked for within the episode's T_max
+//! ([`Limits::max_makespan`], lowered to the steps left): a plan longer
+//! than that cannot succeed. The controllers of `learner eval` plan with
+//! [`buridan_mapf::planner_within_cap`], whose LaCAM and LaCAM\* refine a
+//! plan that is too long until it fits, or prove that none does
+//! ([`GiveUp::NoSolutionWithin`]).
 
 use buridan_mapf::Problem;
 use std::sync::Arc;
@@ -31,7 +38,8 @@ pub struct PlannerController {
 }
 
 impl PlannerController {
-    /// Wraps `planner`, which gets `limits` per instance.
+    /// Wraps `planner`, which gets `limits` per instance, with
+    /// [`Limits::max_makespan`] at most the steps left in the episode.
     pub fn new(planner: Arc<dyn Planner>, limits: Limits) -> Self {
         Self {
             planner,
@@ -50,9 +58,14 @@ impl Controller for PlannerController {
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
         self.plan = None;
         self.notes = PlanNotes::default();
+        let left = env.config().t_max.saturating_sub(env.t()) as usize;
+        let limits = Limits {
+            max_makespan: Some(self.limits.max_makespan.map_or(left, |m| m.min(left))),
+            ..self.limits
+        };
         let solved = self.planner.solve(
             Problem::new(&env.map().grid, &env.positions(), &env.goals()),
-            &self.limits,
+            &limits,
         );
         match solved {
             Ok(solution) => {
@@ -67,8 +80,9 @@ impl Controller for PlannerController {
             }
             Err(SolveError::TimeLimit { .. }) => Err(GiveUp::TimeLimit),
             Err(SolveError::MemoryLimit { .. }) => Err(GiveUp::MemoryLimit),
-            Err(SolveError::NoSolution | SolveError::NoSolutionWithin { .. }) => {
-                Err(GiveUp::NoSolution)
+            Err(SolveError::NoSolution) => Err(GiveUp::NoSolution),
+            Err(SolveError::NoSolutionWithin { max_makespan }) => {
+                Err(GiveUp::NoSolutionWithin(max_makespan))
             }
             Err(other) => Err(GiveUp::Other(other.to_string())),
         }

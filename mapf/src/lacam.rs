@@ -72,6 +72,14 @@
 //! ([`SolveError::NoSolutionWithin`]); at a limit the shortest plan found
 //! so far is returned even if it is longer than the cap.
 //!
+//! [`LacamStar::within_cap`] does the same for LaCAM*: minimising the
+//! makespan it prunes by the cap and refines as usual (an exhausted search
+//! proves its plan optimal, or that none fits); minimising the sum of loss
+//! it refines as usual and, if its plan is longer than the cap, LaCAM
+//! within the cap takes the time left (its plan replaces the long one, its
+//! proof ends the call). [`crate::planner_within_cap`] makes both so; the
+//! planner controllers of `learner eval` plan within the episode's T_max.
+//!
 //! ```
 //! use std::sync::Arc;
 //! use buridan_env::Map;
@@ -226,6 +234,10 @@ pub struct LacamStar {
     /// [`Lacam::generators`]).
     #[serde(default = "generators_default")]
     pub generators: u32,
+    /// Return a plan within [`Limits::max_makespan`] (default off; see
+    /// [LaCAM within a makespan cap](self#lacam-within-a-makespan-cap)).
+    #[serde(default)]
+    pub within_cap: bool,
 }
 
 impl Default for LacamStar {
@@ -238,6 +250,7 @@ impl Default for LacamStar {
             swap: swap_default(),
             restart: restart_default(),
             generators: generators_default(),
+            within_cap: false,
         }
     }
 }
@@ -279,6 +292,7 @@ impl Planner for Lacam {
         });
         let mut search = Search::new(&setup, self.generator(), star, limits);
         search.cap = cap.map(|c| c as u64);
+        search.first_fit = true;
         search.run().map(|o| o.solution)
     }
 }
@@ -308,20 +322,58 @@ impl LacamStar {
     /// assert_eq!(out.solution.plan.makespan(), 7);
     /// ```
     pub fn search(&self, problem: Problem<'_>, limits: &Limits) -> Result<Outcome, SolveError> {
+        let clock = Budget::new(limits);
         let setup = Setup::new(problem)?;
+        let cap = limits.max_makespan.filter(|_| self.within_cap);
         let star = Star {
             objective: self.objective,
             refine_time: self.refine_time,
         };
-        let lacam = Lacam {
+        let mut search = Search::new(&setup, self.lacam().generator(), Some(star), limits);
+        if self.objective == Objective::Makespan {
+            search.cap = cap.map(|c| c as u64);
+        }
+        let found = search.run();
+        let Some(cap) = cap else {
+            return found;
+        };
+        match found {
+            Ok(out) if out.solution.plan.makespan() > cap => {
+                // The sum-of-loss plan is too long: LaCAM within the cap
+                // for the time left; at its limit the long plan stands.
+                let left = Limits {
+                    time: limits.time.saturating_sub(clock.cpu_elapsed()),
+                    ..*limits
+                };
+                let within = Lacam {
+                    within_cap: true,
+                    ..self.lacam()
+                };
+                match within.solve(problem, &left) {
+                    Ok(solution) if solution.plan.makespan() <= cap => Ok(Outcome {
+                        cost: sum_of_loss(&solution.plan),
+                        solution,
+                        proven_optimal: false,
+                        first_cost: out.first_cost,
+                    }),
+                    Err(e @ SolveError::NoSolutionWithin { .. }) => Err(e),
+                    _ => Ok(out),
+                }
+            }
+            other => other,
+        }
+    }
+
+    /// LaCAM with these settings (returning its first plan).
+    fn lacam(&self) -> Lacam {
+        Lacam {
             rules: self.rules,
             seed: self.seed,
             swap: self.swap,
             restart: self.restart,
             generators: self.generators,
             within_cap: false,
-        };
-        Search::new(&setup, lacam.generator(), Some(star), limits).run()
+        }
     }
 }
 
@@ -407,9 +459,11 @@ struct Search<'a> {
     /// Random restarts: probability and the dice.
     restart: f64,
     dice: TieBreaker,
-    /// LaCAM within a makespan cap: return the first plan whose cost (the
-    /// makespan) is at most this.
+    /// Within a makespan cap (the objective is the makespan): nodes that
+    /// cannot lead to a plan within it are pruned.
     cap: Option<u64>,
+    /// LaCAM within a cap: return the first plan within it.
+    first_fit: bool,
 }
 
 impl<'a> Search<'a> {
@@ -446,6 +500,7 @@ impl<'a> Search<'a> {
             // Its own stream: restarts do not shift PIBT's tie-breaking.
             dice: TieBreaker::new(how.seed ^ 0xD1CE),
             cap: None,
+            first_fit: false,
         }
     }
 
@@ -630,12 +685,15 @@ impl<'a> Search<'a> {
             }
         }
         match (self.goal_node, self.cap) {
+            // Exhausted with a plan within the cap (LaCAM*): optimal.
+            (Some(goal), cap) if cap.is_none_or(|c| self.nodes[goal as usize].g <= c) => {
+                Ok(self.outcome(true))
+            }
             // Exhausted: no node with `g + h` within the cap leads to the goal.
             (_, Some(cap)) => Err(SolveError::NoSolutionWithin {
                 max_makespan: cap as usize,
             }),
-            (Some(_), None) => Ok(self.outcome(true)),
-            (None, None) => Err(SolveError::NoSolution),
+            (_, None) => Err(SolveError::NoSolution),
         }
     }
 
@@ -653,6 +711,9 @@ impl<'a> Search<'a> {
 
     /// LaCAM within a cap: the best plan so far fits it.
     fn within_cap(&self) -> bool {
+        if !self.first_fit {
+            return false;
+        }
         match (self.goal_node, self.cap) {
             (Some(goal), Some(cap)) => self.nodes[goal as usize].g <= cap,
             _ => false,
@@ -756,4 +817,18 @@ impl<'a> Search<'a> {
             cost: self.nodes[goal as usize].g,
         }
     }
+}
+
+/// The sum of loss of `plan`: over agents and steps, the steps in which
+/// the agent is not resting on its final cell ([`Objective::SumOfLoss`]).
+fn sum_of_loss(plan: &crate::Plan) -> u64 {
+    let horizon = plan.makespan();
+    (0..plan.agents())
+        .map(|i| {
+            let goal = plan.position(i, horizon);
+            (0..horizon)
+                .filter(|&t| plan.position(i, t) != goal || plan.position(i, t + 1) != goal)
+                .count() as u64
+        })
+        .sum()
 }

@@ -132,7 +132,8 @@ pub use odastar::OdAstar;
 pub use pibt::Pibt;
 pub use plan::Plan;
 pub use planner::{
-    planner_by_name, planner_for_rules, Planner, PlannerLookupError, Portfolio, Solution, Stats,
+    planner_by_name, planner_for_rules, planner_within_cap, Planner, PlannerLookupError, Portfolio,
+    Solution, Stats,
 };
 pub use prioritized::Prioritized;
 pub use problem::Problem;

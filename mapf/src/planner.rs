@@ -128,7 +128,7 @@ pub enum PlannerLookupError {
 /// assert!(buridan_mapf::planner_by_name("lacam+dijkstra").is_none());
 /// ```
 pub fn planner_by_name(name: &str) -> Option<Box<dyn Planner>> {
-    build(name, ConflictModel::ENV_EXECUTABLE).ok()
+    build(name, ConflictModel::ENV_EXECUTABLE, false).ok()
 }
 
 /// The planner of a name (as [`planner_by_name`]) configured to plan for
@@ -155,15 +155,55 @@ pub fn planner_for_rules(
     name: &str,
     rules: buridan_env::Rules,
 ) -> Result<Box<dyn Planner>, PlannerLookupError> {
-    build(name, ConflictModel::from(rules))
+    build(name, ConflictModel::from(rules), false)
 }
 
-/// The name table of [`planner_by_name`] and [`planner_for_rules`].
-fn build(name: &str, rules: ConflictModel) -> Result<Box<dyn Planner>, PlannerLookupError> {
+/// The planner of a name for `rules` (as [`planner_for_rules`]) that plans
+/// within [`Limits::max_makespan`] where one is set: LaCAM searches on
+/// until its plan fits ([`crate::Lacam::within_cap`]) and LaCAM\* returns a
+/// plan within it ([`crate::LacamStar::within_cap`]), so a plan that
+/// cannot succeed within an episode's T_max is refined or rejected
+/// ([`SolveError::NoSolutionWithin`] once the search proves that none
+/// fits). The other planners search within the cap anyway (OD-A\*, CBS,
+/// MA-A\*, PP) or stop at it (PIBT). The planner controllers of
+/// `learner eval` plan so, with the cap at the episode's T_max; the rescue
+/// of `rescue:…` uses [`planner_for_rules`], whose LaCAM returns its
+/// first plan (faster) and leaves a plan too long to the portfolio's next
+/// planner.
+///
+/// ```
+/// use buridan_env::{Cell, Grid, Rules};
+/// use buridan_mapf::{planner_within_cap, Limits, Problem, SolveError};
+/// let lacam = planner_within_cap("lacam", Rules::Thesis).unwrap();
+/// assert_eq!(lacam.name(), "lacam");
+/// // One agent 4 steps from its goal: no plan within 3 steps.
+/// let grid = Grid::from_rows(&["....."]).unwrap();
+/// let (s, g) = ([Cell::new(0, 0)], [Cell::new(0, 4)]);
+/// let capped = Limits { max_makespan: Some(3), ..Limits::default() };
+/// let err = lacam.solve(Problem::new(&grid, &s, &g), &capped).unwrap_err();
+/// assert_eq!(err, SolveError::NoSolutionWithin { max_makespan: 3 });
+/// let sol = lacam.solve(Problem::new(&grid, &s, &g), &Limits { max_makespan: Some(4), ..capped }).unwrap();
+/// assert_eq!(sol.plan.makespan(), 4);
+/// ```
+pub fn planner_within_cap(
+    name: &str,
+    rules: buridan_env::Rules,
+) -> Result<Box<dyn Planner>, PlannerLookupError> {
+    build(name, ConflictModel::from(rules), true)
+}
+
+/// The name table of [`planner_by_name`], [`planner_for_rules`] and
+/// [`planner_within_cap`] (`within_cap`: LaCAM and LaCAM\* plan within
+/// [`Limits::max_makespan`]).
+fn build(
+    name: &str,
+    rules: ConflictModel,
+    within_cap: bool,
+) -> Result<Box<dyn Planner>, PlannerLookupError> {
     if name.contains('+') {
         let planners = name
             .split('+')
-            .map(|part| build(part.trim(), rules))
+            .map(|part| build(part.trim(), rules, within_cap))
             .collect::<Result<Vec<_>, _>>()?;
         return Ok(Box::new(Portfolio::new(planners)));
     }
@@ -203,14 +243,17 @@ fn build(name: &str, rules: ConflictModel) -> Result<Box<dyn Planner>, PlannerLo
         // each, see `Lacam::swap`).
         "lacam" => Box::new(crate::Lacam {
             rules,
+            within_cap,
             ..crate::Lacam::default()
         }),
         "lacam-star" | "lacam*" | "lacam_star" | "lacamstar" => Box::new(crate::LacamStar {
             rules,
+            within_cap,
             ..crate::LacamStar::default()
         }),
         "lacam-star-makespan" => Box::new(crate::LacamStar {
             rules,
+            within_cap,
             objective: crate::Objective::Makespan,
             ..crate::LacamStar::default()
         }),

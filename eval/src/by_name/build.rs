@@ -3,7 +3,7 @@
 use std::sync::Arc;
 
 use buridan_env::Rules;
-use buridan_mapf::{planner_for_rules, Limits, Planner, PlannerLookupError};
+use buridan_mapf::{planner_for_rules, planner_within_cap, Limits, Planner, PlannerLookupError};
 
 use super::grammar::{Controller, NetKind, Portfolio};
 use super::{
@@ -28,7 +28,11 @@ fn default_rescue_planner(agents: usize, rules: Rules) -> &'static str {
 impl Controller {
     /// A factory of this controller for episodes with `agents` agents
     /// under `rules`: planners (also the nets') plan for that rule set, and
-    /// one that cannot (OD-A* under pogema) is an error; policies sample
+    /// one that cannot (OD-A* under pogema) is an error; a planner plans
+    /// within the episode's T_max (its LaCAM and LaCAM\* refine a plan that
+    /// is too long, see `buridan_mapf::planner_within_cap`), a net's within
+    /// the steps left and passes a LaCAM plan that is too long to its
+    /// portfolio's next planner; policies sample
     /// with `seed`; the shield keeps the thesis conflict model, whose joint
     /// moves POGEMA's rules execute too. A checkpoint is loaded once here,
     /// so that a bad one fails with its reason.
@@ -129,7 +133,9 @@ impl Controller {
     }
 }
 
-/// The portfolio's planner for `rules`.
+/// The portfolio's planner for `rules`, planning within the episode's
+/// T_max (LaCAM and LaCAM\* refine a plan that is too long, see
+/// [`planner_within_cap`]).
 fn planner_of(p: &Portfolio, rules: Rules) -> Result<Box<dyn Planner>, PlannerLookupError> {
-    planner_for_rules(&p.to_string(), rules)
+    planner_within_cap(&p.to_string(), rules)
 }
