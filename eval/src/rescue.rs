@@ -10,7 +10,8 @@
 //! from the current state, and its plan is followed to its end; then
 //! the inner controller takes over again. A plan that stops matching the
 //! env is dropped. Plans are asked for within the steps left in the episode
-//! ([`Limits::max_makespan`]). If the planner finds nothing within its limit, the inner
+//! ([`Limits::max_makespan`]; the planners of `rescue:…` search within it,
+//! see `buridan_mapf::planner_within_cap`). If the planner finds nothing within its limit, the inner
 //! controller goes on and the planner is asked again after `k` more steps,
 //! then after `2k`, `4k`, … (a state the planner cannot solve quickly
 //! costs a few calls per episode, not one every `k` steps).
@@ -216,8 +217,9 @@ impl RescueController {
     /// success the plan is followed from the next action on.
     fn plan_from(&mut self, env: &GridEnv) -> bool {
         // A plan that outlasts the episode is no rescue: planners that
-        // search within a cap (OD-A*, CBS) prune longer ones, a portfolio
-        // passes them on to its next planner.
+        // search within a cap (OD-A*, CBS, LaCAM made by
+        // `planner_within_cap`) prune longer ones, a portfolio passes them
+        // on to its next planner.
         let remaining = env.config().t_max.saturating_sub(env.t()) as usize;
         let limits = Limits {
             max_makespan: Some(remaining),

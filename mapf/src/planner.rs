@@ -165,11 +165,10 @@ pub fn planner_for_rules(
 /// cannot succeed within an episode's T_max is refined or rejected
 /// ([`SolveError::NoSolutionWithin`] once the search proves that none
 /// fits). The other planners search within the cap anyway (OD-A\*, CBS,
-/// MA-A\*, PP) or stop at it (PIBT). The planner controllers of
-/// `learner eval` plan so, with the cap at the episode's T_max; the rescue
-/// of `rescue:…` uses [`planner_for_rules`], whose LaCAM returns its
-/// first plan (faster) and leaves a plan too long to the portfolio's next
-/// planner.
+/// MA-A\*, PP) or stop at it (PIBT). The controllers of `learner eval`
+/// plan so: a planner with the cap at the episode's T_max, the planner
+/// nets (`rescue:…`) at the steps left. [`planner_for_rules`]'s LaCAM
+/// returns its first plan whatever its length.
 ///
 /// ```
 /// use buridan_env::{Cell, Grid, Rules};
