@@ -138,7 +138,9 @@ pub fn planner_by_name(name: &str) -> Option<Box<dyn Planner>> {
 /// and rotations allowed), whose plans POGEMA's rules execute exactly.
 /// OD-A* (`od-astar`, `od-astar-soc`) searches the thesis env's sequential
 /// step itself, so it cannot plan under pogema rules and says so, as does a
-/// portfolio containing it.
+/// portfolio containing it. LaCAM returns its first plan whatever
+/// [`Limits::max_makespan`] says; [`planner_within_cap`] makes the same
+/// planners planning within it.
 ///
 /// ```
 /// use buridan_env::Rules as RuleSet;
