@@ -116,8 +116,13 @@ pub const fn central_locals_dim(
     if features.is_none() {
         0
     } else {
-        agents * (local_obs_dim(sensor_range) + features.extra_dim(sensor_range))
+        agents * featured_local_dim(sensor_range, features)
     }
+}
+
+/// Floats of one local observation with `features` appended.
+const fn featured_local_dim(sensor_range: usize, features: &crate::ObsFeatures) -> usize {
+    local_obs_dim(sensor_range) + features.extra_dim(sensor_range)
 }
 
 /// Which observation a policy consumes.
@@ -148,9 +153,7 @@ impl ObsKind {
     /// ```
     pub fn obs_dim(self, map: &crate::Map, cfg: &crate::EnvConfig) -> usize {
         match self {
-            ObsKind::Local => {
-                local_obs_dim(cfg.sensor_range) + cfg.features.extra_dim(cfg.sensor_range)
-            }
+            ObsKind::Local => featured_local_dim(cfg.sensor_range, &cfg.features),
             ObsKind::Central => {
                 central_obs_dim(map.grid.height(), map.grid.width(), cfg.agents)
                     + central_locals_dim(cfg.agents, cfg.sensor_range, &cfg.features)
@@ -188,8 +191,7 @@ fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), EnvE
 impl GridEnv {
     /// Floats of one local observation of this env.
     pub fn local_obs_dim(&self) -> usize {
-        local_obs_dim(self.config().sensor_range)
-            + self.config().features.extra_dim(self.config().sensor_range)
+        featured_local_dim(self.config().sensor_range, &self.config().features)
     }
 
     /// Floats of one central observation of this env (the recipe
@@ -452,10 +454,8 @@ impl GridEnv {
             planes[(1 + i) * plane + grid.index(self.position(i))] = 1.0;
             planes[(1 + n + i) * plane + grid.index(self.goal(i))] = 1.0;
         }
-        if !locals.is_empty() {
-            for (i, local) in locals.chunks_exact_mut(self.local_obs_dim()).enumerate() {
-                self.write_local_obs(i, local)?;
-            }
+        for (i, local) in locals.chunks_exact_mut(self.local_obs_dim()).enumerate() {
+            self.write_local_obs(i, local)?;
         }
         Ok(())
     }

@@ -109,7 +109,7 @@ pub fn ppo_loss(
     let unclipped = (&ratio * advantages)?;
     let clipped = (ratio.clamp(1.0 - p.clip, 1.0 + p.clip)? * advantages)?;
     let surrogate = unclipped.minimum(&clipped)?;
-    let vf = (values - targets)?.sqr()?.clamp(0.0, p.vf_clip)?;
+    let vf = clipped_value_error(values, targets, p.vf_clip)?;
     let entropy = dist::entropy(&lp_all)?;
     let kl = dist::kl(&bt.behaviour_log_probs, &lp_all)?.mean_all()?;
     let per_sample =
@@ -140,10 +140,7 @@ pub fn critic_loss(
     p: &PpoLossParams,
 ) -> Result<(Tensor, LossTerms)> {
     let lp_all = dist::masked_log_probs(logits, &bt.mask_bias, bt.heads)?;
-    let vf = (values - targets)?
-        .sqr()?
-        .clamp(0.0, p.vf_clip)?
-        .mean_all()?;
+    let vf = clipped_value_error(values, targets, p.vf_clip)?.mean_all()?;
     let total = (&vf * p.vf_coeff as f64)?;
     let terms = LossTerms {
         total: total.to_scalar::<f32>()? as f64,
@@ -155,6 +152,12 @@ pub fn critic_loss(
             .to_scalar::<f32>()? as f64,
     };
     Ok((total, terms))
+}
+
+/// The value loss per sample, `min((V − R)², vf_clip)` (RLlib's
+/// `vf_clip_param`), of the PPO loss and the critic warm-up alike.
+fn clipped_value_error(values: &Tensor, targets: &Tensor, vf_clip: f32) -> Result<Tensor> {
+    Ok((values - targets)?.sqr()?.clamp(0.0, vf_clip)?)
 }
 
 /// RLlib's adaptive KL coefficient rule.
@@ -351,11 +354,7 @@ impl Ppo {
                 stats.add_minibatch(&terms.into_iter().flatten().collect::<Vec<_>>(), grad_norm);
             }
         }
-        let kl_mean = if self.critic_only {
-            kl_sums.iter().sum::<f64>() / (kl_sums.len() * stats.grad_steps.max(1)) as f64
-        } else {
-            self.adapt_kl(&kl_sums, stats.grad_steps)
-        };
+        let kl_mean = self.adapt_kl(&kl_sums, stats.grad_steps);
         stats.finish();
         stats.kl = kl_mean;
         stats.kl_coeff = self.kl_coeffs.iter().sum::<f64>() / self.kl_coeffs.len() as f64;
@@ -513,13 +512,15 @@ impl Ppo {
     }
 
     /// RLlib's `update_kl` per weight set from the mean KL of its gradient
-    /// steps; returns the mean KL over weight sets.
+    /// steps (not during a critic warm-up); returns the mean KL over weight
+    /// sets.
     fn adapt_kl(&mut self, kl_sums: &[f64], grad_steps: usize) -> f64 {
         let mut kl_mean = 0.0;
         for (k, kl_sum) in kl_sums.iter().enumerate() {
             let kl = kl_sum / grad_steps.max(1) as f64;
             kl_mean += kl / kl_sums.len() as f64;
-            if self.settings.kl_coeff > 0.0 {
+            // A critic warm-up leaves the policy, and so its KL, alone.
+            if self.settings.kl_coeff > 0.0 && !self.critic_only {
                 self.kl_coeffs[k] = update_kl_coeff(self.kl_coeffs[k], kl, self.settings.kl_target);
             }
         }

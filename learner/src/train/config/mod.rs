@@ -264,7 +264,7 @@ impl TrainConfig {
     /// mode is set: CTE's joint policy warms its critic up for 20k env
     /// steps ([`PpoConfig::critic_warmup`]) before the policy gradient
     /// starts. Without it PPO undoes most of what the imitation taught
-    /// the joint policy (rm-2.1, 4 agents, 100k env steps, seeds 0–2:
+    /// the joint policy (rm-2.1, 4 agents, 100k env steps, seeds 0 and 1:
     /// `docs/results/recipe-cte/RESULTS.md`).
     ///
     /// ```
