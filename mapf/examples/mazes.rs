@@ -8,7 +8,7 @@
 //!     [--dir ../shared/pogema/mazes] [--every 4] [--offset 0] [--maps 1,5,9] \
 //!     [--agents 48,64] [--time 10] [--t-max 128] [--jobs 1] \
 //!     [--planner lacam] [--swap on|off] [--restart 0.1] [--seed 0] [--generators 1] \
-//!     [--within-cap on|off] > run.csv
+//!     [--within-cap on|off] [--refine 0.5] [--lns on|off] > run.csv
 //! cargo run --release -p buridan-mapf --example mazes -- --warehouse \
 //!     --dir ../shared/pogema --agents 32,64,96,128,160,192 --time 10 > run.csv
 //! ```
@@ -19,7 +19,8 @@
 //! `warehouse.map` with `warehouse-<agents>-<seed>.scen`, the seeds from
 //! `--maps` or every `--every`-th of 0..128 from `--offset`. The planner is
 //! `planner_for_rules(--planner, Rules::Pogema)`; `--swap`, `--restart`,
-//! `--seed`, `--generators` or `--within-cap` instead configure a [`Lacam`] or
+//! `--seed`, `--generators`, `--within-cap`, `--refine` (seconds, LaCAM\*'s
+//! `refine_time`) or `--lns` instead configure a [`Lacam`] or
 //! [`LacamStar`] (`--planner lacam-star` or `lacam-star-makespan`) under
 //! [`ConflictModel::SIMULTANEOUS`] directly (defaults from their
 //! `Default`). [`Limits::max_makespan`] is `--t-max`. Each instance gets `--time` seconds of CPU time
@@ -28,11 +29,14 @@
 //! A plan succeeds if it is valid under [`ConflictModel::SIMULTANEOUS`]
 //! and replays exactly under pogema rules within `--t-max` steps
 //! ([`replay_exact_with`]). Prints one CSV row per instance on stdout
-//! (`map,agents,planner,status,makespan,soc,cpu_s`; status `ok`,
-//! `too-long`, `invalid` or the error's name) and, on stderr, per agent
-//! count: success rate, median and worst CPU time over all instances, and
-//! the published lacam3 success rate and median / worst runtime on the
-//! same instances (`published.csv`, algorithm `LaCAM`).
+//! (`map,agents,planner,status,makespan,soc,lb,cpu_s`; status `ok`,
+//! `too-long`, `invalid` or the error's name; `lb` the sum of the agents'
+//! distances to their goals) and, on stderr, per agent count: success
+//! rate, median and worst CPU time over all instances, the median over the
+//! instances solved of SoC / LB, and the published lacam3 success rate,
+//! median / worst runtime and median SoC / LB on the same instances
+//! (`published.csv`, algorithm `LaCAM`; its SoC / LB over the instances
+//! it solved).
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -61,6 +65,8 @@ struct Args {
     seed: Option<u64>,
     generators: Option<u32>,
     within_cap: Option<bool>,
+    refine: Option<f64>,
+    lns: Option<bool>,
     warehouse: bool,
 }
 
@@ -80,6 +86,8 @@ fn parse_args() -> Result<Args, String> {
         seed: None,
         generators: None,
         within_cap: None,
+        refine: None,
+        lns: None,
         warehouse: false,
     };
     let raw: Vec<String> = std::env::args().skip(1).collect();
@@ -116,6 +124,8 @@ fn parse_args() -> Result<Args, String> {
             "--seed" => args.seed = Some(num(value)? as u64),
             "--generators" => args.generators = Some(num(value)? as u32),
             "--within-cap" => args.within_cap = Some(matches!(value, "on" | "true" | "1")),
+            "--refine" => args.refine = Some(num(value)?),
+            "--lns" => args.lns = Some(matches!(value, "on" | "true" | "1")),
             _ => return Err(format!("unknown flag {flag}")),
         }
     }
@@ -128,6 +138,8 @@ fn planner(args: &Args) -> Box<dyn Planner> {
         && args.seed.is_none()
         && args.generators.is_none()
         && args.within_cap.is_none()
+        && args.refine.is_none()
+        && args.lns.is_none()
     {
         return planner_for_rules(&args.planner, Rules::Pogema).expect("a known planner");
     }
@@ -157,7 +169,12 @@ fn planner(args: &Args) -> Box<dyn Planner> {
                 } else {
                     Objective::Makespan
                 },
-                ..base
+                within_cap: args.within_cap.unwrap_or(base.within_cap),
+                refine_time: args
+                    .refine
+                    .map(Duration::from_secs_f64)
+                    .or(base.refine_time),
+                lns: args.lns.unwrap_or(base.lns),
             })
         }
         other => panic!("--swap, --restart and --seed configure lacam or lacam-star*, not {other}"),
@@ -183,11 +200,12 @@ struct Row {
     status: String,
     makespan: Option<usize>,
     soc: Option<usize>,
+    lb: usize,
     cpu: f64,
 }
 
-/// Published lacam3 result of an instance: success and runtime.
-fn published(dir: &Path, warehouse: bool) -> HashMap<(String, usize), (bool, f64)> {
+/// Published lacam3 result of an instance: success, runtime and SoC.
+fn published(dir: &Path, warehouse: bool) -> HashMap<(String, usize), (bool, f64, u64)> {
     let file = if warehouse {
         "warehouse-published.csv"
     } else {
@@ -208,7 +226,11 @@ fn published(dir: &Path, warehouse: bool) -> HashMap<(String, usize), (bool, f64
                 };
                 (
                     (name, f[1].parse().unwrap_or(0)),
-                    (f[4] == "1", f[9].parse().unwrap_or(f64::NAN)),
+                    (
+                        f[4] == "1",
+                        f[9].parse().unwrap_or(f64::NAN),
+                        f[6].parse().unwrap_or(0),
+                    ),
                 )
             })
         })
@@ -229,6 +251,11 @@ fn solve_one(planner: &dyn Planner, args: &Args, name: &str, agents: usize) -> R
     let map = Arc::new(map);
     let scen = map.scenario.clone().expect("loaded with its scenario");
     let (s, g) = (&scen.starts, &scen.goals);
+    let lb = s
+        .iter()
+        .zip(g)
+        .map(|(&s, &g)| usize::from(map.grid.distances_to(g)[map.grid.index(s)]))
+        .sum();
     let limits = Limits {
         max_makespan: Some(args.t_max as usize),
         ..Limits::with_time(Duration::from_secs_f64(args.time))
@@ -267,6 +294,7 @@ fn solve_one(planner: &dyn Planner, args: &Args, name: &str, agents: usize) -> R
         status,
         makespan,
         soc,
+        lb,
         cpu,
     }
 }
@@ -334,7 +362,7 @@ fn main() {
     let started = Instant::now();
     let next = AtomicUsize::new(0);
     let rows = Mutex::new(Vec::new());
-    println!("map,agents,planner,status,makespan,soc,cpu_s");
+    println!("map,agents,planner,status,makespan,soc,lb,cpu_s");
     std::thread::scope(|scope| {
         for _ in 0..args.jobs {
             scope.spawn(|| loop {
@@ -345,12 +373,13 @@ fn main() {
                 let row = solve_one(planner.as_ref(), &args, name, agents);
                 let opt = |x: Option<usize>| x.map_or(String::new(), |v| v.to_string());
                 println!(
-                    "{},{},{pname},{},{},{},{:.4}",
+                    "{},{},{pname},{},{},{},{},{:.4}",
                     row.map,
                     row.agents,
                     row.status,
                     opt(row.makespan),
                     opt(row.soc),
+                    row.lb,
                     row.cpu
                 );
                 rows.lock().expect("no panics while held").push(row);
@@ -360,7 +389,7 @@ fn main() {
     let rows = rows.into_inner().expect("no panics while held");
     let published = published(&args.dir, args.warehouse);
     eprintln!("wall time {:.1} s", started.elapsed().as_secs_f64());
-    eprintln!("agents  n   success  median_cpu  worst_cpu | lacam3: success  median_s  worst_s  | failures");
+    eprintln!("agents  n   success  median_cpu  worst_cpu  soc/lb | lacam3: success  median_s  worst_s  soc/lb | failures");
     let mut by_count: BTreeMap<usize, Vec<&Row>> = BTreeMap::new();
     for r in &rows {
         by_count.entry(r.agents).or_default().push(r);
@@ -368,10 +397,25 @@ fn main() {
     for (agents, rs) in by_count {
         let ok = rs.iter().filter(|r| r.status == "ok").count();
         let (median, worst) = median_max(rs.iter().map(|r| r.cpu).collect());
-        let pubs: Vec<(bool, f64)> = rs
+        let ratio = |soc: usize, lb: usize| soc as f64 / lb.max(1) as f64;
+        let (soc_lb, _) = median_max(
+            rs.iter()
+                .filter(|r| r.status == "ok")
+                .filter_map(|r| Some(ratio(r.soc?, r.lb)))
+                .collect(),
+        );
+        let pubs: Vec<(bool, f64, u64)> = rs
             .iter()
             .filter_map(|r| published.get(&(r.map.clone(), agents)).copied())
             .collect();
+        let (pub_soc_lb, _) = median_max(
+            rs.iter()
+                .filter_map(|r| {
+                    let p = published.get(&(r.map.clone(), agents))?;
+                    p.0.then(|| ratio(p.2 as usize, r.lb))
+                })
+                .collect(),
+        );
         let pub_ok = pubs.iter().filter(|p| p.0).count();
         let (pmed, pworst) = median_max(pubs.iter().map(|p| p.1).collect());
         let mut failures: BTreeMap<&str, usize> = BTreeMap::new();
@@ -379,7 +423,7 @@ fn main() {
             *failures.entry(r.status.as_str()).or_default() += 1;
         }
         eprintln!(
-            "{agents:6} {:3}  {:.3}    {median:8.3}  {worst:8.3}  |         {:.3}  {pmed:8.3}  {pworst:7.3}  | {failures:?}",
+            "{agents:6} {:3}  {:.3}    {median:8.3}  {worst:8.3}  {soc_lb:6.3} |         {:.3}  {pmed:8.3}  {pworst:7.3}  {pub_soc_lb:6.3} | {failures:?}",
             rs.len(),
             ok as f64 / rs.len() as f64,
             pub_ok as f64 / pubs.len().max(1) as f64,

@@ -75,6 +75,44 @@ impl Constraints {
     }
 }
 
+/// What the low level asks of the other agents' paths: where and when the
+/// agent may stand, which moves it may make, and from when it may rest on
+/// its goal. [`Constraints`] answers from explicit sets (CBS, prioritized
+/// planning); [`crate::lns`] from a table of the other agents' paths.
+pub(crate) trait Obstacles {
+    /// Whether the agent may stand on `cell` at `t`.
+    fn allows(&self, cell: u32, t: u32) -> bool;
+    /// Whether the agent may move `from → to` (`from != to`) in step
+    /// `t → t + 1`, its cells at both times allowed.
+    fn allows_move(&self, from: u32, to: u32, t: u32) -> bool;
+    /// Whether the agent may arrive on its goal at `t` and rest there.
+    fn may_rest_on_goal_from(&self, t: u32) -> bool;
+    /// The latest time anything constrains (after it, the future no longer
+    /// depends on the clock).
+    fn last_t(&self) -> u32;
+}
+
+impl Obstacles for Constraints {
+    #[inline]
+    fn allows(&self, cell: u32, t: u32) -> bool {
+        Constraints::allows(self, cell, t)
+    }
+
+    #[inline]
+    fn allows_move(&self, from: u32, to: u32, t: u32) -> bool {
+        !self.edge.contains(&(from, to, t))
+    }
+
+    #[inline]
+    fn may_rest_on_goal_from(&self, t: u32) -> bool {
+        Constraints::may_rest_on_goal_from(self, t)
+    }
+
+    fn last_t(&self) -> u32 {
+        self.last_t
+    }
+}
+
 /// A conflict avoidance table: how many other agents stand on a cell at a
 /// time (clamped to the others' horizon, after which they all rest). Used
 /// only to break ties between equally short paths.
@@ -147,7 +185,7 @@ pub(crate) fn space_time_astar(
     start: u32,
     goal: u32,
     h: &[u32],
-    cons: &Constraints,
+    cons: &impl Obstacles,
     cat: Option<&Cat>,
     cap: Option<usize>,
     budget: &mut Budget,
@@ -156,7 +194,7 @@ pub(crate) fn space_time_astar(
     if !cons.allows(start, 0) {
         return Ok(LowResult::NoPath { capped: false });
     }
-    let merge_after = cons.last_t + 1;
+    let merge_after = cons.last_t() + 1;
     let key = |cell: u32, t: u32| (cell, t.min(merge_after));
     let mut nodes = vec![LNode {
         cell: start,
@@ -198,7 +236,7 @@ pub(crate) fn space_time_astar(
         for &to in topo.moves(node.cell) {
             if to == NONE
                 || !cons.allows(to, nt)
-                || (to != node.cell && cons.edge.contains(&(node.cell, to, t)))
+                || (to != node.cell && !cons.allows_move(node.cell, to, t))
             {
                 continue;
             }

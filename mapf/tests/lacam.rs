@@ -402,6 +402,39 @@ fn lacam_solves_random_warehouse_episodes_and_plans_replay() {
     assert!(failures.len() <= 2, "{failures:?}");
 }
 
+/// LaCAM* with its LNS refinement (the default) under thesis rules, 16
+/// agents on rm-2.1: every plan valid under both rule sets and replayed
+/// exactly in the env, none longer in sum of costs than LaCAM* without LNS.
+#[test]
+fn lacam_star_with_lns_plans_replay_under_thesis_rules() {
+    let map = Arc::new(Map::load("rm-2.1").unwrap());
+    let with_lns = LacamStar {
+        refine_time: Some(Duration::from_millis(200)),
+        ..LacamStar::default()
+    };
+    let without = LacamStar {
+        lns: false,
+        ..with_lns
+    };
+    for e in 0..4 {
+        let inst = episode_instance(&map, 16, Starts::Random, 42, e).unwrap();
+        let (s, g) = (&inst.starts, &inst.goals);
+        let ctx = format!("lacam-star rm-2.1 16 agents episode {e}");
+        let problem = Problem::new(&map.grid, s, g);
+        let refined = with_lns.solve(problem, &limits(10)).unwrap().plan;
+        check(
+            &map.grid,
+            s,
+            g,
+            &refined,
+            ConflictModel::ENV_EXECUTABLE,
+            &ctx,
+        );
+        let plain = without.solve(problem, &limits(10)).unwrap().plan;
+        assert!(refined.sum_of_costs() <= plain.sum_of_costs(), "{ctx}");
+    }
+}
+
 /// Bad input gives typed errors, never a panic; limits are respected.
 #[test]
 fn bad_instances_and_limits_give_typed_errors() {

@@ -1,8 +1,8 @@
 //! The planners under the env's pogema rules (simultaneous moves): the
 //! answers that differ from thesis rules (following, rotation), the
 //! validator's verdicts, the planner that cannot plan for pogema, and LaCAM
-//! on the benchmark's warehouse instances, every plan replayed in the env
-//! under pogema rules.
+//! and LaCAM* (with its LNS refinement) on the benchmark's warehouse
+//! instances, every plan replayed in the env under pogema rules.
 
 use buridan_mapf::Problem;
 use std::path::Path;
@@ -12,7 +12,7 @@ use std::time::Duration;
 use buridan_env::{Cell, Grid, Map, Rules as RuleSet, Scenario};
 use buridan_mapf::{
     planner_by_name, planner_for_rules, replay_exact_with, replay_with, validate_with,
-    ConflictModel, Limits, Plan, PlanError, PlannerLookupError, SolveError,
+    ConflictModel, LacamStar, Limits, Plan, PlanError, Planner, PlannerLookupError, SolveError,
 };
 
 fn c(row: usize, col: usize) -> Cell {
@@ -221,4 +221,44 @@ fn lacam_solves_pogema_warehouse_instances_and_plans_replay() {
         assert_eq!(&r.final_positions, g, "seed {seed}");
         assert_eq!(r.blocked_moves, 0, "seed {seed}");
     }
+}
+
+/// LaCAM* refined by LNS in the second half of its `refine_time` (the
+/// default) against LaCAM* refining by its own search alone, on the four
+/// 32-agent warehouse instances: every LNS plan valid under simultaneous
+/// moves and replayed exactly under pogema rules, none with a larger sum of
+/// costs, and the four together shorter.
+#[test]
+fn lacam_star_refined_by_lns_shortens_warehouse_plans_that_replay() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/pogema");
+    let map = Arc::new(Map::from_file(&dir.join("warehouse.map")).unwrap());
+    let with_lns = LacamStar {
+        rules: ConflictModel::SIMULTANEOUS,
+        refine_time: Some(Duration::from_millis(400)),
+        ..LacamStar::default()
+    };
+    assert!(with_lns.lns);
+    let without = LacamStar {
+        lns: false,
+        ..with_lns
+    };
+    let (mut total_with, mut total_without) = (0, 0);
+    for seed in 0..4 {
+        let path = dir.join(format!("warehouse-32-{seed}.scen"));
+        let text = std::fs::read_to_string(&path).unwrap();
+        let scen =
+            buridan_env::map::parse_scen(&path.display().to_string(), &text, &map.grid).unwrap();
+        let (s, g) = (&scen.starts, &scen.goals);
+        let problem = Problem::new(&map.grid, s, g);
+        let refined = with_lns.solve(problem, &limits(10)).unwrap().plan;
+        let plain = without.solve(problem, &limits(10)).unwrap().plan;
+        validate_with(&map.grid, s, g, &refined, ConflictModel::SIMULTANEOUS).unwrap();
+        let r = replay_exact_with(&map, s, g, &refined, 128, RuleSet::Pogema).unwrap();
+        assert_eq!(&r.final_positions, g, "seed {seed}");
+        let (a, b) = (refined.sum_of_costs(), plain.sum_of_costs());
+        assert!(a <= b, "seed {seed}: {a} > {b}");
+        total_with += a;
+        total_without += b;
+    }
+    assert!(total_with < total_without, "{total_with} ≥ {total_without}");
 }

@@ -55,6 +55,17 @@
 //! When `Open` runs empty the solution is optimal for the [`Objective`];
 //! otherwise the time budget returns the best plan so far.
 //!
+//! On large instances this search improves its first plan only a little
+//! within a second (2–4 % of the sum of costs on POGEMA's warehouse): the
+//! neighbour graph it relaxes is a thin slice of the configuration space.
+//! So, minimising the sum of loss, LaCAM* refines by its search for the
+//! first half of [`LacamStar::refine_time`] and, unless that proved the
+//! plan optimal, by **large neighbourhood search** for the second half
+//! ([`LacamStar::lns`], `crate::lns`: MAPF-LNS, as lacam3 refines): a few
+//! agents' paths at a time are replanned around all the others and kept
+//! when their sum of costs falls. Small instances are still proven optimal
+//! by the search; large ones get LNS's plans (`docs/results/lacam-lns/`).
+//!
 //! Both honour [`Limits::time`], [`Limits::memory_bytes`] (estimated from
 //! the stored nodes, constraint sets and explored table) and
 //! [`Limits::max_nodes`] (search iterations). [`Limits::max_makespan`] is
@@ -95,15 +106,18 @@
 //! assert_eq!(star.solution.plan.sum_of_costs(), cbs.plan.sum_of_costs()); // 18
 //! ```
 
-use crate::Problem;
-use std::collections::VecDeque;
 use std::time::Duration;
 
-use crate::graph::{FastMap, NONE};
 use crate::limits::{Budget, Limits, SolveError};
-use crate::pibt::{Generator, Setup, TieBreaker};
+use crate::lns;
+use crate::pibt::Setup;
 use crate::planner::{Planner, Solution, Stats};
 use crate::rules::ConflictModel;
+use crate::Problem;
+
+mod search;
+
+use search::{Generation, Search, Star};
 
 /// What LaCAM* minimises.
 ///
@@ -238,6 +252,17 @@ pub struct LacamStar {
     /// [LaCAM within a makespan cap](self#lacam-within-a-makespan-cap)).
     #[serde(default)]
     pub within_cap: bool,
+    /// Refine by large neighbourhood search (MAPF-LNS, see the [module
+    /// docs](self)) in the second half of `refine_time` (default on; sum of
+    /// loss only): the search itself refines during the first half and,
+    /// unless it proved its plan optimal by then, LNS shortens the plan
+    /// until `refine_time`. Without a `refine_time` there is no LNS.
+    #[serde(default = "lns_default")]
+    pub lns: bool,
+}
+
+fn lns_default() -> bool {
+    true
 }
 
 impl Default for LacamStar {
@@ -251,6 +276,7 @@ impl Default for LacamStar {
             restart: restart_default(),
             generators: generators_default(),
             within_cap: false,
+            lns: lns_default(),
         }
     }
 }
@@ -325,15 +351,94 @@ impl LacamStar {
         let clock = Budget::new(limits);
         let setup = Setup::new(problem)?;
         let cap = limits.max_makespan.filter(|_| self.within_cap);
+        // With LNS the search refines for the first half of the time.
+        let lns_until = self.refine_time.filter(|_| self.lns_applies());
         let star = Star {
             objective: self.objective,
-            refine_time: self.refine_time,
+            refine_time: match lns_until {
+                Some(t) => Some(t / 2),
+                None => self.refine_time,
+            },
         };
         let mut search = Search::new(&setup, self.lacam().generator(), Some(star), limits);
         if self.objective == Objective::Makespan {
             search.cap = cap.map(|c| c as u64);
         }
-        let found = search.run();
+        let found = self.within(search.run(), cap, problem, limits, &clock)?;
+        match lns_until {
+            Some(until) if !found.proven_optimal => {
+                Ok(self.shorten(found, &setup, limits, clock, until))
+            }
+            _ => Ok(found),
+        }
+    }
+
+    /// Whether [`LacamStar::lns`] refines this search.
+    fn lns_applies(&self) -> bool {
+        self.lns && self.objective == Objective::SumOfLoss
+    }
+
+    /// The plan shortened by LNS until `until` on `clock` (its sum of
+    /// loss never grows; a makespan within [`Limits::max_makespan`] stays
+    /// within it).
+    fn shorten(
+        &self,
+        found: Outcome,
+        setup: &Setup,
+        limits: &Limits,
+        mut clock: Budget,
+        until: Duration,
+    ) -> Outcome {
+        let plan = &found.solution.plan;
+        let topo = &setup.topo;
+        let mut paths: Vec<Vec<u32>> = (0..plan.agents())
+            .map(|i| {
+                (0..=plan.arrival(i))
+                    .map(|t| topo.index(plan.position(i, t).expect("a path per agent")))
+                    .collect()
+            })
+            .collect();
+        let inst = lns::Instance {
+            topo,
+            dist: &setup.dist,
+            starts: &setup.starts,
+            goals: &setup.goals,
+            forbid_following: self.rules.forbid_following,
+            cap: limits.max_makespan.filter(|&c| plan.makespan() <= c),
+        };
+        let done = lns::refine(&inst, &mut paths, &mut clock, until, self.seed);
+        if done.accepted == 0 {
+            return found;
+        }
+        let plan = crate::Plan::new(
+            paths
+                .iter()
+                .map(|p| p.iter().map(|&c| topo.cell(c)).collect())
+                .collect(),
+        );
+        let stats = Stats {
+            expanded: found.solution.stats.expanded + done.iterations,
+            wall_time: clock.elapsed(),
+            ..found.solution.stats
+        };
+        Outcome {
+            cost: sum_of_loss(&plan),
+            solution: Solution { plan, stats },
+            proven_optimal: false,
+            first_cost: found.first_cost,
+        }
+    }
+
+    /// Within a makespan cap, a sum-of-loss plan longer than the cap is
+    /// replaced by LaCAM's within the cap (for the time left).
+    fn within(
+        &self,
+        found: Result<Outcome, SolveError>,
+        cap: Option<usize>,
+        problem: Problem<'_>,
+        limits: &Limits,
+        clock: &Budget,
+    ) -> Result<Outcome, SolveError> {
         let Some(cap) = cap else {
             return found;
         };
@@ -393,429 +498,6 @@ impl Planner for LacamStar {
 
     fn solve(&self, problem: Problem<'_>, limits: &Limits) -> Result<Solution, SolveError> {
         self.search(problem, limits).map(|o| o.solution)
-    }
-}
-
-/// How the search generates and orders successors (shared by LaCAM and
-/// LaCAM*).
-#[derive(Clone, Copy)]
-struct Generation {
-    rules: ConflictModel,
-    seed: u64,
-    swap: bool,
-    restart: f64,
-    generators: u32,
-}
-
-/// LaCAM*'s settings.
-#[derive(Clone, Copy)]
-struct Star {
-    objective: Objective,
-    refine_time: Option<Duration>,
-}
-
-/// A high-level node: a configuration and its lazily expanded successors.
-struct HNode {
-    config: Box<[u32]>,
-    parent: u32,
-    /// Agents by decreasing PIBT priority.
-    order: Box<[u32]>,
-    priorities: Box<[f64]>,
-    /// Constraint sets still to try (ids into the low-level arena).
-    tree: VecDeque<u32>,
-    /// Cost from the start along the parent chain (LaCAM*).
-    g: u64,
-    /// Admissible estimate of the cost to the goal (LaCAM*).
-    h: u64,
-    /// Known successors (LaCAM*).
-    neighbours: Vec<u32>,
-}
-
-/// A constraint set, as the last constraint and a link to the rest:
-/// `who` goes to `cell`; `depth` constraints in total.
-#[derive(Clone, Copy)]
-struct LNode {
-    parent: u32,
-    who: u32,
-    cell: u32,
-    depth: u32,
-}
-
-struct Search<'a> {
-    setup: &'a Setup,
-    /// The configuration generators (at least one), each with its own
-    /// tie-breaking.
-    gens: Vec<Generator<'a>>,
-    star: Option<Star>,
-    budget: Budget,
-    nodes: Vec<HNode>,
-    low: Vec<LNode>,
-    explored: FastMap<Box<[u32]>, u32>,
-    open: Vec<u32>,
-    goal_node: Option<u32>,
-    first_cost: u64,
-    /// Estimated bytes held by the search.
-    bytes: usize,
-    /// Random restarts: probability and the dice.
-    restart: f64,
-    dice: TieBreaker,
-    /// Within a makespan cap (the objective is the makespan): nodes that
-    /// cannot lead to a plan within it are pruned.
-    cap: Option<u64>,
-    /// LaCAM within a cap: return the first plan within it.
-    first_fit: bool,
-}
-
-impl<'a> Search<'a> {
-    fn new(setup: &'a Setup, how: Generation, star: Option<Star>, limits: &Limits) -> Self {
-        let gens = (0..u64::from(how.generators.max(1)))
-            .map(|k| {
-                let gen = Generator::new(&setup.topo, how.rules, how.seed.wrapping_add(k));
-                if how.swap {
-                    gen.with_swap(&setup.dist, &setup.goals)
-                } else {
-                    gen
-                }
-            })
-            .collect();
-        Self {
-            setup,
-            gens,
-            star,
-            budget: Budget::new(limits),
-            nodes: Vec::new(),
-            // The root of every low-level tree: no constraint.
-            low: vec![LNode {
-                parent: NONE,
-                who: NONE,
-                cell: NONE,
-                depth: 0,
-            }],
-            explored: FastMap::default(),
-            open: Vec::new(),
-            goal_node: None,
-            first_cost: 0,
-            bytes: 0,
-            restart: how.restart,
-            // Its own stream: restarts do not shift PIBT's tie-breaking.
-            dice: TieBreaker::new(how.seed ^ 0xD1CE),
-            cap: None,
-            first_fit: false,
-        }
-    }
-
-    fn objective(&self) -> Objective {
-        self.star.map_or(Objective::SumOfLoss, |s| s.objective)
-    }
-
-    /// Cost of the step `from → to`.
-    fn edge_cost(&self, from: &[u32], to: &[u32]) -> u64 {
-        let goals = &self.setup.goals;
-        match self.objective() {
-            Objective::SumOfLoss => (0..goals.len())
-                .filter(|&i| from[i] != goals[i] || to[i] != goals[i])
-                .count() as u64,
-            Objective::Makespan => u64::from(from != &goals[..] || to != &goals[..]),
-        }
-    }
-
-    fn heuristic(&self, config: &[u32]) -> u64 {
-        let d = (0..config.len()).map(|i| u64::from(self.setup.dist[i][config[i] as usize]));
-        match self.objective() {
-            Objective::SumOfLoss => d.sum(),
-            Objective::Makespan => d.max().unwrap_or(0),
-        }
-    }
-
-    fn add_node(&mut self, config: Vec<u32>, parent: u32, priorities: Vec<f64>, g: u64) -> u32 {
-        let n = config.len();
-        let id = self.nodes.len() as u32;
-        let h = self.heuristic(&config);
-        let order = Setup::order(&priorities).into_boxed_slice();
-        let config = config.into_boxed_slice();
-        self.explored.insert(config.clone(), id);
-        self.nodes.push(HNode {
-            config,
-            parent,
-            order,
-            priorities: priorities.into_boxed_slice(),
-            tree: VecDeque::from([0]),
-            g,
-            h,
-            neighbours: Vec::new(),
-        });
-        // Node, two copies of the configuration, order, priorities, map entry.
-        self.bytes += std::mem::size_of::<HNode>() + n * (4 + 4 + 4 + 8) + 48;
-        id
-    }
-
-    fn run(mut self) -> Result<Outcome, SolveError> {
-        let n = self.setup.starts.len();
-        let root = self.add_node(
-            self.setup.starts.clone(),
-            NONE,
-            self.setup.initial_priorities(),
-            0,
-        );
-        self.open.push(root);
-        let mut constraints: Vec<(u32, u32)> = Vec::with_capacity(n);
-        let mut next = Vec::with_capacity(n);
-        let mut candidate = Vec::with_capacity(n);
-        // High-level search over configurations, depth-first on `Open`.
-        while let Some(&top) = self.open.last() {
-            let bytes = self.bytes + self.open.len() * 4;
-            if let Err(e) = self.budget.on_expand(|| bytes) {
-                return self.best_or(e);
-            }
-            if self.goal_node.is_some() && self.budget.expanded & 255 == 0 {
-                if let Some(refine) = self.star.and_then(|s| s.refine_time) {
-                    if self.budget.cpu_elapsed() > refine {
-                        return Ok(self.outcome(false));
-                    }
-                }
-            }
-            // 1. Goal check on the node on top of `Open`.
-            let node = &self.nodes[top as usize];
-            if self.goal_node.is_none() && node.config[..] == self.setup.goals[..] {
-                self.goal_node = Some(top);
-                self.first_cost = node.g;
-                if self.star.is_none() || self.within_cap() {
-                    return Ok(self.outcome(false));
-                }
-            }
-            // (LaCAM*) Prune nodes that cannot beat the best solution (or,
-            // within a cap, lead to a plan within it).
-            if self.bound().is_some_and(|b| b <= node.g + node.h) {
-                self.open.pop();
-                continue;
-            }
-            // 2. Low-level search: the next constraint set from the node's
-            // constraint tree (exhausted: the node leaves `Open`) ...
-            let Some(c) = self.nodes[top as usize].tree.pop_front() else {
-                self.open.pop();
-                continue;
-            };
-            // ... and its children, one per cell of the next agent in order.
-            let low = self.low[c as usize];
-            if (low.depth as usize) < n {
-                let node = &self.nodes[top as usize];
-                let who = node.order[low.depth as usize];
-                let here = node.config[who as usize];
-                for &cell in self.setup.topo.moves(here) {
-                    if cell == NONE {
-                        continue;
-                    }
-                    let id = self.low.len() as u32;
-                    self.low.push(LNode {
-                        parent: c,
-                        who,
-                        cell,
-                        depth: low.depth + 1,
-                    });
-                    self.nodes[top as usize].tree.push_back(id);
-                    self.bytes += std::mem::size_of::<LNode>() + 4;
-                }
-            }
-            // 3. Successor generation: PIBT under the constraints.
-            constraints.clear();
-            let mut k = c;
-            while self.low[k as usize].depth > 0 {
-                let l = self.low[k as usize];
-                constraints.push((l.who, l.cell));
-                k = l.parent;
-            }
-            // With several generators, the successor of least cost plus
-            // heuristic (the first on ties).
-            let mut best = None;
-            for k in 0..self.gens.len() {
-                let node = &self.nodes[top as usize];
-                if !self.gens[k].generate(
-                    &self.setup.dist,
-                    &node.config,
-                    &node.order,
-                    &constraints,
-                    &mut candidate,
-                ) {
-                    continue;
-                }
-                let f = if self.gens.len() > 1 {
-                    self.edge_cost(&node.config, &candidate) + self.heuristic(&candidate)
-                } else {
-                    0
-                };
-                if best.is_none_or(|b| f < b) {
-                    best = Some(f);
-                    std::mem::swap(&mut next, &mut candidate);
-                }
-            }
-            if best.is_none() {
-                continue;
-            }
-            self.budget.generated += 1;
-            // 4. Duplicate detection: a known configuration is re-inserted,
-            // a new one becomes a new high-level node.
-            if let Some(&known) = self.explored.get(&next[..]) {
-                if !self.nodes[top as usize].neighbours.contains(&known) {
-                    self.nodes[top as usize].neighbours.push(known);
-                    self.bytes += 4;
-                }
-                if self.star.is_some() {
-                    self.relax(top);
-                    if self.within_cap() {
-                        return Ok(self.outcome(false));
-                    }
-                }
-                // Reinsertion: the known node goes back on top of `Open`.
-                // Measured on rm-2.1b (4 agents, 100 episodes, 2 s): without
-                // it LaCAM plans 88 instances but only 63 within T_max (the
-                // depth-first chains wander); with it 81 and 81. Sometimes
-                // the start goes on top instead (a random restart); nothing
-                // leaves `Open` for it, so the search stays complete.
-                let restart = f64::from(self.dice.next()) < self.restart * 4_294_967_296.0;
-                self.open.push(if restart { 0 } else { known });
-            } else {
-                let node = &self.nodes[top as usize];
-                let mut priorities = node.priorities.to_vec();
-                self.setup.update_priorities(&mut priorities, &next);
-                let g = node.g + self.edge_cost(&node.config, &next);
-                let id = self.add_node(next.clone(), top, priorities, g);
-                self.nodes[top as usize].neighbours.push(id);
-                self.bytes += 4;
-                self.open.push(id);
-            }
-        }
-        match (self.goal_node, self.cap) {
-            // Exhausted with a plan within the cap (LaCAM*): optimal.
-            (Some(goal), cap) if cap.is_none_or(|c| self.nodes[goal as usize].g <= c) => {
-                Ok(self.outcome(true))
-            }
-            // Exhausted: no node with `g + h` within the cap leads to the goal.
-            (_, Some(cap)) => Err(SolveError::NoSolutionWithin {
-                max_makespan: cap as usize,
-            }),
-            (_, None) => Err(SolveError::NoSolution),
-        }
-    }
-
-    /// Nodes with `g + h` at least this cannot lead to a plan worth
-    /// having: cheaper than the best solution (LaCAM*) and, within a cap,
-    /// with a makespan within it.
-    fn bound(&self) -> Option<u64> {
-        let best = self.goal_node.map(|goal| self.nodes[goal as usize].g);
-        let cap = self.cap.map(|c| c + 1);
-        match (best, cap) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        }
-    }
-
-    /// LaCAM within a cap: the best plan so far fits it.
-    fn within_cap(&self) -> bool {
-        if !self.first_fit {
-            return false;
-        }
-        match (self.goal_node, self.cap) {
-            (Some(goal), Some(cap)) => self.nodes[goal as usize].g <= cap,
-            _ => false,
-        }
-    }
-
-    /// Propagates a cheaper `g` from `from` through the neighbour graph,
-    /// re-parenting improved nodes; improved nodes that could still beat the
-    /// best solution (or fit the cap, see [`Search::bound`]) go back on `Open`.
-    fn relax(&mut self, from: u32) {
-        let mut stack = vec![from];
-        while let Some(a) = stack.pop() {
-            for k in 0..self.nodes[a as usize].neighbours.len() {
-                let b = self.nodes[a as usize].neighbours[k];
-                let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
-                let g = na.g + self.edge_cost(&na.config, &nb.config);
-                if g < nb.g {
-                    let h = nb.h;
-                    let nb = &mut self.nodes[b as usize];
-                    nb.g = g;
-                    nb.parent = a;
-                    stack.push(b);
-                    if self.bound().is_some_and(|bound| g + h < bound) {
-                        self.open.push(b);
-                    }
-                }
-            }
-        }
-    }
-
-    /// On a limit: LaCAM* returns its best plan, otherwise the error.
-    fn best_or(self, e: SolveError) -> Result<Outcome, SolveError> {
-        match (self.goal_node, &e) {
-            (
-                Some(_),
-                SolveError::TimeLimit { .. }
-                | SolveError::MemoryLimit { .. }
-                | SolveError::NodeLimit { .. },
-            ) => Ok(self.outcome(false)),
-            _ => Err(e),
-        }
-    }
-
-    /// The fewest-steps path from the start to `goal` over the explored
-    /// graph (every edge seen during the search), by breadth-first search:
-    /// LaCAM's depth-first parent chain can be much longer.
-    fn shortest_chain(&self, goal: u32) -> Vec<u32> {
-        let mut parent = vec![NONE; self.nodes.len()];
-        let mut queue = VecDeque::from([0u32]);
-        parent[0] = 0;
-        while let Some(a) = queue.pop_front() {
-            if a == goal {
-                break;
-            }
-            for &b in &self.nodes[a as usize].neighbours {
-                if parent[b as usize] == NONE {
-                    parent[b as usize] = a;
-                    queue.push_back(b);
-                }
-            }
-        }
-        let mut chain = vec![goal];
-        let mut k = goal;
-        while k != 0 {
-            k = parent[k as usize];
-            chain.push(k);
-        }
-        chain.reverse();
-        chain
-    }
-
-    fn outcome(&self, proven_optimal: bool) -> Outcome {
-        let goal = self.goal_node.expect("called with a solution");
-        let chain = if self.star.is_some() {
-            // LaCAM*: the parent chain is the cheapest known path.
-            let mut chain = Vec::new();
-            let mut k = goal;
-            while k != NONE {
-                chain.push(k);
-                k = self.nodes[k as usize].parent;
-            }
-            chain.reverse();
-            chain
-        } else {
-            self.shortest_chain(goal)
-        };
-        let configs: Vec<Vec<u32>> = chain
-            .iter()
-            .map(|&k| self.nodes[k as usize].config.to_vec())
-            .collect();
-        Outcome {
-            solution: Solution {
-                plan: self.setup.plan(&configs),
-                stats: Stats {
-                    low_level_expanded: self.low.len() as u64 - 1,
-                    ..self.budget.stats()
-                },
-            },
-            proven_optimal,
-            first_cost: self.first_cost,
-            cost: self.nodes[goal as usize].g,
-        }
     }
 }
 
