@@ -100,6 +100,17 @@ def task_rows():
     return rows
 
 
+# Structs whose fields a training file keeps at the top level: a field of
+# one of these types is written as the struct's own fields.
+FLAT = {"ModelConfig": "learner/src/train/config/model.rs"}
+
+
+def flat_rows(name: str):
+    """The rows of a struct kept flat in the file: one per field."""
+    _, fields = struct_fields((ROOT / FLAT[name]).read_text(), name)
+    return [(f, ty, doc) for f, ty, doc in fields]
+
+
 def render() -> str:
     out = [
         "# Configuration keys",
@@ -121,7 +132,12 @@ def render() -> str:
         out += ["| key | type | meaning |", "|---|---|---|"]
         rows = []
         for f, ty, doc in fields:
-            rows += task_rows() if ty == TASK[1] else [(f, ty, doc)]
+            if ty == TASK[1]:
+                rows += task_rows()
+            elif ty in FLAT:
+                rows += flat_rows(ty)
+            else:
+                rows.append((f, ty, doc))
         for f, ty, doc in rows:
             doc = doc.replace("|", "\\|")
             out.append(f"| `{f}` | `{ty}` | {doc} |")

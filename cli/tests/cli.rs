@@ -170,7 +170,7 @@ fn config_layers_defaults_file_flags_and_overrides() {
     );
     assert_eq!(cfg.ppo.lr, 5e-4);
     assert_eq!(cfg.ppo.epochs, 9, "--set beats the file");
-    assert_eq!(cfg.hidden, [32, 32]);
+    assert_eq!(cfg.model.hidden, [32, 32]);
     assert_eq!(cfg.steps, 3000, "flags beat defaults");
     args.overrides = vec!["ppo.no_such_key=1".into()];
     assert!(
@@ -201,7 +201,7 @@ fn without_a_config_the_recipe_imitates_first_unless_told_not_to() {
     args.no_imitation = false;
     let cfg = train::resolve_config(&args).unwrap();
     let recipe = buridan_learner::train::TrainConfig::recipe();
-    assert!(cfg.lstm && cfg.imitation.is_some());
+    assert!(cfg.model.lstm && cfg.imitation.is_some());
     assert_eq!(cfg.imitation, recipe.imitation);
     // The recipe stops once learned, unless told to use its whole budget.
     assert_eq!(cfg.stop, recipe.stop);
@@ -220,7 +220,7 @@ fn without_a_config_the_recipe_imitates_first_unless_told_not_to() {
     );
     args.no_imitation = true;
     let cfg = train::resolve_config(&args).unwrap();
-    assert!(cfg.lstm && cfg.imitation.is_none());
+    assert!(cfg.model.lstm && cfg.imitation.is_none());
     // It also skips a config's imitation.
     let config =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../learner/configs/impala-ctde-rm-2.2.toml");

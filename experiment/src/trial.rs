@@ -92,7 +92,7 @@ pub use buridan_env::error::error_chain as chain;
 /// o.insert("ppo.lr".into(), toml::Value::Float(5e-4));
 /// o.insert("hidden".into(), toml::Value::Array(vec![32.into(), 32.into()]));
 /// let cfg = apply_overrides(&Default::default(), &o).unwrap();
-/// assert_eq!((cfg.ppo.lr, cfg.hidden.clone()), (5e-4, vec![32, 32]));
+/// assert_eq!((cfg.ppo.lr, cfg.model.hidden.clone()), (5e-4, vec![32, 32]));
 /// o.insert("ppo.no_such_key".into(), 1.into());
 /// assert!(apply_overrides(&Default::default(), &o).is_err());
 /// ```

@@ -95,10 +95,8 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("impala-rm-2.1");
     g.sample_size(20);
     for (name, lstm) in [("mlp", false), ("lstm", true)] {
-        let cfg = TrainConfig {
-            lstm,
-            ..tuned.clone()
-        };
+        let mut cfg = tuned.clone();
+        cfg.model.lstm = lstm;
         // One train batch: 10 envs × 50 steps = 500 env steps.
         let (policy, frags) = fragments(&cfg, 1);
         let samples: usize = frags.iter().map(|f| f.len * f.rows).sum();

@@ -146,9 +146,9 @@ fn recurrent_value_pass_bootstraps_from_the_actors_state() {
     // With an LSTM the fragment-end bootstrap value V(last_obs) must use the
     // state the actor carried into the next fragment.
     let mut c = cfg(Mode::Ctde);
-    c.lstm = true;
-    c.lstm_cells = 8;
-    c.hidden = vec![16, 16];
+    c.model.lstm = true;
+    c.model.lstm_cells = 8;
+    c.model.hidden = vec![16, 16];
     c.t_max = 100; // no episode ends at T−1
     let (mut a, policy) = actor(&c, ObsKind::Local);
     let frags = vec![a.collect().unwrap()];

@@ -4,7 +4,7 @@
 
 use buridan_env::Starts;
 use buridan_learner::algo::ppo::{is_value_weight, Ppo, PpoSettings};
-use buridan_learner::train::{Run, Task, TrainConfig};
+use buridan_learner::train::{ModelConfig, Run, Task, TrainConfig};
 use buridan_policy::{Fragment, Mode, ModelSpec, Policy};
 use rand::SeedableRng;
 
@@ -40,7 +40,10 @@ fn warm_up(mode: Mode, lstm: bool) {
         starts: Starts::Random,
         envs_per_actor: 8,
         fragment_len: 40,
-        lstm,
+        model: ModelConfig {
+            lstm,
+            ..ModelConfig::default()
+        },
         ..TrainConfig::default()
     };
     let (spec, frags) = fragments(&cfg);

@@ -2,7 +2,9 @@
 //! plant envs, the policy reads the plant observation, and everything that
 //! counts success stays well defined though plant episodes only truncate.
 
-use buridan_learner::train::{final_checkpoint, train, Algo, NoProgress, Task, TrainConfig};
+use buridan_learner::train::{
+    final_checkpoint, train, Algo, ModelConfig, NoProgress, Task, TrainConfig,
+};
 use buridan_policy::{Mode, Policy};
 
 fn tiny(mode: Mode) -> TrainConfig {
@@ -16,7 +18,10 @@ fn tiny(mode: Mode) -> TrainConfig {
         steps: 480,
         envs_per_actor: 4,
         fragment_len: 20,
-        hidden: vec![16, 16],
+        model: ModelConfig {
+            hidden: vec![16, 16],
+            ..ModelConfig::default()
+        },
         checkpoint_every: 0,
         ..TrainConfig::default()
     };

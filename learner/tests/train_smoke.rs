@@ -4,8 +4,8 @@
 use buridan_env::Starts;
 use buridan_learner::algo::schedule::Schedule;
 use buridan_learner::train::{
-    final_checkpoint, train, Algo, MetricsRow, NoProgress, Progress, Summary, Task, TrainConfig,
-    TrainError,
+    final_checkpoint, train, Algo, MetricsRow, ModelConfig, NoProgress, Progress, Summary, Task,
+    TrainConfig, TrainError,
 };
 use buridan_policy::{Mode, Policy, PolicyError};
 
@@ -19,9 +19,12 @@ fn tiny(algo: Algo, mode: Mode) -> TrainConfig {
         steps: 800,
         envs_per_actor: 4,
         fragment_len: 20,
-        hidden: vec![16, 16],
-        lstm_cells: 8,
-        max_seq_len: 8,
+        model: ModelConfig {
+            hidden: vec![16, 16],
+            lstm: false,
+            lstm_cells: 8,
+            max_seq_len: 8,
+        },
         checkpoint_every: 2,
         ..TrainConfig::default()
     };
@@ -144,10 +147,8 @@ fn ppo_writes_metrics_checkpoints_summary_and_resumes() {
     assert!(s2.wall_seconds >= s.wall_seconds);
 
     // Resuming with a different architecture is refused.
-    let bad = TrainConfig {
-        hidden: vec![8],
-        ..resumed_cfg
-    };
+    let mut bad = resumed_cfg.clone();
+    bad.model.hidden = vec![8];
     let err = train(&bad, &dir.path().join("bad"), &mut NoProgress).unwrap_err();
     assert!(
         matches!(
@@ -169,7 +170,7 @@ fn every_algorithm_and_mode_trains_end_to_end() {
         for mode in [Mode::Cte, Mode::Ctde, Mode::Dte] {
             for lstm in [false, true] {
                 let mut cfg = tiny(algo, mode);
-                cfg.lstm = lstm;
+                cfg.model.lstm = lstm;
                 cfg.steps = 480;
                 cfg.checkpoint_every = 0;
                 if algo == Algo::Impala {
@@ -234,7 +235,7 @@ fn imitation_runs_before_learning_and_logs_its_rounds() {
     );
     // A recurrent policy imitates too (on windows of its own steps).
     let lstm_dir = tempfile::tempdir().unwrap();
-    cfg.lstm = true;
+    cfg.model.lstm = true;
     train(&cfg, lstm_dir.path(), &mut NoProgress).unwrap();
     let csv = std::fs::read_to_string(lstm_dir.path().join("imitation.csv")).unwrap();
     assert_eq!(csv.lines().count(), 3, "{csv}");
@@ -245,7 +246,7 @@ fn imitation_runs_before_learning_and_logs_its_rounds() {
     // actions are what each head learns.
     for (mode, lstm) in [(Mode::Dte, false), (Mode::Cte, false), (Mode::Dte, true)] {
         cfg.mode = mode;
-        cfg.lstm = lstm;
+        cfg.model.lstm = lstm;
         let out = tempfile::tempdir().unwrap();
         train(&cfg, out.path(), &mut NoProgress).unwrap();
         let rounds = std::fs::read_to_string(out.path().join("imitation.csv")).unwrap();
@@ -365,7 +366,7 @@ fn schedules_set_each_updates_learning_rate_and_entropy_coefficient() {
 /// OD-A* for two short DAgger rounds first.
 fn imitating_rm_1_1() -> TrainConfig {
     let mut cfg = tiny(Algo::Ppo, Mode::Ctde);
-    cfg.hidden = vec![64, 64];
+    cfg.model.hidden = vec![64, 64];
     cfg.ppo.train_batch = 1000;
     cfg.ppo.minibatch = 500;
     cfg.fragment_len = 50;

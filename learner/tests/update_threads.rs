@@ -5,7 +5,7 @@
 use buridan_env::Starts;
 use buridan_learner::algo::impala::{Impala, ImpalaSettings};
 use buridan_learner::algo::ppo::{Ppo, PpoSettings};
-use buridan_learner::train::{Run, Task, TrainConfig};
+use buridan_learner::train::{ModelConfig, Run, Task, TrainConfig};
 use buridan_policy::{Fragment, Mode, ModelSpec, Policy};
 use rand::SeedableRng;
 
@@ -110,7 +110,10 @@ fn cfg(mode: Mode, lstm: bool) -> TrainConfig {
         starts: Starts::Random,
         envs_per_actor: 16,
         fragment_len: 40,
-        lstm,
+        model: ModelConfig {
+            lstm,
+            ..ModelConfig::default()
+        },
         ..TrainConfig::default()
     };
     // One minibatch of the whole batch per weight set: 2 × 640 × 4 samples.

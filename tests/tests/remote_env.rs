@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use buridan_actor::client::{run, ActorError, ActorOptions, SetupError};
 use buridan_learner::serve::{serve, Listener, ServeError, ServeOptions};
-use buridan_learner::train::{Algo, MetricsRow, Progress, Summary, Task, TrainConfig};
+use buridan_learner::train::{Algo, MetricsRow, ModelConfig, Progress, Summary, Task, TrainConfig};
 use buridan_plant_server::{EnvServer, ServeConfig};
 use buridan_policy::Mode;
 use buridan_tests::InMemoryNet;
@@ -36,7 +36,10 @@ fn plant_run(steps: u64) -> TrainConfig {
         steps,
         envs_per_actor: 4,
         fragment_len: 20,
-        hidden: vec![16, 16],
+        model: ModelConfig {
+            hidden: vec![16, 16],
+            ..ModelConfig::default()
+        },
         checkpoint_every: 0,
         ..TrainConfig::default()
     };

@@ -59,7 +59,8 @@ use phases::{imitate, Phase};
 use state::{read_trainer_state, restore_layout_windows};
 
 pub use config::{
-    Algo, ConfigError, ImpalaConfig, PpoConfig, Task, TaskKeysError, TrainConfig, WeightedMap,
+    Algo, ConfigError, ImpalaConfig, ModelConfig, PpoConfig, Task, TaskKeysError, TrainConfig,
+    WeightedMap,
 };
 pub use error::{ExchangeError, Interrupted, TrainError};
 pub use exchange::{Exchange, InProcess, Shared, Ticket};

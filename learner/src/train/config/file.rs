@@ -13,7 +13,7 @@ use buridan_policy::Mode;
 use serde::{Deserialize, Serialize};
 
 use super::Algo;
-use super::{ImpalaConfig, PpoConfig, Task, TaskKeysError, TrainConfig, WeightedMap};
+use super::{ImpalaConfig, ModelConfig, PpoConfig, Task, TaskKeysError, TrainConfig, WeightedMap};
 use crate::train::stop::StopRule;
 
 /// Whether failure replay is off (then `[replay]` is left out of a saved config).
@@ -87,24 +87,29 @@ impl Default for TrainFile {
 }
 
 /// Both conversions from one list of the fields the two forms share (every
-/// field but the task). Each side is destructured whole, so a field added
-/// to one form and not to this list fails to compile.
+/// field but the task and the model's). Each side is destructured whole,
+/// so a field added to one form and not to this list fails to compile.
 macro_rules! convert_through_shared_fields {
     ($($field:ident),* $(,)?) => {
         impl TryFrom<TrainFile> for TrainConfig {
             type Error = TaskKeysError;
 
             fn try_from(file: TrainFile) -> Result<Self, TaskKeysError> {
-                let TrainFile { map, maps, plant, $($field),* } = file;
-                Ok(TrainConfig { task: Task::from_keys(map, maps, plant)?, $($field),* })
+                let TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, $($field),* } = file;
+                Ok(TrainConfig {
+                    task: Task::from_keys(map, maps, plant)?,
+                    model: ModelConfig { hidden, lstm, lstm_cells, max_seq_len },
+                    $($field),*
+                })
             }
         }
 
         impl From<TrainConfig> for TrainFile {
             fn from(cfg: TrainConfig) -> Self {
-                let TrainConfig { task, $($field),* } = cfg;
+                let TrainConfig { task, model, $($field),* } = cfg;
                 let (map, maps, plant) = task.into_keys();
-                TrainFile { map, maps, plant, $($field),* }
+                let ModelConfig { hidden, lstm, lstm_cells, max_seq_len } = model;
+                TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, $($field),* }
             }
         }
     };
@@ -129,10 +134,6 @@ convert_through_shared_fields!(
     shield_rollouts,
     replay,
     gamma,
-    hidden,
-    lstm,
-    lstm_cells,
-    max_seq_len,
     checkpoint_every,
     stop_return,
     stop_len,

@@ -19,6 +19,7 @@ mod algo;
 mod error;
 mod file;
 mod layouts;
+mod model;
 mod task;
 #[cfg(test)]
 mod tests;
@@ -27,6 +28,7 @@ mod validate;
 pub use algo::{Algo, ImpalaConfig, PpoConfig};
 pub use error::ConfigError;
 pub use layouts::WeightedMap;
+pub use model::ModelConfig;
 pub use task::{Task, TaskKeysError};
 
 /// Everything a training run needs.
@@ -118,15 +120,9 @@ pub struct TrainConfig {
     pub replay: ReplayConfig,
     /// Discount γ (0.99).
     pub gamma: f32,
-    /// Hidden layer sizes ([64, 64]).
-    pub hidden: Vec<usize>,
-    /// LSTM after the hidden layers (the comparison runs used one; off by
-    /// default here because the feed-forward net trains several times faster).
-    pub lstm: bool,
-    /// LSTM cells (64).
-    pub lstm_cells: usize,
-    /// Truncated-BPTT length (RLlib `max_seq_len` 32).
-    pub max_seq_len: usize,
+    /// The network: layer sizes and the LSTM, TOML top-level keys
+    /// ([`ModelConfig`]).
+    pub model: ModelConfig,
     /// Save a checkpoint every this many updates (0: only the final one).
     pub checkpoint_every: u64,
     /// Stop early once the mean return of the last 100 episodes reaches this.
@@ -179,10 +175,7 @@ impl Default for TrainConfig {
             shield_rollouts: false,
             replay: ReplayConfig::default(),
             gamma: 0.99,
-            hidden: vec![64, 64],
-            lstm: false,
-            lstm_cells: 64,
-            max_seq_len: 32,
+            model: ModelConfig::default(),
             checkpoint_every: 50,
             stop_return: None,
             stop_len: None,
@@ -218,7 +211,7 @@ impl TrainConfig {
     /// use buridan_learner::train::{Algo, TrainConfig};
     /// let r = TrainConfig::recipe();
     /// assert_eq!(r.algo, Algo::Ppo);
-    /// assert!(r.lstm && r.features.path && r.features.intent && r.shaping > 0.0);
+    /// assert!(r.model.lstm && r.features.path && r.features.intent && r.shaping > 0.0);
     /// let imitation = r.imitation.as_ref().unwrap();
     /// assert_eq!((imitation.rounds, imitation.expert.as_slice()), (4, &["lacam".to_string(), "od-astar".into()][..]));
     /// assert_eq!(r.stop.map(|s| (s.success, s.hold)), Some((0.99, 200_000)));
@@ -245,7 +238,10 @@ impl TrainConfig {
                     every: 20_000,
                 }),
             }),
-            lstm: true,
+            model: ModelConfig {
+                lstm: true,
+                ..ModelConfig::default()
+            },
             ppo: PpoConfig {
                 update_threads: 1,
                 ..PpoConfig::default()
@@ -399,7 +395,7 @@ impl TrainConfig {
 
     /// The network architecture for observations of `obs_dim` floats.
     pub fn model_spec(&self, obs_dim: usize) -> ModelSpec {
-        let value = if self.lstm {
+        let value = if self.model.lstm {
             ValueHead::Shared
         } else {
             match self.algo {
@@ -408,10 +404,10 @@ impl TrainConfig {
             }
         };
         ModelSpec {
-            hidden: self.hidden.clone(),
+            hidden: self.model.hidden.clone(),
             value,
-            lstm: self.lstm.then_some(LstmSpec {
-                cells: self.lstm_cells,
+            lstm: self.model.lstm.then_some(LstmSpec {
+                cells: self.model.lstm_cells,
                 prev_action: true,
                 prev_reward: true,
             }),
@@ -441,7 +437,7 @@ impl From<&TrainConfig> for PpoSettings {
             lambda: p.lambda,
             grad_clip: p.grad_clip,
             standardize_advantages: p.standardize_advantages,
-            max_seq_len: cfg.max_seq_len,
+            max_seq_len: cfg.model.max_seq_len,
             update_threads: super::cores::update_threads(p.update_threads),
         }
     }
@@ -462,7 +458,7 @@ impl From<&TrainConfig> for ImpalaSettings {
                 c_bar: i.c_bar,
                 pg_rho_bar: i.pg_rho_bar,
             },
-            max_seq_len: cfg.max_seq_len,
+            max_seq_len: cfg.model.max_seq_len,
             update_threads: super::cores::update_threads(i.update_threads),
         }
     }

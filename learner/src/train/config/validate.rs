@@ -30,7 +30,7 @@ impl TrainConfig {
         ensure(self.actor_nice <= 19, "actor_nice must be at most 19")?;
         ensure(self.fragment_len >= 1, "fragment_len must be at least 1")?;
         ensure(
-            !self.hidden.is_empty() && !self.hidden.contains(&0),
+            !self.model.hidden.is_empty() && !self.model.hidden.contains(&0),
             "hidden sizes must be positive",
         )?;
         ensure((0.0..=1.0).contains(&self.gamma), "gamma must be in [0, 1]")?;
@@ -51,7 +51,7 @@ impl TrainConfig {
             self.impala.greedy_mix == 0.0 || self.algo == Algo::Impala,
             "impala.greedy_mix needs algo = \"impala\" (PPO's ratio assumes sampled rollouts)",
         )?;
-        ensure(self.lstm_cells >= 1, "lstm_cells must be positive")?;
+        ensure(self.model.lstm_cells >= 1, "lstm_cells must be positive")?;
         self.replay.validate().map_err(ConfigError::Replay)?;
         if let Some(stop) = &self.stop {
             stop.validate().map_err(ConfigError::Invalid)?;
