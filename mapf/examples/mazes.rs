@@ -266,16 +266,21 @@ fn solve_one(planner: &dyn Planner, args: &Args, name: &str, agents: usize) -> R
     let (status, makespan, soc) = match res {
         Ok(sol) => {
             let plan = &sol.plan;
-            let status =
-                if validate_with(&map.grid, s, g, plan, ConflictModel::SIMULTANEOUS).is_err() {
-                    "invalid"
-                } else if plan.makespan() > args.t_max as usize {
-                    "too-long"
-                } else if replay_exact_with(&map, s, g, plan, args.t_max, Rules::Pogema).is_err() {
-                    "invalid"
-                } else {
-                    "ok"
-                };
+            let invalid = |e: &dyn std::fmt::Display| {
+                eprintln!("{name}, {agents} agents: invalid plan: {e}");
+                "invalid"
+            };
+            let status = if let Err(e) =
+                validate_with(&map.grid, s, g, plan, ConflictModel::SIMULTANEOUS)
+            {
+                invalid(&e)
+            } else if plan.makespan() > args.t_max as usize {
+                "too-long"
+            } else if let Err(e) = replay_exact_with(&map, s, g, plan, args.t_max, Rules::Pogema) {
+                invalid(&e)
+            } else {
+                "ok"
+            };
             (
                 status.to_string(),
                 Some(plan.makespan()),

@@ -306,7 +306,22 @@ pub(crate) fn refine(
         }
         lns.weights[r] = (1.0 - REACTION) * lns.weights[r] + REACTION * gain as f64;
     }
+    end_when_all_arrive(paths, inst.goals);
     stats
+}
+
+/// Cuts every path at the first time all agents stand on their goals: an
+/// env ends the episode there, while a path that passes its goal earlier
+/// and comes back later would count until its last arrival.
+fn end_when_all_arrive(paths: &mut [Vec<u32>], goals: &[u32]) {
+    let at = |p: &[u32], t: usize| p[t.min(p.len() - 1)];
+    let horizon = paths.iter().map(Vec::len).max().unwrap_or(0);
+    let first = (0..horizon).find(|&t| paths.iter().zip(goals).all(|(p, &g)| at(p, t) == g));
+    if let Some(t) = first {
+        for p in paths.iter_mut() {
+            p.truncate(t + 1);
+        }
+    }
 }
 
 /// The neighbourhood rules' state.
@@ -454,6 +469,19 @@ mod tests {
         let starts = (0..4).map(|c| Cell::new(0, c)).collect();
         let goals = (0..4).map(|c| Cell::new(4, c)).collect();
         (grid, starts, goals)
+    }
+
+    #[test]
+    fn paths_end_when_every_agent_stands_on_its_goal() {
+        // Agent 0 passes its goal (cell 1) at t = 1 and is back at t = 3;
+        // agent 1 arrives at t = 1.
+        let mut paths = vec![vec![0, 1, 2, 1], vec![5, 6]];
+        end_when_all_arrive(&mut paths, &[1, 6]);
+        assert_eq!(paths, vec![vec![0, 1], vec![5, 6]]);
+        // Never all at once before the end: nothing is cut.
+        let mut paths = vec![vec![0, 1, 2, 1], vec![5, 5, 5, 6]];
+        end_when_all_arrive(&mut paths, &[1, 6]);
+        assert_eq!(paths, vec![vec![0, 1, 2, 1], vec![5, 5, 5, 6]]);
     }
 
     #[test]
