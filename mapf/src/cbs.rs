@@ -144,7 +144,6 @@ impl Planner for Cbs {
             conflict_avoidance: self.conflict_avoidance,
             bypass: self.bypass,
             nodes: Vec::new(),
-            bytes: 0,
             capped: false,
             budget: &mut budget,
         };
@@ -282,8 +281,6 @@ struct HighLevel<'a> {
     conflict_avoidance: bool,
     bypass: bool,
     nodes: Vec<CtNode>,
-    /// Estimated bytes held by the constraint tree and the open list.
-    bytes: usize,
     /// Some low-level search was cut by the makespan cap.
     capped: bool,
     budget: &'a mut Budget,
@@ -309,8 +306,8 @@ impl HighLevel<'_> {
             root,
         ));
         while let Some((_, _, id)) = open.pop() {
-            let bytes = self.bytes + open.len() * std::mem::size_of::<OpenEntry>();
-            self.budget.on_expand(|| bytes)?;
+            let open_bytes = open.len() * std::mem::size_of::<OpenEntry>();
+            self.budget.on_expand(|| open_bytes)?;
             let paths = std::mem::take(&mut self.nodes[id as usize].paths);
             let (first, conflicts) = self.conflicts(&paths);
             let Some(conflict) = first else {
@@ -356,7 +353,8 @@ impl HighLevel<'_> {
             }
             // The expanded node keeps only its constraint; its paths live on
             // in the children (shared) or are freed.
-            self.bytes -= paths.len() * std::mem::size_of::<Path>();
+            self.budget
+                .release(paths.len() * std::mem::size_of::<Path>());
         }
         Err(self.no_solution())
     }
@@ -368,9 +366,11 @@ impl HighLevel<'_> {
     fn add_node(&mut self, parent: u32, constraint: Option<Constraint>, paths: Vec<Path>) -> u32 {
         let cost = cost_of(&paths);
         // The node, its path pointers and the one new path it owns.
-        self.bytes += std::mem::size_of::<CtNode>()
-            + paths.len() * std::mem::size_of::<Path>()
-            + constraint.map_or(0, |c| paths[c.agent()].len() * 4 + 16);
+        self.budget.hold(
+            std::mem::size_of::<CtNode>()
+                + paths.len() * std::mem::size_of::<Path>()
+                + constraint.map_or(0, |c| paths[c.agent()].len() * 4 + 16),
+        );
         self.nodes.push(CtNode {
             parent,
             constraint,
@@ -417,7 +417,6 @@ impl HighLevel<'_> {
             cat.as_ref(),
             self.budget.max_makespan(),
             self.budget,
-            self.bytes,
         )?;
         Ok(match result {
             LowResult::Path(p) => Some(p.into()),

@@ -231,6 +231,9 @@ pub(crate) struct Budget {
     pub generated: u64,
     /// Low-level space-time A* expansions (CBS, prioritized planning).
     pub low_expanded: u64,
+    /// Bytes the search holds for good (its nodes, tables and arenas),
+    /// kept by [`Budget::hold`] and [`Budget::release`].
+    held: usize,
 }
 
 impl Budget {
@@ -242,7 +245,18 @@ impl Budget {
             expanded: 0,
             generated: 0,
             low_expanded: 0,
+            held: 0,
         }
+    }
+
+    /// The search now holds `bytes` more.
+    pub fn hold(&mut self, bytes: usize) {
+        self.held += bytes;
+    }
+
+    /// The search has freed `bytes`.
+    pub fn release(&mut self, bytes: usize) {
+        self.held = self.held.saturating_sub(bytes);
     }
 
     /// The checks a search runs before it starts — a well-formed instance
@@ -296,8 +310,9 @@ impl Budget {
     }
 
     /// Called once per expansion: node cap every time, the clock and the
-    /// memory estimate every 256 expansions.
-    pub fn on_expand(&mut self, bytes_in_use: impl FnOnce() -> usize) -> Result<(), SolveError> {
+    /// memory estimate every 256 expansions (the bytes held plus
+    /// `transient`, what the caller holds beyond them, e.g. its open list).
+    pub fn on_expand(&mut self, transient: impl FnOnce() -> usize) -> Result<(), SolveError> {
         self.expanded += 1;
         if let Some(cap) = self.limits.max_nodes {
             if self.expanded > cap {
@@ -307,7 +322,7 @@ impl Budget {
             }
         }
         if self.expanded & 255 == 0 {
-            self.check(bytes_in_use())?;
+            self.check(transient())?;
         }
         Ok(())
     }
@@ -319,10 +334,11 @@ impl Budget {
         self.generated & 4095 == 0
     }
 
-    /// Checks the clock and the memory estimate `bytes_in_use` now.
-    pub fn check(&self, bytes_in_use: usize) -> Result<(), SolveError> {
+    /// Checks the clock and the memory estimate (the bytes held plus
+    /// `transient`) now.
+    pub fn check(&self, transient: usize) -> Result<(), SolveError> {
         self.check_time()?;
-        self.check_memory(bytes_in_use)
+        self.check_memory(transient)
     }
 
     /// The error of a search whose open list ran dry:
@@ -335,7 +351,9 @@ impl Budget {
         }
     }
 
-    pub fn check_memory(&self, bytes: usize) -> Result<(), SolveError> {
+    /// Checks the memory estimate: the bytes held plus `transient`.
+    pub fn check_memory(&self, transient: usize) -> Result<(), SolveError> {
+        let bytes = self.held + transient;
         if bytes > self.limits.memory_bytes {
             return Err(SolveError::MemoryLimit {
                 estimated_bytes: bytes,

@@ -274,7 +274,6 @@ pub(crate) fn refine(
                 None,
                 inst.cap,
                 budget,
-                0,
             );
             match found {
                 Ok(LowResult::Path(p)) if new_cost + p.len() - 1 < old_cost => {

@@ -177,8 +177,8 @@ const LOW_NODE_BYTES: usize = 12 + 20 + 16;
 
 /// Space-time A* from `start` to `goal` under `cons`, with heuristic table
 /// `h`; no path may end later than `cap`. With a [`Cat`], ties between
-/// equally short paths go to the one with fewer conflicts. `base_bytes` is the memory already
-/// held by the caller, for the memory check.
+/// equally short paths go to the one with fewer conflicts. Its nodes count
+/// against the memory limit beside what `budget` holds.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn space_time_astar(
     topo: &Topology,
@@ -189,7 +189,6 @@ pub(crate) fn space_time_astar(
     cat: Option<&Cat>,
     cap: Option<usize>,
     budget: &mut Budget,
-    base_bytes: usize,
 ) -> Result<LowResult, SolveError> {
     if !cons.allows(start, 0) {
         return Ok(LowResult::NoPath { capped: false });
@@ -216,7 +215,7 @@ pub(crate) fn space_time_astar(
         budget.low_expanded += 1;
         if budget.low_expanded & 4095 == 0 {
             budget.check_time()?;
-            budget.check_memory(base_bytes + nodes.len() * LOW_NODE_BYTES)?;
+            budget.check_memory(nodes.len() * LOW_NODE_BYTES)?;
         }
         if node.cell == goal && cons.may_rest_on_goal_from(t) {
             let mut path = Vec::with_capacity(t as usize + 1);

@@ -185,7 +185,6 @@ impl Attempt<'_> {
                 None,
                 budget.max_makespan(),
                 budget,
-                0,
             )?;
             match result {
                 LowResult::Path(p) => {

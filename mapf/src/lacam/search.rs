@@ -72,8 +72,6 @@ pub(super) struct Search<'a> {
     open: Vec<u32>,
     goal_node: Option<u32>,
     first_cost: u64,
-    /// Estimated bytes held by the search.
-    bytes: usize,
     /// Random restarts: probability and the dice.
     restart: f64,
     dice: TieBreaker,
@@ -118,7 +116,6 @@ impl<'a> Search<'a> {
             open: Vec::new(),
             goal_node: None,
             first_cost: 0,
-            bytes: 0,
             restart: how.restart,
             // Its own stream: restarts do not shift PIBT's tie-breaking.
             dice: TieBreaker::new(how.seed ^ 0xD1CE),
@@ -168,7 +165,8 @@ impl<'a> Search<'a> {
             neighbours: Vec::new(),
         });
         // Node, two copies of the configuration, order, priorities, map entry.
-        self.bytes += std::mem::size_of::<HNode>() + n * (4 + 4 + 4 + 8) + 48;
+        self.budget
+            .hold(std::mem::size_of::<HNode>() + n * (4 + 4 + 4 + 8) + 48);
         id
     }
 
@@ -186,8 +184,8 @@ impl<'a> Search<'a> {
         let mut candidate = Vec::with_capacity(n);
         // High-level search over configurations, depth-first on `Open`.
         while let Some(&top) = self.open.last() {
-            let bytes = self.bytes + self.open.len() * 4;
-            if let Err(e) = self.budget.on_expand(|| bytes) {
+            let open_bytes = self.open.len() * 4;
+            if let Err(e) = self.budget.on_expand(|| open_bytes) {
                 return self.best_or(e);
             }
             if self.goal_node.is_some() && self.budget.expanded & 255 == 0 {
@@ -236,7 +234,7 @@ impl<'a> Search<'a> {
                         depth: low.depth + 1,
                     });
                     self.nodes[top as usize].tree.push_back(id);
-                    self.bytes += std::mem::size_of::<LNode>() + 4;
+                    self.budget.hold(std::mem::size_of::<LNode>() + 4);
                 }
             }
             // 3. Successor generation: PIBT under the constraints.
@@ -280,7 +278,7 @@ impl<'a> Search<'a> {
             if let Some(&known) = self.explored.get(&next[..]) {
                 if !self.nodes[top as usize].neighbours.contains(&known) {
                     self.nodes[top as usize].neighbours.push(known);
-                    self.bytes += 4;
+                    self.budget.hold(4);
                 }
                 if self.star.is_some() {
                     self.relax(top);
@@ -303,7 +301,7 @@ impl<'a> Search<'a> {
                 let g = node.g + self.edge_cost(&node.config, &next);
                 let id = self.add_node(next.clone(), top, priorities, g);
                 self.nodes[top as usize].neighbours.push(id);
-                self.bytes += 4;
+                self.budget.hold(4);
                 self.open.push(id);
             }
         }
