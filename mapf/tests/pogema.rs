@@ -192,20 +192,26 @@ fn validator_under_pogema_rejects_swaps_and_vertex_conflicts_only() {
     assert!(validate_with(&square, &ring, &goals, &rotate, thesis).is_err());
 }
 
+/// The benchmark's warehouse map and its 32-agent instance `seed`
+/// (`tests/data/pogema`, copies of `../shared/pogema`).
+fn warehouse_32(seed: u32) -> (Arc<Map>, Scenario) {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/pogema");
+    let map = Arc::new(Map::from_file(&dir.join("warehouse.map")).unwrap());
+    let path = dir.join(format!("warehouse-32-{seed}.scen"));
+    let text = std::fs::read_to_string(&path).unwrap();
+    let scen = buridan_env::map::parse_scen(&path.display().to_string(), &text, &map.grid).unwrap();
+    (map, scen)
+}
+
 /// LaCAM under pogema rules on four of the benchmark's 32-agent warehouse
 /// instances (`tests/data/pogema`, copies of `../shared/pogema`): each is
 /// solved within POGEMA's 128 steps and replays exactly in the env under
 /// pogema rules, ending with every agent on its goal.
 #[test]
 fn lacam_solves_pogema_warehouse_instances_and_plans_replay() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/pogema");
-    let map = Arc::new(Map::from_file(&dir.join("warehouse.map")).unwrap());
     let lacam = planner_for_rules("lacam", RuleSet::Pogema).unwrap();
     for seed in 0..4 {
-        let path = dir.join(format!("warehouse-32-{seed}.scen"));
-        let text = std::fs::read_to_string(&path).unwrap();
-        let scen =
-            buridan_env::map::parse_scen(&path.display().to_string(), &text, &map.grid).unwrap();
+        let (map, scen) = warehouse_32(seed);
         let (s, g) = (&scen.starts, &scen.goals);
         assert_eq!(s.len(), 32);
         let sol = lacam
@@ -230,8 +236,6 @@ fn lacam_solves_pogema_warehouse_instances_and_plans_replay() {
 /// costs, and the four together shorter.
 #[test]
 fn lacam_star_refined_by_lns_shortens_warehouse_plans_that_replay() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/pogema");
-    let map = Arc::new(Map::from_file(&dir.join("warehouse.map")).unwrap());
     let with_lns = LacamStar {
         rules: ConflictModel::SIMULTANEOUS,
         refine_time: Some(Duration::from_millis(400)),
@@ -244,10 +248,7 @@ fn lacam_star_refined_by_lns_shortens_warehouse_plans_that_replay() {
     };
     let (mut total_with, mut total_without) = (0, 0);
     for seed in 0..4 {
-        let path = dir.join(format!("warehouse-32-{seed}.scen"));
-        let text = std::fs::read_to_string(&path).unwrap();
-        let scen =
-            buridan_env::map::parse_scen(&path.display().to_string(), &text, &map.grid).unwrap();
+        let (map, scen) = warehouse_32(seed);
         let (s, g) = (&scen.starts, &scen.goals);
         let problem = Problem::new(&map.grid, s, g);
         let refined = with_lns.solve(problem, &limits(10)).unwrap().plan;
