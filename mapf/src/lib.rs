@@ -110,7 +110,6 @@ pub mod lacam;
 pub mod lanes;
 pub mod lifelong;
 pub mod limits;
-mod lns;
 mod lowlevel;
 pub mod maastar;
 pub mod odastar;

@@ -61,7 +61,7 @@
 //! So, minimising the sum of loss, LaCAM* refines by its search for the
 //! first half of [`LacamStar::refine_time`] and, unless that proved the
 //! plan optimal, by **large neighbourhood search** for the second half
-//! ([`LacamStar::lns`], `crate::lns`: MAPF-LNS, as lacam3 refines): a few
+//! ([`LacamStar::lns`], `lacam/lns.rs`: MAPF-LNS, as lacam3 refines): a few
 //! agents' paths at a time are replanned around all the others and kept
 //! when their sum of costs falls. Small instances are still proven optimal
 //! by the search; large ones get LNS's plans (`docs/results/lacam-lns/`).
@@ -109,12 +109,12 @@
 use std::time::Duration;
 
 use crate::limits::{Budget, Limits, SolveError};
-use crate::lns;
 use crate::pibt::Setup;
 use crate::planner::{Planner, Solution, Stats};
 use crate::rules::ConflictModel;
 use crate::Problem;
 
+mod lns;
 mod search;
 
 use search::{Generation, Search, Star};

@@ -1,8 +1,8 @@
 //! Large neighbourhood search (LNS) that shortens a conflict-free plan:
 //! MAPF-LNS (Li, Chen, Harabor, Stuckey and Koenig, IJCAI-21), the
 //! refinement that lacam3 runs beside LaCAM* ("Engineering LaCAM*",
-//! Okumura, AAMAS-24). [`crate::LacamStar`] uses it once its own search
-//! stops paying off ([`crate::LacamStar::lns`]).
+//! Okumura, AAMAS-24). [`LacamStar`](super::LacamStar) uses it once its own
+//! search stops paying off ([`LacamStar::lns`](super::LacamStar::lns)).
 //!
 //! The plan's paths live in a [`PathTable`] (who stands where at each
 //! time, who rests on which goal for good). One iteration:
