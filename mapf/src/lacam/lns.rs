@@ -24,6 +24,13 @@
 //! 4. **Accept** the new paths if their sum of costs is lower than the old
 //!    ones'; otherwise restore the old paths.
 //!
+//! **Within a makespan cap.** With [`Instance::cap`] set, every replanned
+//! path ends within the cap, and a plan whose paths do not all fit yet is
+//! first *repaired*: the agent-based rule starts from the agent that
+//! arrives last, and a neighbourhood that held a path over the cap is
+//! accepted once all its paths are replanned (fewer paths over the cap),
+//! whatever their cost. Once every path fits, the sum of costs decides.
+//!
 //! Every path in the table respects every other, so the plan stays
 //! conflict-free (and replays exactly in the env under the conflict
 //! model's rule set) after every iteration.
@@ -201,14 +208,23 @@ pub(crate) struct Instance<'a> {
     pub starts: &'a [u32],
     pub goals: &'a [u32],
     pub forbid_following: bool,
-    /// No path may end later than this.
+    /// No replanned path may end later than this; paths that already do
+    /// are repaired first (see the [module docs](self)).
     pub cap: Option<usize>,
+}
+
+impl Instance<'_> {
+    /// Whether `path` ends after the cap.
+    fn over_cap(&self, path: &[u32]) -> bool {
+        self.cap.is_some_and(|c| path.len() - 1 > c)
+    }
 }
 
 /// Shortens `paths` (each agent's cells at times `0..=arrival`, together
 /// conflict-free) by LNS until `budget`'s CPU clock reaches `until` or its
 /// time limit; returns how many iterations ran. The paths stay
-/// conflict-free and their sum of costs never grows.
+/// conflict-free; the number of paths over the cap never grows, nor, once
+/// it is zero, their sum of costs.
 pub(crate) fn refine(
     inst: &Instance<'_>,
     paths: &mut [Vec<u32>],
@@ -256,6 +272,7 @@ pub(crate) fn refine(
             old.push((a, std::mem::take(&mut paths[a as usize])));
         }
         let old_cost: usize = old.iter().map(|(_, p)| p.len() - 1).sum();
+        let old_over = old.iter().filter(|(_, p)| inst.over_cap(p)).count();
         // 3. Repair, in a random order.
         order.clear();
         order.extend_from_slice(&chosen);
@@ -276,7 +293,7 @@ pub(crate) fn refine(
                 budget,
             );
             match found {
-                Ok(LowResult::Path(p)) if new_cost + p.len() - 1 < old_cost => {
+                Ok(LowResult::Path(p)) if old_over > 0 || new_cost + p.len() - 1 < old_cost => {
                     new_cost += p.len() - 1;
                     table.insert(a, &p);
                     paths[i] = p;
@@ -288,7 +305,12 @@ pub(crate) fn refine(
             }
         }
         // 4. Accept or restore.
-        let gain = if repaired { old_cost - new_cost } else { 0 };
+        // Replanned paths fit the cap: a repair counts for much.
+        let gain = if repaired {
+            old_cost.saturating_sub(new_cost) + 10 * old_over
+        } else {
+            0
+        };
         if repaired {
             stats.accepted += 1;
         } else {
@@ -369,9 +391,13 @@ impl Lns<'_> {
         let inst = self.inst;
         let delay =
             |i: usize| (paths[i].len() - 1) - inst.dist[i][inst.starts[i] as usize] as usize;
+        // Over the cap first (the last to arrive), then the most delayed.
         let pick = (0..paths.len())
             .filter(|&i| !self.tabu[i] && delay(i) > 0)
-            .max_by_key(|&i| delay(i));
+            .max_by_key(|&i| {
+                let over = inst.over_cap(&paths[i]);
+                (over, if over { paths[i].len() } else { delay(i) })
+            });
         let Some(a) = pick else {
             self.tabu.fill(false);
             self.tabu_count = 0;
@@ -468,6 +494,42 @@ mod tests {
         let starts = (0..4).map(|c| Cell::new(0, c)).collect();
         let goals = (0..4).map(|c| Cell::new(4, c)).collect();
         (grid, starts, goals)
+    }
+
+    #[test]
+    fn within_a_cap_a_plan_too_long_is_repaired_first() {
+        let (grid, starts, goals) = columns();
+        let topo = Topology::new(&grid);
+        let dist: Vec<Vec<u32>> = goals.iter().map(|&g| distance_table(&grid, g)).collect();
+        let s: Vec<u32> = starts.iter().map(|&c| topo.index(c)).collect();
+        let g: Vec<u32> = goals.iter().map(|&c| topo.index(c)).collect();
+        // Agent 3 waits 15 steps before its 4 moves: makespan 19.
+        let mut paths: Vec<Vec<u32>> = (0..4)
+            .map(|i| {
+                let mut p = vec![s[i]; if i == 3 { 16 } else { 1 }];
+                let mut c = s[i];
+                while c != g[i] {
+                    c = topo
+                        .neighbours(c)
+                        .find(|&x| dist[i][x as usize] < dist[i][c as usize])
+                        .unwrap();
+                    p.push(c);
+                }
+                p
+            })
+            .collect();
+        assert_eq!(paths.iter().map(|p| p.len() - 1).max(), Some(19));
+        let inst = Instance {
+            topo: &topo,
+            dist: &dist,
+            starts: &s,
+            goals: &g,
+            forbid_following: true,
+            cap: Some(10),
+        };
+        let mut budget = Budget::new(&Limits::default());
+        refine(&inst, &mut paths, &mut budget, Duration::from_millis(50), 0);
+        assert!(paths.iter().all(|p| p.len() - 1 <= 10), "{paths:?}");
     }
 
     #[test]

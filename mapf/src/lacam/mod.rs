@@ -86,9 +86,10 @@
 //! [`LacamStar::within_cap`] does the same for LaCAM*: minimising the
 //! makespan it prunes by the cap and refines as usual (an exhausted search
 //! proves its plan optimal, or that none fits); minimising the sum of loss
-//! it refines as usual and, if its plan is longer than the cap, LaCAM
-//! within the cap takes the time left (its plan replaces the long one, its
-//! proof ends the call). [`crate::planner_within_cap`] makes both so; the
+//! it refines as usual (LNS repairing a plan longer than the cap first,
+//! see `lacam/lns.rs`) and, if its plan is still longer than the cap,
+//! LaCAM within the cap takes the time left (its plan replaces the long
+//! one, its proof ends the call). [`crate::planner_within_cap`] makes both so; the
 //! planner controllers of `learner eval` plan within the episode's T_max.
 //!
 //! ```
@@ -348,7 +349,7 @@ impl LacamStar {
     /// assert_eq!(out.solution.plan.makespan(), 7);
     /// ```
     pub fn search(&self, problem: Problem<'_>, limits: &Limits) -> Result<Outcome, SolveError> {
-        let clock = Budget::new(limits);
+        let mut clock = Budget::new(limits);
         let setup = Setup::new(problem)?;
         let cap = limits.max_makespan.filter(|_| self.within_cap);
         // With LNS the search refines for the first half of the time.
@@ -364,13 +365,13 @@ impl LacamStar {
         if self.objective == Objective::Makespan {
             search.cap = cap.map(|c| c as u64);
         }
-        let found = self.within(search.run(), cap, problem, limits, &clock)?;
-        match lns_until {
-            Some(until) if !found.proven_optimal => {
-                Ok(self.shorten(found, &setup, limits, clock, until))
+        let found = match (search.run(), lns_until) {
+            (Ok(out), Some(until)) if !out.proven_optimal => {
+                Ok(self.shorten(out, &setup, cap, limits, &mut clock, until))
             }
-            _ => Ok(found),
-        }
+            (other, _) => other,
+        };
+        self.within(found, cap, problem, limits, &clock)
     }
 
     /// Whether [`LacamStar::lns`] refines this search.
@@ -378,15 +379,17 @@ impl LacamStar {
         self.lns && self.objective == Objective::SumOfLoss
     }
 
-    /// The plan shortened by LNS until `until` on `clock` (its sum of
-    /// loss never grows; a makespan within [`Limits::max_makespan`] stays
-    /// within it).
+    /// The plan shortened by LNS until `until` on `clock`: within the cap
+    /// (`cap`, [`LacamStar::within_cap`]) a plan that does not fit is
+    /// repaired first; otherwise its sum of loss never grows, and a
+    /// makespan within [`Limits::max_makespan`] stays within it.
     fn shorten(
         &self,
         found: Outcome,
         setup: &Setup,
+        cap: Option<usize>,
         limits: &Limits,
-        mut clock: Budget,
+        clock: &mut Budget,
         until: Duration,
     ) -> Outcome {
         let plan = &found.solution.plan;
@@ -404,9 +407,9 @@ impl LacamStar {
             starts: &setup.starts,
             goals: &setup.goals,
             forbid_following: self.rules.forbid_following,
-            cap: limits.max_makespan.filter(|&c| plan.makespan() <= c),
+            cap: cap.or(limits.max_makespan.filter(|&c| plan.makespan() <= c)),
         };
-        let done = lns::refine(&inst, &mut paths, &mut clock, until, self.seed);
+        let done = lns::refine(&inst, &mut paths, clock, until, self.seed);
         if done.accepted == 0 {
             return found;
         }
