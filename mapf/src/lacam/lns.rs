@@ -489,44 +489,76 @@ mod tests {
     use buridan_env::{Cell, Grid};
 
     /// A 5×5 open grid; four agents going down their own columns.
-    fn columns() -> (Grid, Vec<Cell>, Vec<Cell>) {
-        let grid = Grid::from_rows(&["....."; 5]).unwrap();
-        let starts = (0..4).map(|c| Cell::new(0, c)).collect();
-        let goals = (0..4).map(|c| Cell::new(4, c)).collect();
-        (grid, starts, goals)
+    struct Columns {
+        grid: Grid,
+        starts: Vec<Cell>,
+        goals: Vec<Cell>,
+        topo: Topology,
+        dist: Vec<Vec<u32>>,
+        s: Vec<u32>,
+        g: Vec<u32>,
+    }
+
+    impl Columns {
+        fn new() -> Self {
+            let grid = Grid::from_rows(&["....."; 5]).unwrap();
+            let starts: Vec<Cell> = (0..4).map(|c| Cell::new(0, c)).collect();
+            let goals: Vec<Cell> = (0..4).map(|c| Cell::new(4, c)).collect();
+            let topo = Topology::new(&grid);
+            let dist = goals.iter().map(|&g| distance_table(&grid, g)).collect();
+            let s = topo.indices(&starts);
+            let g = topo.indices(&goals);
+            Self {
+                grid,
+                starts,
+                goals,
+                topo,
+                dist,
+                s,
+                g,
+            }
+        }
+
+        /// Agent `i` waits `waits[i]` steps on its start, then goes
+        /// straight down to its goal.
+        fn straight_down(&self, waits: [usize; 4]) -> Vec<Vec<u32>> {
+            (0..4)
+                .map(|i| {
+                    let mut p = vec![self.s[i]; waits[i] + 1];
+                    let mut c = self.s[i];
+                    while c != self.g[i] {
+                        let d = &self.dist[i];
+                        c = self
+                            .topo
+                            .neighbours(c)
+                            .find(|&x| d[x as usize] < d[c as usize])
+                            .unwrap();
+                        p.push(c);
+                    }
+                    p
+                })
+                .collect()
+        }
+
+        fn instance(&self, forbid_following: bool, cap: Option<usize>) -> Instance<'_> {
+            Instance {
+                topo: &self.topo,
+                dist: &self.dist,
+                starts: &self.s,
+                goals: &self.g,
+                forbid_following,
+                cap,
+            }
+        }
     }
 
     #[test]
     fn within_a_cap_a_plan_too_long_is_repaired_first() {
-        let (grid, starts, goals) = columns();
-        let topo = Topology::new(&grid);
-        let dist: Vec<Vec<u32>> = goals.iter().map(|&g| distance_table(&grid, g)).collect();
-        let s: Vec<u32> = starts.iter().map(|&c| topo.index(c)).collect();
-        let g: Vec<u32> = goals.iter().map(|&c| topo.index(c)).collect();
+        let cols = Columns::new();
         // Agent 3 waits 15 steps before its 4 moves: makespan 19.
-        let mut paths: Vec<Vec<u32>> = (0..4)
-            .map(|i| {
-                let mut p = vec![s[i]; if i == 3 { 16 } else { 1 }];
-                let mut c = s[i];
-                while c != g[i] {
-                    c = topo
-                        .neighbours(c)
-                        .find(|&x| dist[i][x as usize] < dist[i][c as usize])
-                        .unwrap();
-                    p.push(c);
-                }
-                p
-            })
-            .collect();
+        let mut paths = cols.straight_down([0, 0, 0, 15]);
         assert_eq!(paths.iter().map(|p| p.len() - 1).max(), Some(19));
-        let inst = Instance {
-            topo: &topo,
-            dist: &dist,
-            starts: &s,
-            goals: &g,
-            forbid_following: true,
-            cap: Some(10),
-        };
+        let inst = cols.instance(true, Some(10));
         let mut budget = Budget::new(&Limits::default());
         refine(&inst, &mut paths, &mut budget, Duration::from_millis(50), 0);
         assert!(paths.iter().all(|p| p.len() - 1 <= 10), "{paths:?}");
@@ -547,53 +579,29 @@ mod tests {
 
     #[test]
     fn refining_a_plan_with_detours_shortens_it_and_keeps_it_valid() {
-        let (grid, starts, goals) = columns();
-        let topo = Topology::new(&grid);
-        let dist: Vec<Vec<u32>> = goals.iter().map(|&g| distance_table(&grid, g)).collect();
-        let s: Vec<u32> = starts.iter().map(|&c| topo.index(c)).collect();
-        let g: Vec<u32> = goals.iter().map(|&c| topo.index(c)).collect();
+        let cols = Columns::new();
         for model in [ConflictModel::ENV_EXECUTABLE, ConflictModel::SIMULTANEOUS] {
             // A valid but wasteful plan: agents move one after another
             // (SoC 4 + 9 + 14 + 19).
-            let mut paths: Vec<Vec<u32>> = Vec::new();
-            let mut t0 = 0;
-            for i in 0..4 {
-                let mut p = vec![s[i]; t0 + 1];
-                let mut c = s[i];
-                while c != g[i] {
-                    c = topo
-                        .neighbours(c)
-                        .find(|&x| dist[i][x as usize] < dist[i][c as usize])
-                        .unwrap();
-                    p.push(c);
-                }
-                t0 = p.len();
-                paths.push(p);
-            }
+            let mut paths = cols.straight_down([0, 5, 10, 15]);
             let before: usize = paths.iter().map(|p| p.len() - 1).sum();
             let to_plan = |paths: &[Vec<u32>]| {
                 Plan::new(
                     paths
                         .iter()
-                        .map(|p| p.iter().map(|&c| topo.cell(c)).collect())
+                        .map(|p| p.iter().map(|&c| cols.topo.cell(c)).collect())
                         .collect(),
                 )
             };
-            validate_with(&grid, &starts, &goals, &to_plan(&paths), model).unwrap();
-            let inst = Instance {
-                topo: &topo,
-                dist: &dist,
-                starts: &s,
-                goals: &g,
-                forbid_following: model.forbid_following,
-                cap: None,
-            };
+            let (grid, starts, goals) = (&cols.grid, &cols.starts, &cols.goals);
+            validate_with(grid, starts, goals, &to_plan(&paths), model).unwrap();
+            let inst = cols.instance(model.forbid_following, None);
             let mut budget = Budget::new(&Limits::default());
             let stats = refine(&inst, &mut paths, &mut budget, Duration::from_millis(50), 0);
             let after: usize = paths.iter().map(|p| p.len() - 1).sum();
             assert!(stats.iterations > 0 && stats.accepted > 0, "{stats:?}");
             assert_eq!((before, after), (46, 16));
-            validate_with(&grid, &starts, &goals, &to_plan(&paths), model).unwrap();
+            validate_with(grid, starts, goals, &to_plan(&paths), model).unwrap();
         }
     }
 }

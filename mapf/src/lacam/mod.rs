@@ -394,12 +394,13 @@ impl LacamStar {
     ) -> Outcome {
         let plan = &found.solution.plan;
         let topo = &setup.topo;
-        let mut paths: Vec<Vec<u32>> = (0..plan.agents())
-            .map(|i| {
-                (0..=plan.arrival(i))
-                    .map(|t| topo.index(plan.position(i, t).expect("a path per agent")))
-                    .collect()
-            })
+        // Each agent's cells up to its arrival, as the LNS keeps them.
+        let mut paths: Vec<Vec<u32>> = plan
+            .clone()
+            .trimmed()
+            .paths
+            .iter()
+            .map(|p| topo.indices(p))
             .collect();
         let inst = lns::Instance {
             topo,
