@@ -100,6 +100,11 @@ def task_rows():
     return rows
 
 
+# The field type written as the key `algo` plus that algorithm's table
+# (`[ppo]` or `[impala]`, each a section below).
+ALGORITHM = "Algorithm"
+
+
 # Structs whose fields a training file keeps at the top level: a field of
 # one of these types is written as the struct's own fields.
 FLAT = {"ModelConfig": "learner/src/train/config/model.rs"}
@@ -136,6 +141,9 @@ def render() -> str:
                 rows += task_rows()
             elif ty in FLAT:
                 rows += flat_rows(ty)
+            elif ty == ALGORITHM:
+                # `algorithm: Algorithm` is the key `algo` and its table.
+                rows.append(("algo", "Algo", doc))
             else:
                 rows.append((f, ty, doc))
         for f, ty, doc in rows:

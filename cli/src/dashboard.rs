@@ -153,7 +153,7 @@ impl Progress for DashboardProgress<'_> {
     fn on_start(&mut self, cfg: &TrainConfig, total_steps: u64, env_steps: u64) {
         self.inner.on_start(cfg, total_steps, env_steps);
         self.board.set_run(json!({
-            "algo": cfg.algo.to_string(),
+            "algo": cfg.algorithm.algo().to_string(),
             "mode": format!("{:?}", cfg.mode).to_lowercase(),
             "map": cfg.map_label(),
             "agents": cfg.agents,

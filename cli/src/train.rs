@@ -185,7 +185,7 @@ impl Progress for TerminalProgress {
         crate::heartbeat::start_at(&self.bar, total_steps, env_steps);
         self.bar.set_prefix(format!(
             "{} {} {} n={}",
-            cfg.algo,
+            cfg.algorithm.algo(),
             format!("{:?}", cfg.mode).to_lowercase(),
             cfg.map_label(),
             cfg.agents
@@ -312,7 +312,7 @@ pub fn check_out(args: &TrainArgs, cfg: &TrainConfig) -> Result<()> {
 pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<()> {
     let title = format!(
         "{} {} on {}, {} agents",
-        cfg.algo,
+        cfg.algorithm.algo(),
         format!("{:?}", cfg.mode).to_lowercase(),
         cfg.map_label(),
         cfg.agents,

@@ -49,8 +49,9 @@ fn variants_run_alternately_with_their_overrides_and_tables_compare_them() {
             .unwrap()
     };
     let (one, two) = (cfg("one-thread"), cfg("two-threads"));
-    assert_eq!((one.ppo.update_threads, one.ppo.epochs), (1, 2));
-    assert_eq!((two.ppo.update_threads, two.ppo.epochs), (2, 1));
+    let (one_ppo, two_ppo) = (one.algorithm.ppo().unwrap(), two.algorithm.ppo().unwrap());
+    assert_eq!((one_ppo.update_threads, one_ppo.epochs), (1, 2));
+    assert_eq!((two_ppo.update_threads, two_ppo.epochs), (2, 1));
     assert_eq!(
         (one.seed, two.seed, one.map_label()),
         (3, 3, "rm-1.1".into())

@@ -168,8 +168,9 @@ fn config_layers_defaults_file_flags_and_overrides() {
         (Some("rm-3.1"), 6),
         "file values stay where no flag overrides them"
     );
-    assert_eq!(cfg.ppo.lr, 5e-4);
-    assert_eq!(cfg.ppo.epochs, 9, "--set beats the file");
+    let ppo = cfg.algorithm.ppo().unwrap();
+    assert_eq!(ppo.lr, 5e-4);
+    assert_eq!(ppo.epochs, 9, "--set beats the file");
     assert_eq!(cfg.model.hidden, [32, 32]);
     assert_eq!(cfg.steps, 3000, "flags beat defaults");
     args.overrides = vec!["ppo.no_such_key=1".into()];

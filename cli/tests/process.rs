@@ -225,7 +225,10 @@ fn pbt_runs_end_to_end_with_either_runner() {
         assert!(row.env_steps > e.step);
         assert!(summary(&copier).env_steps >= 4000);
         let cfg = TrainConfig::from_toml_file(&copier.join("config.toml")).unwrap();
-        assert_eq!(Some(cfg.ppo.lr), e.overrides["ppo.lr"].as_float());
+        assert_eq!(
+            Some(cfg.algorithm.ppo().unwrap().lr),
+            e.overrides["ppo.lr"].as_float()
+        );
         assert_eq!(
             (runner == RunnerKind::Process),
             copier.join(LOG_FILE).is_file()

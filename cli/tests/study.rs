@@ -78,8 +78,9 @@ fn a_tiny_tune_writes_its_outputs_and_resumes_without_rerunning_trials() {
     let best =
         buridan_learner::train::TrainConfig::from_toml_file(&out.join("best-config.toml")).unwrap();
     let b = state.best().unwrap();
-    assert_eq!(Some(best.ppo.lr), b.overrides["ppo.lr"].as_float());
-    assert_eq!((best.task.grid_map(), best.ppo.epochs), (Some("rm-1.1"), 2));
+    let best_ppo = best.algorithm.ppo().unwrap();
+    assert_eq!(Some(best_ppo.lr), b.overrides["ppo.lr"].as_float());
+    assert_eq!((best.task.grid_map(), best_ppo.epochs), (Some("rm-1.1"), 2));
 
     // Without --resume, the directory is refused.
     let e = tune::run(&tune_args(tune_file(dir.path(), 2), out.clone(), false)).unwrap_err();

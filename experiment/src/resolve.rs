@@ -156,7 +156,7 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
         cfg.agents = v;
     }
     if let Some(v) = args.algo {
-        cfg.algo = v;
+        cfg.algorithm.switch_to(v);
     }
     if let Some(v) = args.mode {
         cfg.mode = v;
@@ -264,7 +264,11 @@ mod tests {
             assert_eq!(cfg.features, recipe.features, "{mode:?}");
             assert_eq!(cfg.imitation, recipe.imitation, "{mode:?}");
             let warmup = if mode == Mode::Cte { 20_000 } else { 0 };
-            assert_eq!(cfg.ppo.critic_warmup, warmup, "{mode:?}");
+            assert_eq!(
+                cfg.algorithm.ppo().unwrap().critic_warmup,
+                warmup,
+                "{mode:?}"
+            );
         }
     }
 }

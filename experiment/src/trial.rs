@@ -92,7 +92,7 @@ pub use buridan_env::error::error_chain as chain;
 /// o.insert("ppo.lr".into(), toml::Value::Float(5e-4));
 /// o.insert("hidden".into(), toml::Value::Array(vec![32.into(), 32.into()]));
 /// let cfg = apply_overrides(&Default::default(), &o).unwrap();
-/// assert_eq!((cfg.ppo.lr, cfg.model.hidden.clone()), (5e-4, vec![32, 32]));
+/// assert_eq!((cfg.algorithm.ppo().unwrap().lr, cfg.model.hidden.clone()), (5e-4, vec![32, 32]));
 /// o.insert("ppo.no_such_key".into(), 1.into());
 /// assert!(apply_overrides(&Default::default(), &o).is_err());
 /// ```
@@ -489,7 +489,10 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut s = spec(dir.path(), 1234, Objective::TrainSuccess);
         let cfg = trial_config(&tiny_base(), &s).unwrap();
-        assert_eq!((cfg.ppo.lr, cfg.seed, cfg.steps), (3e-4, 5, 1234));
+        assert_eq!(
+            (cfg.algorithm.ppo().unwrap().lr, cfg.seed, cfg.steps),
+            (3e-4, 5, 1234)
+        );
         assert_eq!(cfg.resume, None);
         // Resuming without a checkpoint starts fresh.
         s.resume = true;

@@ -12,9 +12,9 @@ use std::sync::Arc;
 
 use buridan_actor::Collector;
 use buridan_env::{Map, ObsKind, Starts, VecEnv};
-use buridan_learner::algo::impala::{Impala, ImpalaSettings};
+use buridan_learner::algo::impala::Impala;
 use buridan_learner::algo::ppo::{Ppo, PpoSettings};
-use buridan_learner::train::{env_config, Task, TrainConfig};
+use buridan_learner::train::{env_config, Algorithm, ImpalaConfig, PpoConfig, Task, TrainConfig};
 use buridan_policy::{Fragment, Inference, Mode, Policy};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use rand::SeedableRng;
@@ -66,7 +66,7 @@ fn bench(c: &mut Criterion) {
         PpoSettings {
             epochs: 1,
             minibatch_size: 8000,
-            ..PpoSettings::from(&cfg)
+            ..cfg.ppo_settings(&PpoConfig::default())
         },
     );
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
@@ -74,11 +74,11 @@ fn bench(c: &mut Criterion) {
         b.iter(|| ppo.update(&policy, &frags, &mut rng).unwrap())
     });
     let icfg = TrainConfig {
-        algo: buridan_learner::train::Algo::Impala,
+        algorithm: Algorithm::Impala(ImpalaConfig::default()),
         ..cfg.clone()
     };
     let ipolicy = Policy::new(icfg.model_spec(policy.spec().obs_dim), 0).unwrap();
-    let mut impala = Impala::new(&ipolicy, ImpalaSettings::from(&icfg));
+    let mut impala = Impala::new(&ipolicy, icfg.impala_settings(&ImpalaConfig::default()));
     g.bench_function("impala_update_8000_samples", |b| {
         b.iter(|| impala.update(&ipolicy, &frags).unwrap())
     });
@@ -101,7 +101,8 @@ fn bench(c: &mut Criterion) {
         let (policy, frags) = fragments(&cfg, 1);
         let samples: usize = frags.iter().map(|f| f.len * f.rows).sum();
         g.throughput(Throughput::Elements(samples as u64));
-        let mut impala = Impala::new(&policy, ImpalaSettings::from(&cfg));
+        let tuned_impala = cfg.algorithm.impala().expect("an IMPALA config");
+        let mut impala = Impala::new(&policy, cfg.impala_settings(tuned_impala));
         g.bench_function(format!("update_{name}_{samples}_samples"), |b| {
             b.iter(|| impala.update(&policy, &frags).unwrap())
         });

@@ -4,7 +4,7 @@
 
 use buridan_env::Starts;
 use buridan_learner::algo::ppo::{is_value_weight, Ppo, PpoSettings};
-use buridan_learner::train::{ModelConfig, Run, Task, TrainConfig};
+use buridan_learner::train::{ModelConfig, PpoConfig, Run, Task, TrainConfig};
 use buridan_policy::{Fragment, Mode, ModelSpec, Policy};
 use rand::SeedableRng;
 
@@ -53,7 +53,7 @@ fn warm_up(mode: Mode, lstm: bool) {
         &policy,
         PpoSettings {
             epochs: 3,
-            ..PpoSettings::from(&cfg)
+            ..cfg.ppo_settings(&PpoConfig::default())
         },
     );
     ppo.critic_only = true;

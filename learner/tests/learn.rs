@@ -19,7 +19,8 @@ use std::sync::Arc;
 use buridan_env::{Map, Starts};
 use buridan_learner::train::rollout::rollout;
 use buridan_learner::train::{
-    env_config, final_checkpoint, train, Algo, MetricsRow, NoProgress, Task, TrainConfig,
+    env_config, final_checkpoint, train, Algorithm, MetricsRow, NoProgress, PpoConfig, Task,
+    TrainConfig,
 };
 use buridan_policy::{ActMode, Mode, Policy};
 
@@ -27,8 +28,11 @@ use buridan_policy::{ActMode, Mode, Policy};
 fn ppo_ctde_solves_rm_1_1_within_200k_steps() {
     buridan_policy::threads::pin_threads(1);
     let dir = tempfile::tempdir().unwrap();
-    let mut cfg = TrainConfig {
-        algo: Algo::Ppo,
+    let cfg = TrainConfig {
+        algorithm: Algorithm::Ppo(PpoConfig {
+            clip: 0.2,
+            ..PpoConfig::default()
+        }),
         mode: Mode::Ctde,
         task: Task::Grid("rm-1.1".into()),
         agents: 2,
@@ -40,7 +44,6 @@ fn ppo_ctde_solves_rm_1_1_within_200k_steps() {
         stop_len: Some(13.5),
         ..TrainConfig::default()
     };
-    cfg.ppo.clip = 0.2;
     let s = train(&cfg, dir.path(), &mut NoProgress).unwrap();
     eprintln!(
         "rm-1.1 PPO CTDE: {} env steps, {:.1} s, return {:.3}, success {:.2}, sampled length {:.2}",

@@ -157,12 +157,12 @@ fn a_run_over_two_layouts_records_them() {
         steps: 1500,
         envs_per_actor: 6,
         checkpoint_every: 0,
-        ppo: buridan_learner::train::PpoConfig {
+        algorithm: buridan_learner::train::Algorithm::Ppo(buridan_learner::train::PpoConfig {
             train_batch: 750,
             minibatch: 750,
             epochs: 1,
             ..Default::default()
-        },
+        }),
         ..with_maps("rm-2.2:1,rm-3.1:2")
     };
     let summary = train(&cfg, dir.path(), &mut NoProgress).unwrap();
@@ -192,7 +192,7 @@ fn a_run_over_two_layouts_records_them() {
         ..with_maps("rm-2.1")
     };
     let resumed = TrainConfig {
-        ppo: cfg.ppo.clone(),
+        algorithm: cfg.algorithm.clone(),
         t_max: 15,
         envs_per_actor: 6,
         checkpoint_every: 0,

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use buridan_actor::client::{run as run_actor, url_connector, ActorOptions};
 use buridan_actor::misbehave::{MisbehaveOptions, Misbehaver};
 use buridan_learner::serve::SessionLimits;
-use buridan_learner::train::{Algo, ImpalaConfig, Task, TrainConfig};
+use buridan_learner::train::{Algorithm, ImpalaConfig, Task, TrainConfig};
 
 mod support;
 use support::Learner;
@@ -19,17 +19,16 @@ fn every_misbehaviour_is_refused_with_the_expected_status() {
     // IMPALA, one 40-step fragment per update: the learner soon runs past
     // the misbehaving client's first fragment (lag 8), so it replays it.
     let cfg = TrainConfig {
-        algo: Algo::Impala,
         task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: buridan_env::Starts::Fixed,
         steps: 10_000_000,
         envs_per_actor: 2,
         fragment_len: 20,
-        impala: ImpalaConfig {
+        algorithm: Algorithm::Impala(ImpalaConfig {
             train_batch: 40,
             ..ImpalaConfig::default()
-        },
+        }),
         ..TrainConfig::default()
     };
     let limits = SessionLimits {

@@ -3,13 +3,18 @@
 //! counts success stays well defined though plant episodes only truncate.
 
 use buridan_learner::train::{
-    final_checkpoint, train, Algo, ModelConfig, NoProgress, Task, TrainConfig,
+    final_checkpoint, train, Algorithm, ModelConfig, NoProgress, PpoConfig, Task, TrainConfig,
 };
 use buridan_policy::{Mode, Policy};
 
 fn tiny(mode: Mode) -> TrainConfig {
-    let mut cfg = TrainConfig {
-        algo: Algo::Ppo,
+    let cfg = TrainConfig {
+        algorithm: Algorithm::Ppo(PpoConfig {
+            train_batch: 160,
+            minibatch: 80,
+            epochs: 2,
+            ..PpoConfig::default()
+        }),
         mode,
         task: Task::Plant("dissertation".into()),
         agents: 2,
@@ -25,9 +30,6 @@ fn tiny(mode: Mode) -> TrainConfig {
         checkpoint_every: 0,
         ..TrainConfig::default()
     };
-    cfg.ppo.train_batch = 160;
-    cfg.ppo.minibatch = 80;
-    cfg.ppo.epochs = 2;
     cfg
 }
 

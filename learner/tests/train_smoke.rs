@@ -4,14 +4,25 @@
 use buridan_env::Starts;
 use buridan_learner::algo::schedule::Schedule;
 use buridan_learner::train::{
-    final_checkpoint, train, Algo, MetricsRow, ModelConfig, NoProgress, Progress, Summary, Task,
-    TrainConfig, TrainError,
+    final_checkpoint, train, Algo, Algorithm, ImpalaConfig, MetricsRow, ModelConfig, NoProgress,
+    PpoConfig, Progress, Summary, Task, TrainConfig, TrainError,
 };
 use buridan_policy::{Mode, Policy, PolicyError};
 
 fn tiny(algo: Algo, mode: Mode) -> TrainConfig {
-    let mut cfg = TrainConfig {
-        algo,
+    let cfg = TrainConfig {
+        algorithm: match algo {
+            Algo::Ppo => Algorithm::Ppo(PpoConfig {
+                train_batch: 160,
+                minibatch: 80,
+                epochs: 2,
+                ..PpoConfig::default()
+            }),
+            Algo::Impala => Algorithm::Impala(ImpalaConfig {
+                train_batch: 160,
+                ..ImpalaConfig::default()
+            }),
+        },
         mode,
         task: Task::Grid("rm-1.1".into()),
         agents: 2,
@@ -28,10 +39,6 @@ fn tiny(algo: Algo, mode: Mode) -> TrainConfig {
         checkpoint_every: 2,
         ..TrainConfig::default()
     };
-    cfg.ppo.train_batch = 160;
-    cfg.ppo.minibatch = 80;
-    cfg.ppo.epochs = 2;
-    cfg.impala.train_batch = 160;
     cfg
 }
 
@@ -324,8 +331,9 @@ fn schedules_set_each_updates_learning_rate_and_entropy_coefficient() {
     buridan_policy::threads::pin_threads(1);
     let dir = tempfile::tempdir().unwrap();
     let mut cfg = tiny(Algo::Impala, Mode::Ctde);
-    cfg.impala.lr_schedule = Some(Schedule::new(vec![(0, 1e-3), (800, 0.0)]).unwrap());
-    cfg.impala.entropy_schedule = Some(Schedule::new(vec![(320, 0.02)]).unwrap());
+    let impala = cfg.algorithm.impala_mut().unwrap();
+    impala.lr_schedule = Some(Schedule::new(vec![(0, 1e-3), (800, 0.0)]).unwrap());
+    impala.entropy_schedule = Some(Schedule::new(vec![(320, 0.02)]).unwrap());
     let mut rec = Record::default();
     train(&cfg, &dir.path().join("run"), &mut rec).unwrap();
     // Update k (1-based) learns from the batch that ends at 160·k env
@@ -355,11 +363,12 @@ fn schedules_set_each_updates_learning_rate_and_entropy_coefficient() {
     let cfg = tiny(Algo::Ppo, Mode::Ctde);
     let mut rec = Record::default();
     train(&cfg, &dir.path().join("plain"), &mut rec).unwrap();
-    assert!(rec.rows.iter().all(|r| r.lr == cfg.ppo.lr));
+    let ppo = cfg.algorithm.ppo().unwrap();
+    assert!(rec.rows.iter().all(|r| r.lr == ppo.lr));
     assert!(rec
         .rows
         .iter()
-        .all(|r| r.entropy_coeff == cfg.ppo.entropy_coeff as f64));
+        .all(|r| r.entropy_coeff == ppo.entropy_coeff as f64));
 }
 
 /// A small PPO run on rm-1.1 (fixed starts) that imitates LaCAM and
@@ -367,8 +376,8 @@ fn schedules_set_each_updates_learning_rate_and_entropy_coefficient() {
 fn imitating_rm_1_1() -> TrainConfig {
     let mut cfg = tiny(Algo::Ppo, Mode::Ctde);
     cfg.model.hidden = vec![64, 64];
-    cfg.ppo.train_batch = 1000;
-    cfg.ppo.minibatch = 500;
+    let ppo = cfg.algorithm.ppo_mut().unwrap();
+    (ppo.train_batch, ppo.minibatch) = (1000, 500);
     cfg.fragment_len = 50;
     cfg.imitation = Some(buridan_imitate::ImitationConfig {
         expert: vec!["lacam".into(), "od-astar".into()],

@@ -5,7 +5,7 @@
 use buridan_env::Starts;
 use buridan_learner::algo::impala::{Impala, ImpalaSettings};
 use buridan_learner::algo::ppo::{Ppo, PpoSettings};
-use buridan_learner::train::{ModelConfig, Run, Task, TrainConfig};
+use buridan_learner::train::{ImpalaConfig, ModelConfig, Run, Task, TrainConfig};
 use buridan_policy::{Fragment, Mode, ModelSpec, Policy};
 use rand::SeedableRng;
 
@@ -53,7 +53,7 @@ fn update_with(algo: Algo, cfg: &TrainConfig, threads: usize) -> (Vec<f32>, Vec<
             let settings = PpoSettings {
                 epochs: 2,
                 update_threads: threads,
-                ..PpoSettings::from(cfg)
+                ..cfg.ppo_settings(cfg.algorithm.ppo().unwrap())
             };
             let mut ppo = Ppo::new(&policy, settings);
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
@@ -62,7 +62,7 @@ fn update_with(algo: Algo, cfg: &TrainConfig, threads: usize) -> (Vec<f32>, Vec<
         Algo::Impala => {
             let settings = ImpalaSettings {
                 update_threads: threads,
-                ..ImpalaSettings::from(cfg)
+                ..cfg.impala_settings(&ImpalaConfig::default())
             };
             Impala::new(&policy, settings)
                 .update(&policy, &frags)
@@ -117,7 +117,7 @@ fn cfg(mode: Mode, lstm: bool) -> TrainConfig {
         ..TrainConfig::default()
     };
     // One minibatch of the whole batch per weight set: 2 × 640 × 4 samples.
-    c.ppo.minibatch = 100_000;
+    c.algorithm.ppo_mut().unwrap().minibatch = 100_000;
     c
 }
 

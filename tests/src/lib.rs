@@ -77,7 +77,7 @@ pub fn rm11_ppo(steps: u64, envs_per_actor: usize) -> TrainConfig {
         checkpoint_every: 5,
         ..TrainConfig::default()
     };
-    cfg.ppo.clip = 0.2;
-    cfg.ppo.entropy_coeff = 0.05;
+    let ppo = cfg.algorithm.ppo_mut().expect("a PPO run");
+    (ppo.clip, ppo.entropy_coeff) = (0.2, 0.05);
     cfg
 }

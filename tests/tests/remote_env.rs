@@ -11,7 +11,9 @@ use std::time::Duration;
 
 use buridan_actor::client::{run, ActorError, ActorOptions, SetupError};
 use buridan_learner::serve::{serve, Listener, ServeError, ServeOptions};
-use buridan_learner::train::{Algo, MetricsRow, ModelConfig, Progress, Summary, Task, TrainConfig};
+use buridan_learner::train::{
+    Algorithm, MetricsRow, ModelConfig, PpoConfig, Progress, Summary, Task, TrainConfig,
+};
 use buridan_plant_server::{EnvServer, ServeConfig};
 use buridan_policy::Mode;
 use buridan_tests::InMemoryNet;
@@ -27,8 +29,13 @@ impl Progress for Updates {
 /// PPO-CTDE on the dissertation's plant, 2 AGVs, episodes of 40 steps, a
 /// tiny network: each update takes 160 env steps.
 fn plant_run(steps: u64) -> TrainConfig {
-    let mut cfg = TrainConfig {
-        algo: Algo::Ppo,
+    TrainConfig {
+        algorithm: Algorithm::Ppo(PpoConfig {
+            train_batch: 160,
+            minibatch: 80,
+            epochs: 2,
+            ..PpoConfig::default()
+        }),
         mode: Mode::Ctde,
         task: Task::Plant("dissertation".into()),
         agents: 2,
@@ -42,11 +49,7 @@ fn plant_run(steps: u64) -> TrainConfig {
         },
         checkpoint_every: 0,
         ..TrainConfig::default()
-    };
-    cfg.ppo.train_batch = 160;
-    cfg.ppo.minibatch = 80;
-    cfg.ppo.epochs = 2;
-    cfg
+    }
 }
 
 fn start_learner(

@@ -90,7 +90,10 @@ fn a_method_without_a_config_trains_the_default_recipe() {
     );
     let cfg = x.train[0].config_in(Path::new("out")).unwrap();
     let recipe = TrainConfig::recipe();
-    assert_eq!((cfg.algo, cfg.features), (recipe.algo, recipe.features));
+    assert_eq!(
+        (&cfg.algorithm, cfg.features),
+        (&recipe.algorithm, recipe.features)
+    );
     assert_eq!((cfg.shaping, cfg.model.lstm), (recipe.shaping, true));
     assert_eq!(cfg.imitation, recipe.imitation);
     // The shipped study that measured the recipe trains it (its

@@ -334,7 +334,13 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
             plant,
             fragment_len: cfg.fragment_len as u32,
             on_policy: cfg.on_policy(),
-            max_policy_lag: cfg.impala.max_policy_lag,
+            // PPO's actors never lag; they get IMPALA's default, as before.
+            max_policy_lag: cfg
+                .algorithm
+                .impala()
+                .map_or(crate::train::ImpalaConfig::default().max_policy_lag, |i| {
+                    i.max_policy_lag
+                }),
             greedy_mix: cfg.behaviour().greedy_mix(),
             shield_rollouts: cfg.shield_rollouts,
             replay: replay_to_message(&cfg.replay),

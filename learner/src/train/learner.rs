@@ -8,7 +8,7 @@ use buridan_policy::checkpoint::OPTIMIZER_FILE;
 use buridan_policy::{Fragment, Policy};
 use rand_chacha::ChaCha8Rng;
 
-use super::config::{Algo, TrainConfig};
+use super::config::{Algorithm, TrainConfig};
 use super::state::TrainerState;
 use super::{cores, TrainError};
 use crate::algo::impala::Impala;
@@ -24,9 +24,9 @@ pub(super) enum Learner {
 
 impl Learner {
     pub(super) fn new(cfg: &TrainConfig, policy: &Policy) -> Self {
-        match cfg.algo {
-            Algo::Ppo => Learner::Ppo(Ppo::new(policy, cfg.into())),
-            Algo::Impala => Learner::Impala(Impala::new(policy, cfg.into())),
+        match &cfg.algorithm {
+            Algorithm::Ppo(p) => Learner::Ppo(Ppo::new(policy, cfg.ppo_settings(p))),
+            Algorithm::Impala(i) => Learner::Impala(Impala::new(policy, cfg.impala_settings(i))),
         }
     }
 
@@ -40,13 +40,10 @@ impl Learner {
     /// Sizes the update to the cores this run may use now
     /// ([`cores::share`] unless `update_threads` fixes it).
     pub(super) fn follow_cores(&mut self, cfg: &TrainConfig) {
+        let threads = cores::update_threads(cfg.algorithm.update_threads());
         match self {
-            Learner::Ppo(p) => {
-                p.settings.update_threads = cores::update_threads(cfg.ppo.update_threads)
-            }
-            Learner::Impala(i) => {
-                i.settings.update_threads = cores::update_threads(cfg.impala.update_threads)
-            }
+            Learner::Ppo(p) => p.settings.update_threads = threads,
+            Learner::Impala(i) => i.settings.update_threads = threads,
         }
     }
 
@@ -55,13 +52,10 @@ impl Learner {
     /// Also keeps PPO to its critic warm-up while fewer than
     /// `ppo.critic_warmup` env steps have been sampled.
     pub(super) fn follow_schedules(&mut self, cfg: &TrainConfig, env_steps: u64) {
-        if let Learner::Ppo(p) = self {
-            p.critic_only = env_steps < cfg.ppo.critic_warmup;
+        if let (Learner::Ppo(p), Some(ppo)) = (&mut *self, cfg.algorithm.ppo()) {
+            p.critic_only = env_steps < ppo.critic_warmup;
         }
-        let (lr, entropy) = match cfg.algo {
-            Algo::Ppo => (&cfg.ppo.lr_schedule, &cfg.ppo.entropy_schedule),
-            Algo::Impala => (&cfg.impala.lr_schedule, &cfg.impala.entropy_schedule),
-        };
+        let (lr, entropy) = cfg.algorithm.schedules();
         if let Some(lr) = lr {
             self.optim().adam.lr = lr.value(env_steps);
         }

@@ -59,8 +59,8 @@ use phases::{imitate, Phase};
 use state::{read_trainer_state, restore_layout_windows};
 
 pub use config::{
-    Algo, ConfigError, ImpalaConfig, ModelConfig, PpoConfig, Task, TaskKeysError, TrainConfig,
-    WeightedMap,
+    Algo, Algorithm, ConfigError, ImpalaConfig, ModelConfig, PpoConfig, Task, TaskKeysError,
+    TrainConfig, WeightedMap,
 };
 pub use error::{ExchangeError, Interrupted, TrainError};
 pub use exchange::{Exchange, InProcess, Shared, Ticket};
@@ -248,7 +248,7 @@ impl Run {
             learner.restore(dir, &state)?;
         }
         tracing::info!(
-            algo = %cfg.algo,
+            algo = %cfg.algorithm.algo(),
             mode = %cfg.mode,
             map = %cfg.map_label(),
             agents = cfg.agents,
@@ -666,7 +666,7 @@ impl Run {
             episodes_by_map = names.iter().cloned().zip(lw.totals()).collect();
         }
         Summary {
-            algo: cfg.algo.to_string(),
+            algo: cfg.algorithm.algo().to_string(),
             mode: cfg.mode.to_string(),
             map: cfg.map_label(),
             maps: names,

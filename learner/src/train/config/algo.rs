@@ -35,6 +35,116 @@ impl std::fmt::Display for Algo {
     }
 }
 
+/// The learning algorithm with its own settings: TOML `algo = "ppo"` with
+/// a `[ppo]` table, or `algo = "impala"` with `[impala]`. A run carries the
+/// settings of the algorithm it trains with and no other's.
+///
+/// ```
+/// use buridan_learner::train::{Algo, Algorithm, PpoConfig};
+/// let mut a = Algorithm::Ppo(PpoConfig { lr: 5e-4, ..PpoConfig::default() });
+/// assert_eq!((a.algo(), a.train_batch()), (Algo::Ppo, 4000));
+/// a.switch_to(Algo::Ppo); // the same algorithm keeps its settings
+/// assert_eq!(a.ppo().map(|p| p.lr), Some(5e-4));
+/// a.switch_to(Algo::Impala); // another starts from its defaults
+/// assert_eq!((a.algo(), a.train_batch(), a.ppo()), (Algo::Impala, 8000, None));
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub enum Algorithm {
+    /// PPO ([`PpoConfig`]).
+    Ppo(PpoConfig),
+    /// IMPALA ([`ImpalaConfig`]).
+    Impala(ImpalaConfig),
+}
+
+impl Default for Algorithm {
+    /// PPO with the comparison settings.
+    fn default() -> Self {
+        Algorithm::Ppo(PpoConfig::default())
+    }
+}
+
+impl Algorithm {
+    /// `algo` with its default settings.
+    pub fn of(algo: Algo) -> Self {
+        match algo {
+            Algo::Ppo => Algorithm::Ppo(PpoConfig::default()),
+            Algo::Impala => Algorithm::Impala(ImpalaConfig::default()),
+        }
+    }
+
+    /// Which algorithm.
+    pub fn algo(&self) -> Algo {
+        match self {
+            Algorithm::Ppo(_) => Algo::Ppo,
+            Algorithm::Impala(_) => Algo::Impala,
+        }
+    }
+
+    /// Trains with `algo` from now on: the settings stay when it is the
+    /// algorithm already, else they are `algo`'s defaults.
+    pub fn switch_to(&mut self, algo: Algo) {
+        if self.algo() != algo {
+            *self = Self::of(algo);
+        }
+    }
+
+    /// PPO's settings, if this is PPO.
+    pub fn ppo(&self) -> Option<&PpoConfig> {
+        match self {
+            Algorithm::Ppo(p) => Some(p),
+            Algorithm::Impala(_) => None,
+        }
+    }
+
+    /// IMPALA's settings, if this is IMPALA.
+    pub fn impala(&self) -> Option<&ImpalaConfig> {
+        match self {
+            Algorithm::Impala(i) => Some(i),
+            Algorithm::Ppo(_) => None,
+        }
+    }
+
+    /// PPO's settings to change, if this is PPO.
+    pub fn ppo_mut(&mut self) -> Option<&mut PpoConfig> {
+        match self {
+            Algorithm::Ppo(p) => Some(p),
+            Algorithm::Impala(_) => None,
+        }
+    }
+
+    /// IMPALA's settings to change, if this is IMPALA.
+    pub fn impala_mut(&mut self) -> Option<&mut ImpalaConfig> {
+        match self {
+            Algorithm::Impala(i) => Some(i),
+            Algorithm::Ppo(_) => None,
+        }
+    }
+
+    /// Env steps per train batch.
+    pub fn train_batch(&self) -> usize {
+        match self {
+            Algorithm::Ppo(p) => p.train_batch,
+            Algorithm::Impala(i) => i.train_batch,
+        }
+    }
+
+    /// The `update_threads` setting (0: the run's share of the cores).
+    pub fn update_threads(&self) -> usize {
+        match self {
+            Algorithm::Ppo(p) => p.update_threads,
+            Algorithm::Impala(i) => i.update_threads,
+        }
+    }
+
+    /// The learning-rate and entropy schedules, where set.
+    pub fn schedules(&self) -> (Option<&Schedule>, Option<&Schedule>) {
+        match self {
+            Algorithm::Ppo(p) => (p.lr_schedule.as_ref(), p.entropy_schedule.as_ref()),
+            Algorithm::Impala(i) => (i.lr_schedule.as_ref(), i.entropy_schedule.as_ref()),
+        }
+    }
+}
+
 /// PPO hyperparameters (defaults: the dissertation's comparison config and
 /// RLlib's defaults for the rest).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

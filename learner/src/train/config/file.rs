@@ -1,8 +1,9 @@
 //! The file form of a training configuration: [`TrainConfig`] as its TOML
 //! has it, the task spread over the keys `map`, `maps` and `plant` (at most
-//! one set). `TrainConfig` (de)serialises through it, so the format stays
-//! that of the flat struct it replaced: same keys, same order, unknown keys
-//! refused.
+//! one set), its algorithm as the key `algo` and that algorithm's table
+//! (`[ppo]` or `[impala]`). `TrainConfig` (de)serialises through it, so the
+//! format stays that of the flat struct it replaced: same keys, same order,
+//! unknown keys refused.
 
 use std::path::PathBuf;
 
@@ -12,7 +13,7 @@ use buridan_imitate::ImitationConfig;
 use buridan_policy::Mode;
 use serde::{Deserialize, Serialize};
 
-use super::Algo;
+use super::{Algo, Algorithm};
 use super::{ImpalaConfig, ModelConfig, PpoConfig, Task, TaskKeysError, TrainConfig, WeightedMap};
 use crate::train::stop::StopRule;
 
@@ -26,7 +27,9 @@ fn replay_off(replay: &ReplayConfig) -> bool {
 }
 
 /// [`TrainConfig`] field by field, with its `task` as the three keys that
-/// name it (documented on `TrainConfig` and [`Task`]).
+/// name it (documented on `TrainConfig` and [`Task`]) and its `algorithm`
+/// as `algo` and a table per algorithm, at most the other's left at its
+/// defaults (every config saved before the type wrote both).
 #[derive(Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub(super) struct TrainFile {
@@ -67,8 +70,10 @@ pub(super) struct TrainFile {
     #[serde(skip_serializing_if = "Option::is_none")]
     stop: Option<StopRule>,
     resume: Option<PathBuf>,
-    ppo: PpoConfig,
-    impala: ImpalaConfig,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ppo: Option<PpoConfig>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    impala: Option<ImpalaConfig>,
     #[serde(skip_serializing_if = "Option::is_none")]
     imitation: Option<ImitationConfig>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -86,18 +91,61 @@ impl Default for TrainFile {
     }
 }
 
+/// Why a file's keys name no single configuration.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub(super) enum FileError {
+    /// The task keys ([`TaskKeysError`]).
+    #[error(transparent)]
+    Task(#[from] TaskKeysError),
+    /// The other algorithm's table, set away from its defaults.
+    #[error("config sets [{table}] but algo = \"{algo}\": [{table}] holds {table}'s settings; set algo = \"{table}\" or drop the table")]
+    OtherAlgorithm {
+        /// The table: `ppo` or `impala`.
+        table: Algo,
+        /// The configured algorithm.
+        algo: Algo,
+    },
+}
+
+impl TrainFile {
+    /// The algorithm `algo` with its table; the other algorithm's table
+    /// may only hold its defaults.
+    fn algorithm(
+        algo: Algo,
+        ppo: Option<PpoConfig>,
+        impala: Option<ImpalaConfig>,
+    ) -> Result<Algorithm, FileError> {
+        let other = |table| FileError::OtherAlgorithm { table, algo };
+        match algo {
+            Algo::Ppo
+                if impala
+                    .as_ref()
+                    .is_some_and(|i| *i != ImpalaConfig::default()) =>
+            {
+                Err(other(Algo::Impala))
+            }
+            Algo::Impala if ppo.as_ref().is_some_and(|p| *p != PpoConfig::default()) => {
+                Err(other(Algo::Ppo))
+            }
+            Algo::Ppo => Ok(Algorithm::Ppo(ppo.unwrap_or_default())),
+            Algo::Impala => Ok(Algorithm::Impala(impala.unwrap_or_default())),
+        }
+    }
+}
+
 /// Both conversions from one list of the fields the two forms share (every
-/// field but the task and the model's). Each side is destructured whole,
+/// field but the task's, the model's and the algorithm's). Each side is destructured whole,
 /// so a field added to one form and not to this list fails to compile.
 macro_rules! convert_through_shared_fields {
     ($($field:ident),* $(,)?) => {
         impl TryFrom<TrainFile> for TrainConfig {
-            type Error = TaskKeysError;
+            type Error = FileError;
 
-            fn try_from(file: TrainFile) -> Result<Self, TaskKeysError> {
-                let TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, $($field),* } = file;
+            fn try_from(file: TrainFile) -> Result<Self, FileError> {
+                let TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, algo, ppo, impala, $($field),* } = file;
                 Ok(TrainConfig {
                     task: Task::from_keys(map, maps, plant)?,
+                    algorithm: TrainFile::algorithm(algo, ppo, impala)?,
                     model: ModelConfig { hidden, lstm, lstm_cells, max_seq_len },
                     $($field),*
                 })
@@ -106,17 +154,21 @@ macro_rules! convert_through_shared_fields {
 
         impl From<TrainConfig> for TrainFile {
             fn from(cfg: TrainConfig) -> Self {
-                let TrainConfig { task, model, $($field),* } = cfg;
+                let TrainConfig { task, model, algorithm, $($field),* } = cfg;
                 let (map, maps, plant) = task.into_keys();
+                let algo = algorithm.algo();
+                let (ppo, impala) = match algorithm {
+                    Algorithm::Ppo(p) => (Some(p), None),
+                    Algorithm::Impala(i) => (None, Some(i)),
+                };
                 let ModelConfig { hidden, lstm, lstm_cells, max_seq_len } = model;
-                TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, $($field),* }
+                TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, algo, ppo, impala, $($field),* }
             }
         }
     };
 }
 
 convert_through_shared_fields!(
-    algo,
     mode,
     agents,
     starts,
@@ -139,8 +191,6 @@ convert_through_shared_fields!(
     stop_len,
     stop,
     resume,
-    ppo,
-    impala,
     imitation,
     polish,
 );

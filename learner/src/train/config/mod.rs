@@ -25,7 +25,7 @@ mod task;
 mod tests;
 mod validate;
 
-pub use algo::{Algo, ImpalaConfig, PpoConfig};
+pub use algo::{Algo, Algorithm, ImpalaConfig, PpoConfig};
 pub use error::ConfigError;
 pub use layouts::WeightedMap;
 pub use model::ModelConfig;
@@ -50,15 +50,18 @@ pub use task::{Task, TaskKeysError};
 ///     [ppo]
 ///     clip = 0.1
 /// "#).unwrap();
-/// assert_eq!(cfg.ppo.clip, 0.1);
-/// assert_eq!(cfg.ppo.epochs, 12);
+/// let ppo = cfg.algorithm.ppo().unwrap();
+/// assert_eq!((ppo.clip, ppo.epochs), (0.1, 12));
 /// cfg.validate().unwrap();
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "file::TrainFile", into = "file::TrainFile")]
 pub struct TrainConfig {
-    /// PPO or IMPALA.
-    pub algo: Algo,
+    /// PPO or IMPALA with its settings ([`Algorithm`]): TOML `algo`
+    /// (`"ppo"` or `"impala"`) and that algorithm's table, `[ppo]` or
+    /// `[impala]`. The other algorithm's table is refused unless it holds
+    /// only its defaults (as configs saved before 2026-12 do).
+    pub algorithm: Algorithm,
     /// CTE, CTDE or DTE.
     pub mode: Mode,
     /// What the run trains on ([`Task`]): one grid map (TOML `map`, by
@@ -136,10 +139,6 @@ pub struct TrainConfig {
     pub stop: Option<StopRule>,
     /// Continue from this checkpoint directory (weights, optimiser, counters).
     pub resume: Option<PathBuf>,
-    /// PPO settings.
-    pub ppo: PpoConfig,
-    /// IMPALA settings.
-    pub impala: ImpalaConfig,
     /// Imitate a planner before learning from rewards, TOML `[imitation]`
     /// (DAgger, `buridan_imitate`): a fresh run's policy is first fitted
     /// to the planner's actions on the states it visits, then trained by
@@ -156,7 +155,7 @@ pub struct TrainConfig {
 impl Default for TrainConfig {
     fn default() -> Self {
         Self {
-            algo: Algo::Ppo,
+            algorithm: Algorithm::default(),
             mode: Mode::Ctde,
             task: Task::default(),
             agents: 4,
@@ -181,8 +180,6 @@ impl Default for TrainConfig {
             stop_len: None,
             stop: None,
             resume: None,
-            ppo: PpoConfig::default(),
-            impala: ImpalaConfig::default(),
             imitation: None,
             polish: None,
         }
@@ -210,7 +207,7 @@ impl TrainConfig {
     /// ```
     /// use buridan_learner::train::{Algo, TrainConfig};
     /// let r = TrainConfig::recipe();
-    /// assert_eq!(r.algo, Algo::Ppo);
+    /// assert_eq!(r.algorithm.algo(), Algo::Ppo);
     /// assert!(r.model.lstm && r.features.path && r.features.intent && r.shaping > 0.0);
     /// let imitation = r.imitation.as_ref().unwrap();
     /// assert_eq!((imitation.rounds, imitation.expert.as_slice()), (4, &["lacam".to_string(), "od-astar".into()][..]));
@@ -221,7 +218,10 @@ impl TrainConfig {
     /// ```
     pub fn recipe() -> Self {
         Self {
-            algo: Algo::Ppo,
+            algorithm: Algorithm::Ppo(PpoConfig {
+                update_threads: 1,
+                ..PpoConfig::default()
+            }),
             features: ObsFeatures {
                 path: true,
                 intent: true,
@@ -241,10 +241,6 @@ impl TrainConfig {
             model: ModelConfig {
                 lstm: true,
                 ..ModelConfig::default()
-            },
-            ppo: PpoConfig {
-                update_threads: 1,
-                ..PpoConfig::default()
             },
             imitation: Some(ImitationConfig {
                 expert: vec!["lacam".into(), "od-astar".into()],
@@ -268,14 +264,14 @@ impl TrainConfig {
     /// use buridan_policy::Mode;
     /// let mut cte = TrainConfig { mode: Mode::Cte, ..TrainConfig::recipe() };
     /// cte.apply_recipe_mode();
-    /// assert_eq!(cte.ppo.critic_warmup, 20_000);
+    /// assert_eq!(cte.algorithm.ppo().unwrap().critic_warmup, 20_000);
     /// let mut ctde = TrainConfig::recipe();
     /// ctde.apply_recipe_mode();
     /// assert_eq!(ctde, TrainConfig::recipe());
     /// ```
     pub fn apply_recipe_mode(&mut self) {
-        if self.mode == Mode::Cte {
-            self.ppo.critic_warmup = 20_000;
+        if let (Mode::Cte, Algorithm::Ppo(ppo)) = (self.mode, &mut self.algorithm) {
+            ppo.critic_warmup = 20_000;
         }
     }
 
@@ -334,42 +330,38 @@ impl TrainConfig {
     /// assumes the behaviour is the policy itself).
     ///
     /// ```
-    /// use buridan_learner::train::{Algo, TrainConfig};
+    /// use buridan_learner::train::{Algorithm, ImpalaConfig, TrainConfig};
     /// use buridan_policy::ActMode;
     /// let mut cfg = TrainConfig::default();
     /// assert_eq!(cfg.behaviour(), ActMode::Sample);
-    /// cfg.algo = Algo::Impala;
-    /// cfg.impala.greedy_mix = 0.5;
+    /// cfg.algorithm = Algorithm::Impala(ImpalaConfig { greedy_mix: 0.5, ..ImpalaConfig::default() });
     /// assert_eq!(cfg.behaviour(), ActMode::GreedyMix(0.5));
     /// ```
     pub fn behaviour(&self) -> ActMode {
-        match self.algo {
-            Algo::Impala => ActMode::rollout(self.impala.greedy_mix),
-            Algo::Ppo => ActMode::Sample,
+        match &self.algorithm {
+            Algorithm::Impala(i) => ActMode::rollout(i.greedy_mix),
+            Algorithm::Ppo(_) => ActMode::Sample,
         }
     }
 
     /// Whether the algorithm learns only from the newest policy's
     /// experience (PPO), so actors wait after each train batch.
     pub fn on_policy(&self) -> bool {
-        self.algo == Algo::Ppo
+        self.algorithm.algo() == Algo::Ppo
     }
 
     /// How old experience may be: on-policy for PPO, `impala.max_policy_lag`
     /// versions for IMPALA.
     pub fn staleness(&self) -> Staleness {
-        match self.algo {
-            Algo::Ppo => Staleness::OnPolicy,
-            Algo::Impala => Staleness::MaxLag(self.impala.max_policy_lag),
+        match &self.algorithm {
+            Algorithm::Ppo(_) => Staleness::OnPolicy,
+            Algorithm::Impala(i) => Staleness::MaxLag(i.max_policy_lag),
         }
     }
 
     /// Env steps per train batch of the configured algorithm.
     pub fn train_batch(&self) -> u64 {
-        match self.algo {
-            Algo::Ppo => self.ppo.train_batch as u64,
-            Algo::Impala => self.impala.train_batch as u64,
-        }
+        self.algorithm.train_batch() as u64
     }
 
     /// Env steps one fragment holds: `fragment_len · envs_per_actor`.
@@ -387,8 +379,8 @@ impl TrainConfig {
     /// Fragments the actor→learner queue holds: `impala.queue_capacity` if
     /// set (IMPALA), else one train batch.
     pub fn queue_capacity(&self) -> usize {
-        match self.algo {
-            Algo::Impala if self.impala.queue_capacity > 0 => self.impala.queue_capacity,
+        match &self.algorithm {
+            Algorithm::Impala(i) if i.queue_capacity > 0 => i.queue_capacity,
             _ => self.fragments_per_batch(),
         }
     }
@@ -398,8 +390,8 @@ impl TrainConfig {
         let value = if self.model.lstm {
             ValueHead::Shared
         } else {
-            match self.algo {
-                Algo::Ppo if !self.ppo.vf_share_layers => ValueHead::Separate,
+            match &self.algorithm {
+                Algorithm::Ppo(p) if !p.vf_share_layers => ValueHead::Separate,
                 _ => ValueHead::Shared,
             }
         };
@@ -420,10 +412,11 @@ impl TrainConfig {
     }
 }
 
-impl From<&TrainConfig> for PpoSettings {
-    fn from(cfg: &TrainConfig) -> Self {
-        let p = &cfg.ppo;
-        Self {
+impl TrainConfig {
+    /// PPO's update settings: `ppo` with the run's discount and sequence
+    /// length.
+    pub fn ppo_settings(&self, p: &PpoConfig) -> PpoSettings {
+        PpoSettings {
             lr: p.lr,
             epochs: p.epochs,
             minibatch_size: p.minibatch,
@@ -433,32 +426,31 @@ impl From<&TrainConfig> for PpoSettings {
             entropy_coeff: p.entropy_coeff,
             kl_coeff: p.kl_coeff,
             kl_target: p.kl_target,
-            gamma: cfg.gamma,
+            gamma: self.gamma,
             lambda: p.lambda,
             grad_clip: p.grad_clip,
             standardize_advantages: p.standardize_advantages,
-            max_seq_len: cfg.model.max_seq_len,
+            max_seq_len: self.model.max_seq_len,
             update_threads: super::cores::update_threads(p.update_threads),
         }
     }
-}
 
-impl From<&TrainConfig> for ImpalaSettings {
-    fn from(cfg: &TrainConfig) -> Self {
-        let i = &cfg.impala;
-        Self {
+    /// IMPALA's update settings: `impala` with the run's discount and
+    /// sequence length.
+    pub fn impala_settings(&self, i: &ImpalaConfig) -> ImpalaSettings {
+        ImpalaSettings {
             lr: i.lr,
             vf_coeff: i.vf_coeff,
             entropy_coeff: i.entropy_coeff,
             grad_clip: i.grad_clip,
             vtrace: VTraceParams {
-                gamma: cfg.gamma,
+                gamma: self.gamma,
                 lambda: i.lambda,
                 rho_bar: i.rho_bar,
                 c_bar: i.c_bar,
                 pg_rho_bar: i.pg_rho_bar,
             },
-            max_seq_len: cfg.model.max_seq_len,
+            max_seq_len: self.model.max_seq_len,
             update_threads: super::cores::update_threads(i.update_threads),
         }
     }

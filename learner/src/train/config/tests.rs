@@ -152,24 +152,35 @@ fn a_plant_file_takes_the_plant_t_max_unless_it_sets_one() {
     );
 }
 
+/// `c`'s PPO settings.
+fn ppo(c: &mut TrainConfig) -> &mut PpoConfig {
+    c.algorithm.ppo_mut().expect("a PPO config")
+}
+
+/// `c` switched to IMPALA, its settings.
+fn impala(c: &mut TrainConfig) -> &mut ImpalaConfig {
+    c.algorithm.switch_to(Algo::Impala);
+    c.algorithm.impala_mut().expect("an IMPALA config")
+}
+
 #[test]
 fn hyperparameters_outside_their_range_are_refused_by_name() {
     type Change = fn(&mut TrainConfig);
     let bad: [(&str, &str, Change); 7] = [
-        ("ppo.lr", "finite and positive", |c| c.ppo.lr = f64::NAN),
-        ("ppo.lr", "finite and positive", |c| c.ppo.lr = 0.0),
+        ("ppo.lr", "finite and positive", |c| ppo(c).lr = f64::NAN),
+        ("ppo.lr", "finite and positive", |c| ppo(c).lr = 0.0),
         ("impala.lr", "finite and positive", |c| {
-            c.impala.lr = f64::INFINITY
+            impala(c).lr = f64::INFINITY
         }),
         ("ppo.entropy_coeff", "finite and at least 0", |c| {
-            c.ppo.entropy_coeff = -0.01
+            ppo(c).entropy_coeff = -0.01
         }),
         ("impala.rho_bar", "finite and positive", |c| {
-            c.impala.rho_bar = -1.0
+            impala(c).rho_bar = -1.0
         }),
-        ("ppo.lambda", "in [0, 1]", |c| c.ppo.lambda = 1.5),
+        ("ppo.lambda", "in [0, 1]", |c| ppo(c).lambda = 1.5),
         ("ppo.grad_clip", "finite and positive", |c| {
-            c.ppo.grad_clip = Some(f64::NAN)
+            ppo(c).grad_clip = Some(f64::NAN)
         }),
     ];
     for (key, range, change) in bad {
@@ -184,11 +195,11 @@ fn hyperparameters_outside_their_range_are_refused_by_name() {
     }
     // The legal edges stay legal.
     let edges: [Change; 5] = [
-        |c| c.ppo.entropy_coeff = 0.0,
-        |c| c.ppo.kl_coeff = 0.0,
-        |c| c.ppo.lambda = 1.0,
-        |c| c.impala.lambda = 0.0,
-        |c| c.ppo.lr = 1e-8,
+        |c| ppo(c).entropy_coeff = 0.0,
+        |c| ppo(c).kl_coeff = 0.0,
+        |c| ppo(c).lambda = 1.0,
+        |c| impala(c).lambda = 0.0,
+        |c| ppo(c).lr = 1e-8,
     ];
     for (i, change) in edges.into_iter().enumerate() {
         assert!(with(change).is_ok(), "edge {i} refused");
@@ -243,6 +254,50 @@ fn a_grid_config_writes_its_keys_as_the_flat_struct_did() {
         "{text}"
     );
     assert!(!text.contains("maps") && !text.contains("plant"), "{text}");
+}
+
+#[test]
+fn a_config_carries_its_algorithms_table_and_refuses_the_others_settings() {
+    // Configs saved before the type wrote both tables, the other at its
+    // defaults (`models/*/config.toml`): they still read.
+    let both = "algo = \"impala\"\n[ppo]\nlr = 0.001\n[impala]\nlr = 0.0005\n";
+    let cfg = read_file(both).unwrap();
+    assert_eq!(cfg.algorithm.impala().map(|i| i.lr), Some(5e-4));
+    // Written back, a config holds its own algorithm's table only.
+    let printed = cfg.to_toml();
+    assert!(
+        printed.contains("[impala]") && !printed.contains("[ppo]"),
+        "{printed}"
+    );
+    assert_eq!(read_file(&printed).unwrap(), cfg);
+    // The other algorithm's table away from its defaults is a mistake
+    // (`--set impala.lr=…` on a PPO run): refused, naming both.
+    let wrong = "algo = \"ppo\"\n[impala]\nlr = 0.0005\n";
+    let err = read_file(wrong).unwrap_err();
+    assert!(matches!(err, ConfigError::Parse { .. }), "{err:?}");
+    let message = toml::from_str::<TrainConfig>(wrong)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("sets [impala] but algo = \"ppo\""),
+        "{message}"
+    );
+    assert!(toml::from_str::<TrainConfig>("[ppo]\nepochs = 3\nalgo = \"impala\"").is_err());
+    // Every shipped model's saved config still reads.
+    let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../models");
+    let mut read = 0;
+    for entry in std::fs::read_dir(&models).unwrap() {
+        let path = entry.unwrap().path().join("config.toml");
+        if path.exists() {
+            TrainConfig::from_toml_file(&path)
+                .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
+            read += 1;
+        }
+    }
+    assert!(read >= 5, "{read} model configs under {}", models.display());
+    // Without its table an algorithm takes its defaults.
+    let cfg = read_file("algo = \"impala\"\n").unwrap();
+    assert_eq!(cfg.algorithm, Algorithm::Impala(ImpalaConfig::default()));
 }
 
 #[test]

@@ -4,7 +4,7 @@
 use buridan_imitate::ImitationConfig;
 use buridan_policy::Mode;
 
-use super::{Algo, ConfigError, TrainConfig};
+use super::{Algorithm, ConfigError, TrainConfig};
 
 fn ensure(ok: bool, why: &'static str) -> Result<(), ConfigError> {
     if ok {
@@ -34,23 +34,22 @@ impl TrainConfig {
             "hidden sizes must be positive",
         )?;
         ensure((0.0..=1.0).contains(&self.gamma), "gamma must be in [0, 1]")?;
-        ensure(self.ppo.epochs >= 1, "ppo.epochs must be at least 1")?;
-        ensure(
-            self.ppo.train_batch >= 1 && self.ppo.minibatch >= 1,
-            "ppo batch sizes must be positive",
-        )?;
-        ensure(
-            self.impala.train_batch >= 1,
-            "impala.train_batch must be positive",
-        )?;
-        ensure(
-            (0.0..1.0).contains(&self.impala.greedy_mix),
-            "impala.greedy_mix must be in [0, 1)",
-        )?;
-        ensure(
-            self.impala.greedy_mix == 0.0 || self.algo == Algo::Impala,
-            "impala.greedy_mix needs algo = \"impala\" (PPO's ratio assumes sampled rollouts)",
-        )?;
+        match &self.algorithm {
+            Algorithm::Ppo(p) => {
+                ensure(p.epochs >= 1, "ppo.epochs must be at least 1")?;
+                ensure(
+                    p.train_batch >= 1 && p.minibatch >= 1,
+                    "ppo batch sizes must be positive",
+                )?;
+            }
+            Algorithm::Impala(i) => {
+                ensure(i.train_batch >= 1, "impala.train_batch must be positive")?;
+                ensure(
+                    (0.0..1.0).contains(&i.greedy_mix),
+                    "impala.greedy_mix must be in [0, 1)",
+                )?;
+            }
+        }
         ensure(self.model.lstm_cells >= 1, "lstm_cells must be positive")?;
         self.replay.validate().map_err(ConfigError::Replay)?;
         if let Some(stop) = &self.stop {
@@ -102,30 +101,38 @@ impl TrainConfig {
     /// its range: a NaN learning rate would otherwise train on, silently
     /// turning every weight into NaN.
     fn validate_hyperparameters(&self) -> Result<(), ConfigError> {
-        let (p, i) = (&self.ppo, &self.impala);
-        let positive = [
-            ("ppo.lr", p.lr),
-            ("ppo.clip", p.clip.into()),
-            ("ppo.vf_clip", p.vf_clip.into()),
-            ("ppo.kl_target", p.kl_target),
-            ("ppo.grad_clip", p.grad_clip.unwrap_or(1.0)),
-            ("impala.lr", i.lr),
-            ("impala.grad_clip", i.grad_clip.unwrap_or(1.0)),
-            ("impala.rho_bar", i.rho_bar.into()),
-            ("impala.c_bar", i.c_bar.into()),
-            ("impala.pg_rho_bar", i.pg_rho_bar.into()),
-        ];
-        let non_negative = [
-            ("ppo.entropy_coeff", p.entropy_coeff.into()),
-            ("ppo.vf_coeff", p.vf_coeff.into()),
-            ("ppo.kl_coeff", p.kl_coeff),
-            ("impala.vf_coeff", i.vf_coeff.into()),
-            ("impala.entropy_coeff", i.entropy_coeff.into()),
-        ];
-        let unit = [
-            ("ppo.lambda", p.lambda.into()),
-            ("impala.lambda", i.lambda.into()),
-        ];
+        type Keys = Vec<(&'static str, f64)>;
+        let (positive, non_negative, unit): (Keys, Keys, Keys) = match &self.algorithm {
+            Algorithm::Ppo(p) => (
+                vec![
+                    ("ppo.lr", p.lr),
+                    ("ppo.clip", p.clip.into()),
+                    ("ppo.vf_clip", p.vf_clip.into()),
+                    ("ppo.kl_target", p.kl_target),
+                    ("ppo.grad_clip", p.grad_clip.unwrap_or(1.0)),
+                ],
+                vec![
+                    ("ppo.entropy_coeff", p.entropy_coeff.into()),
+                    ("ppo.vf_coeff", p.vf_coeff.into()),
+                    ("ppo.kl_coeff", p.kl_coeff),
+                ],
+                vec![("ppo.lambda", p.lambda.into())],
+            ),
+            Algorithm::Impala(i) => (
+                vec![
+                    ("impala.lr", i.lr),
+                    ("impala.grad_clip", i.grad_clip.unwrap_or(1.0)),
+                    ("impala.rho_bar", i.rho_bar.into()),
+                    ("impala.c_bar", i.c_bar.into()),
+                    ("impala.pg_rho_bar", i.pg_rho_bar.into()),
+                ],
+                vec![
+                    ("impala.vf_coeff", i.vf_coeff.into()),
+                    ("impala.entropy_coeff", i.entropy_coeff.into()),
+                ],
+                vec![("impala.lambda", i.lambda.into())],
+            ),
+        };
         let in_range = |keys: &[(&'static str, f64)], range, ok: fn(f64) -> bool| match keys
             .iter()
             .find(|(_, value)| !ok(*value))
