@@ -107,7 +107,10 @@ ALGORITHM = "Algorithm"
 
 # Structs whose fields a training file keeps at the top level: a field of
 # one of these types is written as the struct's own fields.
-FLAT = {"ModelConfig": "learner/src/train/config/model.rs"}
+FLAT = {
+    "ModelConfig": "learner/src/train/config/model.rs",
+    "RunConfig": "learner/src/train/config/run.rs",
+}
 
 
 def flat_rows(name: str):

@@ -161,7 +161,7 @@ pub fn run(args: &TrainBenchArgs) -> Result<Vec<Measured>> {
             let dir = out.join(&v.name).join(format!("repeat-{repeat}"));
             let cfg = variant_config(&args.train, v, &dir)?;
             tracing::info!(variant = %v.name, repeat, out = %dir.display(), "bench run starts");
-            let mut progress = TerminalProgress::new(cfg.steps, args.train.quiet);
+            let mut progress = TerminalProgress::new(cfg.run.steps, args.train.quiet);
             let summary =
                 train_interruptible(&cfg, &dir, &mut progress, Arc::new(AtomicBool::new(false)))
                     .map_err(|e| anyhow::anyhow!(e))

@@ -157,7 +157,7 @@ impl Progress for DashboardProgress<'_> {
             "mode": format!("{:?}", cfg.mode).to_lowercase(),
             "map": cfg.map_label(),
             "agents": cfg.agents,
-            "seed": cfg.seed,
+            "seed": cfg.run.seed,
             "steps": total_steps,
         }));
         if cfg.task.is_plant() && self.episodes > 0 {

@@ -118,7 +118,7 @@ pub fn run(args: &ServeArgs) -> Result<Summary> {
         }
     });
     let live = Live::start(&args.run.dashboard)?;
-    let mut terminal = TerminalProgress::new(cfg.steps, args.run.quiet);
+    let mut terminal = TerminalProgress::new(cfg.run.steps, args.run.quiet);
     let listener = Listener::Tcp(args.listen);
     let summary = match &live {
         Some(live) => {

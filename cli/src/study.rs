@@ -195,14 +195,14 @@ fn run_train(
     let what = format!("{} {} seed {}", cell.layout, cell.method, cell.seed);
     bars.say(format!(
         "train {what}{}: {}",
-        if cfg.resume.is_some() {
+        if cfg.run.resume.is_some() {
             " (resumed)"
         } else {
             ""
         },
         cell.command(out)
     ));
-    let bar = bars.bar(cfg.steps, what.clone());
+    let bar = bars.bar(cfg.run.steps, what.clone());
     let result = train_interruptible(&cfg, &run_dir, &mut BarProgress(&bar), stop.clone());
     bars.done(&bar);
     let summary = match result {

@@ -273,7 +273,7 @@ pub fn run(args: &TrainArgs) -> Result<Summary> {
         install_metrics(addr)?;
     }
     let live = Live::start(&args.dashboard)?;
-    let mut terminal = TerminalProgress::new(cfg.steps, args.quiet);
+    let mut terminal = TerminalProgress::new(cfg.run.steps, args.quiet);
     let interrupt = Arc::new(AtomicBool::new(false));
     watch_signals(interrupt.clone());
     if args.stop_when_stdin_closes {
@@ -298,7 +298,7 @@ pub use buridan_experiment::trial::train_interruptible;
 
 /// Refuses to overwrite a finished run.
 pub fn check_out(args: &TrainArgs, cfg: &TrainConfig) -> Result<()> {
-    if args.out.join(buridan_learner::train::SUMMARY_FILE).exists() && cfg.resume.is_none() {
+    if args.out.join(buridan_learner::train::SUMMARY_FILE).exists() && cfg.run.resume.is_none() {
         bail!(
             "{} already holds a finished run; choose another --out or pass --resume {}",
             args.out.display(),
@@ -318,7 +318,7 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
         cfg.agents,
     );
     // One run: one seed, named in the figures' titles.
-    write_curves(&args.out, &format!("{title}, seed {}", cfg.seed))
+    write_curves(&args.out, &format!("{title}, seed {}", cfg.run.seed))
         .context("drawing the learning curves")?;
     // A run shorter than one episode (imitation only, `--steps` below
     // T_max) has no episode statistics: say so rather than print NaN.

@@ -53,7 +53,7 @@ fn variants_run_alternately_with_their_overrides_and_tables_compare_them() {
     assert_eq!((one_ppo.update_threads, one_ppo.epochs), (1, 2));
     assert_eq!((two_ppo.update_threads, two_ppo.epochs), (2, 1));
     assert_eq!(
-        (one.seed, two.seed, one.map_label()),
+        (one.run.seed, two.run.seed, one.map_label()),
         (3, 3, "rm-1.1".into())
     );
 

@@ -172,7 +172,7 @@ fn config_layers_defaults_file_flags_and_overrides() {
     assert_eq!(ppo.lr, 5e-4);
     assert_eq!(ppo.epochs, 9, "--set beats the file");
     assert_eq!(cfg.model.hidden, [32, 32]);
-    assert_eq!(cfg.steps, 3000, "flags beat defaults");
+    assert_eq!(cfg.run.steps, 3000, "flags beat defaults");
     args.overrides = vec!["ppo.no_such_key=1".into()];
     assert!(
         train::resolve_config(&args).is_err(),
@@ -205,16 +205,16 @@ fn without_a_config_the_recipe_imitates_first_unless_told_not_to() {
     assert!(cfg.model.lstm && cfg.imitation.is_some());
     assert_eq!(cfg.imitation, recipe.imitation);
     // The recipe stops once learned, unless told to use its whole budget.
-    assert_eq!(cfg.stop, recipe.stop);
-    assert!(cfg.stop.is_some());
+    assert_eq!(cfg.run.stop, recipe.run.stop);
+    assert!(cfg.run.stop.is_some());
     args.no_stop = true;
-    assert!(train::resolve_config(&args).unwrap().stop.is_none());
+    assert!(train::resolve_config(&args).unwrap().run.stop.is_none());
     args.no_stop = false;
     // Over several layouts it keeps the training-success rule and leaves
     // out the greedy check, which plays one map's held-out episodes.
     let mut mixed = args.clone();
     (mixed.map, mixed.maps) = (None, Some("rm-2.2,rm-3.1".into()));
-    let stop = train::resolve_config(&mixed).unwrap().stop.unwrap();
+    let stop = train::resolve_config(&mixed).unwrap().run.stop.unwrap();
     assert_eq!(
         (stop.success, stop.hold, stop.greedy),
         (0.99, 200_000, None)

@@ -441,7 +441,7 @@ fn the_shipped_study_and_experiment_files_load() {
         if name.starts_with("tune-") || name.starts_with("pbt-") {
             let (config, base) =
                 tune::load_study_file(&path).unwrap_or_else(|e| panic!("{name}: {e:#}"));
-            assert!(config.trials > 0 && base.steps > 0, "{name}");
+            assert!(config.trials > 0 && base.run.steps > 0, "{name}");
             seen += 1;
         } else if name.ends_with(".toml") {
             let x = buridan_cli::experiment::Experiment::from_file(&path)

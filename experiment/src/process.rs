@@ -148,7 +148,7 @@ impl ProcessRunner {
             .append(true)
             .open(&log_path)
             .map_err(spawn_failed)?;
-        let mut cmd = self.command(spec, cfg.resume.as_deref());
+        let mut cmd = self.command(spec, cfg.run.resume.as_deref());
         cmd.stdin(Stdio::piped())
             .stdout(log.try_clone().map_err(spawn_failed)?)
             .stderr(log);

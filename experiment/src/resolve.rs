@@ -172,13 +172,13 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
         cfg.t_max = v.default_t_max();
     }
     if let Some(v) = args.steps {
-        cfg.steps = v;
+        cfg.run.steps = v;
     }
     if let Some(v) = args.seed {
-        cfg.seed = v;
+        cfg.run.seed = v;
     }
     if let Some(v) = &args.resume {
-        cfg.resume = if v.as_os_str() == "auto" {
+        cfg.run.resume = if v.as_os_str() == "auto" {
             buridan_policy::checkpoint::resolve(&args.out).ok()
         } else {
             Some(buridan_policy::checkpoint::resolve(v)?)
@@ -205,14 +205,14 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
         cfg.imitation = None;
     }
     if args.no_stop {
-        cfg.stop = None;
+        cfg.run.stop = None;
     }
     if cfg.task.maps().is_some()
         && args.config.is_none()
         && !set_keys.iter().any(|k| k.starts_with("stop"))
     {
         // The recipe's greedy check plays one map's held-out episodes.
-        if let Some(stop) = &mut cfg.stop {
+        if let Some(stop) = &mut cfg.run.stop {
             stop.greedy = None;
         }
     }
@@ -231,7 +231,7 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
         }
         // Plant episodes only truncate: no success for `[stop]` to hold.
         if !set_keys.iter().any(|k| k.starts_with("stop")) {
-            cfg.stop = None;
+            cfg.run.stop = None;
         }
     }
     if !t_max_given {

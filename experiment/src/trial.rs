@@ -122,9 +122,9 @@ pub fn apply_overrides(
 /// ([`start_checkpoint`]).
 pub fn trial_config(base: &TrainConfig, spec: &TrialSpec) -> Result<TrainConfig, TrialRunError> {
     let mut cfg = apply_overrides(base, &spec.overrides)?;
-    cfg.seed = spec.seed;
-    cfg.steps = spec.steps;
-    cfg.resume = start_checkpoint(spec)?;
+    cfg.run.seed = spec.seed;
+    cfg.run.steps = spec.steps;
+    cfg.run.resume = start_checkpoint(spec)?;
     Ok(cfg)
 }
 
@@ -279,15 +279,15 @@ pub fn train_interruptible(
     interrupt: Arc<AtomicBool>,
 ) -> Result<Summary, Box<TrainError>> {
     let mut run = Run::prepare(cfg, out)?;
-    let mut collectors = Vec::with_capacity(cfg.num_actors);
-    for i in 0..cfg.num_actors as u32 {
+    let mut collectors = Vec::with_capacity(cfg.run.num_actors);
+    for i in 0..cfg.run.num_actors as u32 {
         collectors.push(run.collector(i)?);
     }
     let mut exchange = InProcess::spawn(
         collectors,
         cfg.queue_capacity(),
         cfg.staleness(),
-        cfg.actor_nice,
+        cfg.run.actor_nice,
     )
     .map_err(|e| Box::new(e.into()))?;
     run.interrupt_on(interrupt);
@@ -327,7 +327,7 @@ impl LearnerRunner {
         tracing::info!(
             trial = spec.id,
             overrides = %buridan_study::overrides::describe(&spec.overrides),
-            resume = ?cfg.resume,
+            resume = ?cfg.run.resume,
             "trial starts"
         );
         let interrupt = Arc::new(AtomicBool::new(false));
@@ -490,13 +490,13 @@ mod tests {
         let mut s = spec(dir.path(), 1234, Objective::TrainSuccess);
         let cfg = trial_config(&tiny_base(), &s).unwrap();
         assert_eq!(
-            (cfg.algorithm.ppo().unwrap().lr, cfg.seed, cfg.steps),
+            (cfg.algorithm.ppo().unwrap().lr, cfg.run.seed, cfg.run.steps),
             (3e-4, 5, 1234)
         );
-        assert_eq!(cfg.resume, None);
+        assert_eq!(cfg.run.resume, None);
         // Resuming without a checkpoint starts fresh.
         s.resume = true;
-        assert_eq!(trial_config(&tiny_base(), &s).unwrap().resume, None);
+        assert_eq!(trial_config(&tiny_base(), &s).unwrap().run.resume, None);
         s.overrides
             .insert("ppo.epochs".into(), toml::Value::String("many".into()));
         let e = trial_config(&tiny_base(), &s).unwrap_err();

@@ -24,7 +24,7 @@ fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
     let venv = VecEnv::new(
         map,
         env_config(cfg, 0),
-        cfg.envs_per_actor,
+        cfg.run.envs_per_actor,
         ObsKind::Local,
         1,
     )
@@ -37,7 +37,7 @@ fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
         inference: Inference::new(Policy::new(spec, 0).unwrap(), rows, 1),
         behaviour: cfg.behaviour(),
         venv,
-        fragment_len: cfg.fragment_len,
+        fragment_len: cfg.run.fragment_len,
         version: 0,
         shield: None,
     };

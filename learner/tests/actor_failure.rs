@@ -6,7 +6,7 @@ use std::error::Error;
 use buridan_actor::{CollectError, Collector};
 use buridan_env::{BatchedEnv, EnvError, EpisodeStats, ObsKind, Starts};
 use buridan_learner::train::{
-    ActorEnv, ExchangeError, InProcess, NoProgress, Run, Task, TrainConfig, TrainError,
+    ActorEnv, ExchangeError, InProcess, NoProgress, Run, RunConfig, Task, TrainConfig, TrainError,
 };
 
 /// A grid env batch whose simulator breaks down after `healthy_steps`.
@@ -67,8 +67,11 @@ fn the_learner_names_the_failing_actors_cause() {
         task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: Starts::Fixed,
-        steps: 20_000,
-        envs_per_actor: 2,
+        run: RunConfig {
+            steps: 20_000,
+            envs_per_actor: 2,
+            ..RunConfig::default()
+        },
         ..TrainConfig::default()
     };
     let run = Run::prepare(&cfg, dir.path()).unwrap();

@@ -7,13 +7,13 @@ use std::sync::Arc;
 use buridan_actor::Collector;
 use buridan_env::{Map, ObsKind, Starts, VecEnv};
 use buridan_learner::algo::batch::{build_net_batches, evaluate, BatchTensors};
-use buridan_learner::train::{env_config, Task, TrainConfig};
+use buridan_learner::train::{env_config, RunConfig, Task, TrainConfig};
 use buridan_policy::{Inference, Mode, Policy};
 use candle_core::{Device, Tensor};
 
 fn actor(cfg: &TrainConfig, kind: ObsKind) -> (Collector, Policy) {
     let map = Arc::new(Map::load(&cfg.map_label()).unwrap());
-    let venv = VecEnv::new(map, env_config(cfg, 3), cfg.envs_per_actor, kind, 1).unwrap();
+    let venv = VecEnv::new(map, env_config(cfg, 3), cfg.run.envs_per_actor, kind, 1).unwrap();
     let spec = cfg.model_spec(venv.obs_dim());
     let policy = Policy::new(spec.clone(), 5).unwrap();
     let rows = venv.obs().len() / venv.obs_dim();
@@ -22,7 +22,7 @@ fn actor(cfg: &TrainConfig, kind: ObsKind) -> (Collector, Policy) {
         inference: Inference::new(policy.clone(), rows, 9),
         behaviour: cfg.behaviour(),
         venv,
-        fragment_len: cfg.fragment_len,
+        fragment_len: cfg.run.fragment_len,
         version: 0,
         shield: None,
     };
@@ -35,9 +35,13 @@ fn cfg(mode: Mode) -> TrainConfig {
         task: Task::Grid("rm-2.1".into()),
         agents: 3,
         starts: Starts::Random,
-        t_max: 7, // truncations inside every 20-step fragment
-        envs_per_actor: 2,
-        fragment_len: 20,
+        t_max: 7,
+        run: RunConfig {
+            // truncations inside every 20-step fragment
+            envs_per_actor: 2,
+            fragment_len: 20,
+            ..RunConfig::default()
+        },
         ..TrainConfig::default()
     }
 }

@@ -4,7 +4,7 @@
 
 use buridan_env::Starts;
 use buridan_learner::algo::ppo::{is_value_weight, Ppo, PpoSettings};
-use buridan_learner::train::{ModelConfig, PpoConfig, Run, Task, TrainConfig};
+use buridan_learner::train::{ModelConfig, PpoConfig, Run, RunConfig, Task, TrainConfig};
 use buridan_policy::{Fragment, Mode, ModelSpec, Policy};
 use rand::SeedableRng;
 
@@ -38,11 +38,14 @@ fn warm_up(mode: Mode, lstm: bool) {
         task: Task::Grid("rm-2.1".into()),
         agents: 4,
         starts: Starts::Random,
-        envs_per_actor: 8,
-        fragment_len: 40,
         model: ModelConfig {
             lstm,
             ..ModelConfig::default()
+        },
+        run: RunConfig {
+            envs_per_actor: 8,
+            fragment_len: 40,
+            ..RunConfig::default()
         },
         ..TrainConfig::default()
     };

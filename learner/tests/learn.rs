@@ -19,8 +19,8 @@ use std::sync::Arc;
 use buridan_env::{Map, Starts};
 use buridan_learner::train::rollout::rollout;
 use buridan_learner::train::{
-    env_config, final_checkpoint, train, Algorithm, MetricsRow, NoProgress, PpoConfig, Task,
-    TrainConfig,
+    env_config, final_checkpoint, train, Algorithm, MetricsRow, NoProgress, PpoConfig, RunConfig,
+    Task, TrainConfig,
 };
 use buridan_policy::{ActMode, Mode, Policy};
 
@@ -37,11 +37,14 @@ fn ppo_ctde_solves_rm_1_1_within_200k_steps() {
         task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: Starts::Fixed,
-        steps: 200_000,
-        seed: 1,
-        checkpoint_every: 0,
-        stop_return: Some(3.0),
-        stop_len: Some(13.5),
+        run: RunConfig {
+            steps: 200_000,
+            seed: 1,
+            checkpoint_every: 0,
+            stop_return: Some(3.0),
+            stop_len: Some(13.5),
+            ..RunConfig::default()
+        },
         ..TrainConfig::default()
     };
     let s = train(&cfg, dir.path(), &mut NoProgress).unwrap();

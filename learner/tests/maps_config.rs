@@ -3,7 +3,7 @@
 
 use buridan_env::{EnvError, MapError, Starts};
 use buridan_learner::train::{
-    train, ConfigError, NoProgress, Run, Task, TrainConfig, TrainError, WeightedMap,
+    train, ConfigError, NoProgress, Run, RunConfig, Task, TrainConfig, TrainError, WeightedMap,
 };
 use buridan_policy::{Mode, Policy};
 
@@ -154,9 +154,12 @@ fn a_run_over_two_layouts_records_them() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = TrainConfig {
         t_max: 15,
-        steps: 1500,
-        envs_per_actor: 6,
-        checkpoint_every: 0,
+        run: RunConfig {
+            steps: 1500,
+            envs_per_actor: 6,
+            checkpoint_every: 0,
+            ..RunConfig::default()
+        },
         algorithm: buridan_learner::train::Algorithm::Ppo(buridan_learner::train::PpoConfig {
             train_batch: 750,
             minibatch: 750,
@@ -187,16 +190,14 @@ fn a_run_over_two_layouts_records_them() {
 
     // Resumed on other layouts: the weights fit, the record follows the run.
     let resumed = TrainConfig {
-        steps: 2250,
-        resume: Some(summary.final_checkpoint.clone()),
-        ..with_maps("rm-2.1")
-    };
-    let resumed = TrainConfig {
         algorithm: cfg.algorithm.clone(),
         t_max: 15,
-        envs_per_actor: 6,
-        checkpoint_every: 0,
-        ..resumed
+        run: RunConfig {
+            steps: 2250,
+            resume: Some(summary.final_checkpoint.clone()),
+            ..cfg.run.clone()
+        },
+        ..with_maps("rm-2.1")
     };
     let again = train(&resumed, dir.path(), &mut NoProgress).unwrap();
     assert_eq!(again.updates, summary.updates + 1);

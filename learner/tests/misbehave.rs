@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use buridan_actor::client::{run as run_actor, url_connector, ActorOptions};
 use buridan_actor::misbehave::{MisbehaveOptions, Misbehaver};
 use buridan_learner::serve::SessionLimits;
-use buridan_learner::train::{Algorithm, ImpalaConfig, Task, TrainConfig};
+use buridan_learner::train::{Algorithm, ImpalaConfig, RunConfig, Task, TrainConfig};
 
 mod support;
 use support::Learner;
@@ -22,13 +22,16 @@ fn every_misbehaviour_is_refused_with_the_expected_status() {
         task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: buridan_env::Starts::Fixed,
-        steps: 10_000_000,
-        envs_per_actor: 2,
-        fragment_len: 20,
         algorithm: Algorithm::Impala(ImpalaConfig {
             train_batch: 40,
             ..ImpalaConfig::default()
         }),
+        run: RunConfig {
+            steps: 10_000_000,
+            envs_per_actor: 2,
+            fragment_len: 20,
+            ..RunConfig::default()
+        },
         ..TrainConfig::default()
     };
     let limits = SessionLimits {

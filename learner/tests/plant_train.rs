@@ -3,12 +3,13 @@
 //! counts success stays well defined though plant episodes only truncate.
 
 use buridan_learner::train::{
-    final_checkpoint, train, Algorithm, ModelConfig, NoProgress, PpoConfig, Task, TrainConfig,
+    final_checkpoint, train, Algorithm, ModelConfig, NoProgress, PpoConfig, RunConfig, Task,
+    TrainConfig,
 };
 use buridan_policy::{Mode, Policy};
 
 fn tiny(mode: Mode) -> TrainConfig {
-    let cfg = TrainConfig {
+    TrainConfig {
         algorithm: Algorithm::Ppo(PpoConfig {
             train_batch: 160,
             minibatch: 80,
@@ -20,17 +21,19 @@ fn tiny(mode: Mode) -> TrainConfig {
         agents: 2,
         // Short episodes, so that some finish within the budget.
         t_max: 40,
-        steps: 480,
-        envs_per_actor: 4,
-        fragment_len: 20,
         model: ModelConfig {
             hidden: vec![16, 16],
             ..ModelConfig::default()
         },
-        checkpoint_every: 0,
+        run: RunConfig {
+            steps: 480,
+            envs_per_actor: 4,
+            fragment_len: 20,
+            checkpoint_every: 0,
+            ..RunConfig::default()
+        },
         ..TrainConfig::default()
-    };
-    cfg
+    }
 }
 
 #[test]
@@ -71,11 +74,9 @@ fn a_plant_run_resumes_from_its_checkpoint() {
     let dir = tempfile::tempdir().unwrap();
     let (first, second) = (dir.path().join("a"), dir.path().join("b"));
     train(&tiny(Mode::Ctde), &first, &mut NoProgress).unwrap();
-    let cfg = TrainConfig {
-        steps: 640,
-        resume: Some(final_checkpoint(&first)),
-        ..tiny(Mode::Ctde)
-    };
+    let mut cfg = tiny(Mode::Ctde);
+    cfg.run.steps = 640;
+    cfg.run.resume = Some(final_checkpoint(&first));
     let s = train(&cfg, &second, &mut NoProgress).unwrap();
     assert_eq!((s.env_steps, s.updates), (640, 4));
     assert!(s.time_to_target.is_empty());

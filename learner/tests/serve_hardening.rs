@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use buridan_actor::client::build_collector;
 use buridan_actor::misbehave::RawCodec;
 use buridan_learner::serve::SessionLimits;
-use buridan_learner::train::{Task, TrainConfig};
+use buridan_learner::train::{RunConfig, Task, TrainConfig};
 use buridan_proto::convert::{
     fragment_to_message, fragment_to_message_encoded, weights_from_message, WireTag,
 };
@@ -31,9 +31,12 @@ fn start(sessions: SessionLimits) -> Learner {
         task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: buridan_env::Starts::Fixed,
-        steps: 10_000_000,
-        envs_per_actor: 1,
-        fragment_len: 20,
+        run: RunConfig {
+            steps: 10_000_000,
+            envs_per_actor: 1,
+            fragment_len: 20,
+            ..RunConfig::default()
+        },
         ..TrainConfig::default()
     };
     Learner::serve(cfg, sessions)

@@ -5,12 +5,12 @@ use buridan_env::Starts;
 use buridan_learner::algo::schedule::Schedule;
 use buridan_learner::train::{
     final_checkpoint, train, Algo, Algorithm, ImpalaConfig, MetricsRow, ModelConfig, NoProgress,
-    PpoConfig, Progress, Summary, Task, TrainConfig, TrainError,
+    PpoConfig, Progress, RunConfig, Summary, Task, TrainConfig, TrainError,
 };
 use buridan_policy::{Mode, Policy, PolicyError};
 
 fn tiny(algo: Algo, mode: Mode) -> TrainConfig {
-    let cfg = TrainConfig {
+    TrainConfig {
         algorithm: match algo {
             Algo::Ppo => Algorithm::Ppo(PpoConfig {
                 train_batch: 160,
@@ -27,19 +27,21 @@ fn tiny(algo: Algo, mode: Mode) -> TrainConfig {
         task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: Starts::Fixed,
-        steps: 800,
-        envs_per_actor: 4,
-        fragment_len: 20,
         model: ModelConfig {
             hidden: vec![16, 16],
             lstm: false,
             lstm_cells: 8,
             max_seq_len: 8,
         },
-        checkpoint_every: 2,
+        run: RunConfig {
+            steps: 800,
+            envs_per_actor: 4,
+            fragment_len: 20,
+            checkpoint_every: 2,
+            ..RunConfig::default()
+        },
         ..TrainConfig::default()
-    };
-    cfg
+    }
 }
 
 #[derive(Default)]
@@ -128,11 +130,9 @@ fn ppo_writes_metrics_checkpoints_summary_and_resumes() {
 
     // Resume from the final checkpoint to 1600 steps: counters continue,
     // metrics.csv grows, weights start where they stopped.
-    let resumed_cfg = TrainConfig {
-        steps: 1600,
-        resume: Some(final_checkpoint(&out)),
-        ..cfg.clone()
-    };
+    let mut resumed_cfg = cfg.clone();
+    resumed_cfg.run.steps = 1600;
+    resumed_cfg.run.resume = Some(final_checkpoint(&out));
     let mut rec2 = Record::default();
     let s2 = train(&resumed_cfg, &out, &mut rec2).unwrap();
     assert_eq!(rec2.started, Some((1600, 800)));
@@ -178,10 +178,10 @@ fn every_algorithm_and_mode_trains_end_to_end() {
             for lstm in [false, true] {
                 let mut cfg = tiny(algo, mode);
                 cfg.model.lstm = lstm;
-                cfg.steps = 480;
-                cfg.checkpoint_every = 0;
+                cfg.run.steps = 480;
+                cfg.run.checkpoint_every = 0;
                 if algo == Algo::Impala {
-                    cfg.num_actors = 2;
+                    cfg.run.num_actors = 2;
                 }
                 let out = dir.path().join(format!("{algo}-{mode}-{lstm}"));
                 let mut rec = Record::default();
@@ -221,7 +221,7 @@ fn imitation_runs_before_learning_and_logs_its_rounds() {
     let dir = tempfile::tempdir().unwrap();
     let mut cfg = tiny(Algo::Impala, Mode::Ctde);
     cfg.starts = Starts::Random;
-    cfg.steps = 0; // imitation only
+    cfg.run.steps = 0; // imitation only
     cfg.imitation = Some(buridan_imitate::ImitationConfig {
         rounds: 2,
         steps_per_round: 400,
@@ -235,7 +235,7 @@ fn imitation_runs_before_learning_and_logs_its_rounds() {
     assert!(csv.starts_with("round,env_steps,rows,"), "{csv}");
     // The imitated policy is the run's final checkpoint, and it is trained.
     let trained = Policy::load(&final_checkpoint(dir.path())).unwrap();
-    let fresh = Policy::new(trained.spec().clone(), cfg.seed).unwrap();
+    let fresh = Policy::new(trained.spec().clone(), cfg.run.seed).unwrap();
     assert_ne!(
         trained.weights(0).unwrap().tensors[0].data,
         fresh.weights(0).unwrap().tensors[0].data
@@ -259,7 +259,7 @@ fn imitation_runs_before_learning_and_logs_its_rounds() {
         let rounds = std::fs::read_to_string(out.path().join("imitation.csv")).unwrap();
         assert_eq!(rounds.lines().count(), 3, "{mode}: {rounds}");
         let trained = Policy::load(&final_checkpoint(out.path())).unwrap();
-        let fresh = Policy::new(trained.spec().clone(), cfg.seed).unwrap();
+        let fresh = Policy::new(trained.spec().clone(), cfg.run.seed).unwrap();
         for k in 0..trained.nets().len() {
             let (a, b) = (trained.net_vars(k), fresh.net_vars(k));
             let values = |v: &candle_core::Var| {
@@ -289,7 +289,7 @@ fn polish_imitates_after_learning_and_before_the_final_checkpoint() {
     assert!(!trained.join("polish.csv").exists());
     // Polish the trained run: resumed at its budget, it learns no more
     // from rewards, and DAgger rolls out the trained policy from round 0.
-    cfg.resume = Some(final_checkpoint(&trained));
+    cfg.run.resume = Some(final_checkpoint(&trained));
     cfg.polish = Some(buridan_imitate::ImitationConfig {
         rounds: 2,
         steps_per_round: 400,
@@ -378,7 +378,7 @@ fn imitating_rm_1_1() -> TrainConfig {
     cfg.model.hidden = vec![64, 64];
     let ppo = cfg.algorithm.ppo_mut().unwrap();
     (ppo.train_batch, ppo.minibatch) = (1000, 500);
-    cfg.fragment_len = 50;
+    cfg.run.fragment_len = 50;
     cfg.imitation = Some(buridan_imitate::ImitationConfig {
         expert: vec!["lacam".into(), "od-astar".into()],
         rounds: 2,
@@ -404,8 +404,8 @@ fn the_first_episodes_after_imitation_succeed_as_the_imitated_policy_does() {
     let dir = tempfile::tempdir().unwrap();
     let mut cfg = imitating_rm_1_1();
     // A budget it does not need: `[stop]` ends the run once it has held.
-    cfg.steps = 50_000;
-    cfg.stop = Some(buridan_learner::train::StopRule {
+    cfg.run.steps = 50_000;
+    cfg.run.stop = Some(buridan_learner::train::StopRule {
         success: 0.9,
         hold: 3_000,
         greedy: None,
@@ -419,7 +419,7 @@ fn the_first_episodes_after_imitation_succeed_as_the_imitated_policy_does() {
         summary.stop_reason,
         buridan_learner::train::StopReason::Learned
     );
-    assert!(summary.env_steps < cfg.steps, "{summary:?}");
+    assert!(summary.env_steps < cfg.run.steps, "{summary:?}");
 }
 
 /// `[stop.greedy]`: once the greedy policy solves the held-out episodes the
@@ -432,7 +432,7 @@ fn a_greedy_check_on_held_out_episodes_stops_a_run_that_has_learned() {
     use buridan_learner::train::{StopReason, StopRule, GREEDY_FILE};
     buridan_policy::threads::pin_threads(1);
     let mut cfg = imitating_rm_1_1();
-    cfg.steps = 20_000;
+    cfg.run.steps = 20_000;
     let check = GreedyCheck {
         success: 1.0,
         episodes: 8,
@@ -455,7 +455,7 @@ fn a_greedy_check_on_held_out_episodes_stops_a_run_that_has_learned() {
     // The imitated policy solves rm-1.1 (fixed starts) greedily: the first
     // check, right after the first update, stops the run.
     let dir = tempfile::tempdir().unwrap();
-    cfg.stop = Some(rule(check));
+    cfg.run.stop = Some(rule(check));
     let summary = train(&cfg, dir.path(), &mut Record::default()).unwrap();
     assert_eq!(summary.stop_reason, StopReason::Greedy, "{summary:?}");
     assert_eq!(summary.updates, 1, "stopped after the first update");
@@ -475,7 +475,7 @@ fn a_greedy_check_on_held_out_episodes_stops_a_run_that_has_learned() {
     // no check passes, one runs every 4,000 env steps, the budget ends it.
     let dir = tempfile::tempdir().unwrap();
     cfg.imitation = None;
-    cfg.steps = 9_000;
+    cfg.run.steps = 9_000;
     let summary = train(&cfg, dir.path(), &mut Record::default()).unwrap();
     assert_eq!(summary.stop_reason, StopReason::Budget, "{summary:?}");
     let rows = records(dir.path());

@@ -5,7 +5,7 @@
 use buridan_env::Starts;
 use buridan_learner::algo::impala::{Impala, ImpalaSettings};
 use buridan_learner::algo::ppo::{Ppo, PpoSettings};
-use buridan_learner::train::{ImpalaConfig, ModelConfig, Run, Task, TrainConfig};
+use buridan_learner::train::{ImpalaConfig, ModelConfig, Run, RunConfig, Task, TrainConfig};
 use buridan_policy::{Fragment, Mode, ModelSpec, Policy};
 use rand::SeedableRng;
 
@@ -108,11 +108,14 @@ fn cfg(mode: Mode, lstm: bool) -> TrainConfig {
         task: Task::Grid("rm-2.1".into()),
         agents: 4,
         starts: Starts::Random,
-        envs_per_actor: 16,
-        fragment_len: 40,
         model: ModelConfig {
             lstm,
             ..ModelConfig::default()
+        },
+        run: RunConfig {
+            envs_per_actor: 16,
+            fragment_len: 40,
+            ..RunConfig::default()
         },
         ..TrainConfig::default()
     };

@@ -154,6 +154,6 @@ mod tests {
         let c = Cli::try_parse_from(["soak", "--out", "x", "--config", config, "--set", "seed=7"])
             .unwrap();
         let cfg = c.soak.learner_config(Path::new("x/run")).unwrap();
-        assert_eq!(cfg.seed, 7);
+        assert_eq!(cfg.run.seed, 7);
     }
 }

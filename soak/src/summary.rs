@@ -189,7 +189,7 @@ pub(crate) fn summarize(
     let last = samples.rows.last().cloned().unwrap_or_default();
     let books = balance(
         &last,
-        (cfg.fragment_len * cfg.envs_per_actor) as u64,
+        (cfg.run.fragment_len * cfg.run.envs_per_actor) as u64,
         cfg.fragments_per_batch() as u64,
         &mut failures,
     );

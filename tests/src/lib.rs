@@ -6,7 +6,7 @@ use std::sync::{Arc, Mutex};
 
 use anyhow::{anyhow, Result};
 use buridan_actor::client::{ConnectError, Connector};
-use buridan_learner::train::{Task, TrainConfig};
+use buridan_learner::train::{RunConfig, Task, TrainConfig};
 use tokio::io::DuplexStream;
 use tokio::sync::mpsc;
 use tonic::transport::{Endpoint, Uri};
@@ -72,9 +72,12 @@ pub fn rm11_ppo(steps: u64, envs_per_actor: usize) -> TrainConfig {
         task: Task::Grid("rm-1.1".into()),
         agents: 2,
         starts: buridan_env::Starts::Fixed,
-        steps,
-        envs_per_actor,
-        checkpoint_every: 5,
+        run: RunConfig {
+            steps,
+            envs_per_actor,
+            checkpoint_every: 5,
+            ..RunConfig::default()
+        },
         ..TrainConfig::default()
     };
     let ppo = cfg.algorithm.ppo_mut().expect("a PPO run");

@@ -74,7 +74,7 @@ fn two_actors_train_rm11_to_reward_3() {
     let dir = tempfile::tempdir().unwrap();
     let net = InMemoryNet::default();
     let mut cfg = rm11_ppo(200_000, 8);
-    cfg.stop_return = Some(2.95);
+    cfg.run.stop_return = Some(2.95);
     let (learner, _updates) = start_learner(&net, cfg, dir.path().into(), ServeOptions::default());
     let rt = runtime();
     let a = rt.spawn(run(net.connector(), actor_opts("a")));
@@ -390,7 +390,7 @@ fn actors_reconnect_to_a_restarted_learner() {
     let dir = tempfile::tempdir().unwrap();
     let net = InMemoryNet::default();
     let mut cfg = rm11_ppo(20_000, 4);
-    cfg.checkpoint_every = 1;
+    cfg.run.checkpoint_every = 1;
     let interrupt = Arc::new(AtomicBool::new(false));
     let opts = ServeOptions {
         interrupt: Some(interrupt.clone()),
@@ -415,7 +415,7 @@ fn actors_reconnect_to_a_restarted_learner() {
     assert!(!actor.is_finished());
 
     let mut resumed = cfg;
-    resumed.resume = Some(interrupted.checkpoint.clone());
+    resumed.run.resume = Some(interrupted.checkpoint.clone());
     let (second, _updates) =
         start_learner(&net, resumed, dir.path().into(), ServeOptions::default());
     let summary = second.join().unwrap().unwrap();

@@ -12,7 +12,7 @@ use std::time::Duration;
 use buridan_actor::client::{run, ActorError, ActorOptions, SetupError};
 use buridan_learner::serve::{serve, Listener, ServeError, ServeOptions};
 use buridan_learner::train::{
-    Algorithm, MetricsRow, ModelConfig, PpoConfig, Progress, Summary, Task, TrainConfig,
+    Algorithm, MetricsRow, ModelConfig, PpoConfig, Progress, RunConfig, Summary, Task, TrainConfig,
 };
 use buridan_plant_server::{EnvServer, ServeConfig};
 use buridan_policy::Mode;
@@ -40,14 +40,17 @@ fn plant_run(steps: u64) -> TrainConfig {
         task: Task::Plant("dissertation".into()),
         agents: 2,
         t_max: 40,
-        steps,
-        envs_per_actor: 4,
-        fragment_len: 20,
         model: ModelConfig {
             hidden: vec![16, 16],
             ..ModelConfig::default()
         },
-        checkpoint_every: 0,
+        run: RunConfig {
+            steps,
+            envs_per_actor: 4,
+            fragment_len: 20,
+            checkpoint_every: 0,
+            ..RunConfig::default()
+        },
         ..TrainConfig::default()
     }
 }

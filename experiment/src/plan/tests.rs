@@ -111,8 +111,9 @@ fn a_method_without_a_config_trains_the_default_recipe() {
         .unwrap();
     assert!(cell.config.is_some());
     // It trains the recipe for its whole budget: everything but `[stop]`.
-    assert!(cfg.stop.is_some());
-    let whole_budget = TrainConfig { stop: None, ..cfg };
+    assert!(cfg.run.stop.is_some());
+    let mut whole_budget = cfg;
+    whole_budget.run.stop = None;
     assert_eq!(cell.config_in(Path::new("out")).unwrap(), whole_budget);
 }
 

@@ -332,7 +332,7 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
             map,
             env,
             plant,
-            fragment_len: cfg.fragment_len as u32,
+            fragment_len: cfg.run.fragment_len as u32,
             on_policy: cfg.on_policy(),
             // PPO's actors never lag; they get IMPALA's default, as before.
             max_policy_lag: cfg
@@ -346,8 +346,8 @@ fn run_info(run: &Run, opts: &ServeOptions) -> Result<RunInfo, TrainError> {
             replay: replay_to_message(&cfg.replay),
             obs_encodings: vec![v1::ObsEncoding::Codes as i32, v1::ObsEncoding::Lz4 as i32],
         },
-        envs_per_actor: cfg.envs_per_actor as u32,
-        max_envs: opts.max_envs.max(cfg.envs_per_actor as u32),
+        envs_per_actor: cfg.run.envs_per_actor as u32,
+        max_envs: opts.max_envs.max(cfg.run.envs_per_actor as u32),
         seed_base: run.actor_seed(0),
         obs_dim: spec.obs_dim as u32,
         heads: spec.heads as u32,

@@ -59,8 +59,8 @@ use phases::{imitate, Phase};
 use state::{read_trainer_state, restore_layout_windows};
 
 pub use config::{
-    Algo, Algorithm, ConfigError, ImpalaConfig, ModelConfig, PpoConfig, Task, TaskKeysError,
-    TrainConfig, WeightedMap,
+    Algo, Algorithm, ConfigError, ImpalaConfig, ModelConfig, PpoConfig, RunConfig, Task,
+    TaskKeysError, TrainConfig, WeightedMap,
 };
 pub use error::{ExchangeError, Interrupted, TrainError};
 pub use exchange::{Exchange, InProcess, Shared, Ticket};
@@ -147,14 +147,14 @@ pub fn train(
     progress: &mut dyn Progress,
 ) -> Result<Summary, TrainError> {
     let run = Run::prepare(cfg, out)?;
-    let collectors = (0..cfg.num_actors as u32)
+    let collectors = (0..cfg.run.num_actors as u32)
         .map(|i| run.collector(i))
         .collect::<Result<Vec<_>, _>>()?;
     let mut exchange = InProcess::spawn(
         collectors,
         cfg.queue_capacity(),
         cfg.staleness(),
-        cfg.actor_nice,
+        cfg.run.actor_nice,
     )?;
     run.learn(&mut exchange, progress)
 }
@@ -197,7 +197,7 @@ impl Run {
         write_file(&out.join(CONFIG_FILE), &cfg.to_toml())?;
         let (layouts, obs_dim) = match &plant {
             Some(plant) => {
-                let env = PlantEnv::new(plant.clone(), cfg.plant_config(cfg.seed))?;
+                let env = PlantEnv::new(plant.clone(), cfg.plant_config(cfg.run.seed))?;
                 let obs_dim = match cfg.mode.obs_kind() {
                     buridan_env::ObsKind::Local => env.local_obs_dim(),
                     buridan_env::ObsKind::Central => env.central_obs_dim(),
@@ -215,14 +215,14 @@ impl Run {
                 let obs_dim = cfg
                     .mode
                     .obs_kind()
-                    .obs_dim(&layouts[0].0, &env_config(cfg, cfg.seed));
+                    .obs_dim(&layouts[0].0, &env_config(cfg, cfg.run.seed));
                 (layouts, obs_dim)
             }
         };
         let spec = cfg.model_spec(obs_dim);
-        let (policy, mut state) = match &cfg.resume {
+        let (policy, mut state) = match &cfg.run.resume {
             None => {
-                let policy = Policy::new(spec.clone(), cfg.seed)?;
+                let policy = Policy::new(spec.clone(), cfg.run.seed)?;
                 if let Some(im) = &cfg.imitation {
                     imitate(cfg, im, Phase::Warmup, &layouts, &policy, out)?;
                 }
@@ -244,7 +244,7 @@ impl Run {
             state.time_to_target = target::targets();
         }
         let mut learner = Learner::new(cfg, &policy);
-        if let Some(dir) = &cfg.resume {
+        if let Some(dir) = &cfg.run.resume {
             learner.restore(dir, &state)?;
         }
         tracing::info!(
@@ -257,7 +257,7 @@ impl Run {
             updates = state.updates,
             "training"
         );
-        let greedy = (cfg.stop.and_then(|s| s.greedy))
+        let greedy = (cfg.run.stop.and_then(|s| s.greedy))
             .map(|check| stop::GreedyProbe::new(check, out))
             .transpose()?;
         Ok(Run {
@@ -274,7 +274,7 @@ impl Run {
             state,
             t_start,
             interrupt: None,
-            holding: cfg.stop.map(stop::Holding::new),
+            holding: cfg.run.stop.map(stop::Holding::new),
             greedy,
         })
     }
@@ -285,7 +285,7 @@ impl Run {
         let cfg = &self.cfg;
         let actor = u64::from(id);
         let seed = self.actor_seed(actor);
-        let (envs, kind) = (cfg.envs_per_actor, cfg.mode.obs_kind());
+        let (envs, kind) = (cfg.run.envs_per_actor, cfg.mode.obs_kind());
         // One map keeps the plain batch; a mixture only when there is a choice.
         let venv: ActorEnv = match (&self.plant, self.layouts.as_slice()) {
             (Some(plant), _) => Box::new(PlantVecEnv::new(
@@ -300,16 +300,16 @@ impl Run {
             (None, layouts) => VecEnv::with_layouts(layouts, env_config(cfg, seed), envs, kind, 1)?
                 .boxed(cfg.replay)?,
         };
-        let policy = Policy::new(self.spec.clone(), cfg.seed)?;
+        let policy = Policy::new(self.spec.clone(), cfg.run.seed)?;
         policy.copy_from(&self.policy)?;
         let rows = venv.rows();
-        let sampling = seed::actor_sampling(cfg.seed, actor, self.state.updates);
+        let sampling = seed::actor_sampling(cfg.run.seed, actor, self.state.updates);
         Ok(Collector {
             id,
             inference: Inference::new(policy, rows, sampling),
             behaviour: cfg.behaviour(),
             venv,
-            fragment_len: cfg.fragment_len,
+            fragment_len: cfg.run.fragment_len,
             version: self.state.updates,
             shield: cfg.shield_rollouts.then(|| RolloutShield::new(seed)),
         })
@@ -397,7 +397,7 @@ impl Run {
 
     /// Env seed of actor `k` ([`seed::actor_env`]).
     pub fn actor_seed(&self, k: u64) -> u64 {
-        seed::actor_env(self.cfg.seed, k, self.state.updates)
+        seed::actor_env(self.cfg.run.seed, k, self.state.updates)
     }
 
     /// The learner loop: publish weights, gather a train batch from
@@ -449,13 +449,13 @@ impl Run {
     ) -> Result<StopReason, TrainError> {
         let mut metrics = MetricsWriter::open(&self.out.join(METRICS_FILE))?;
         let mut events = tensorboard::EventWriter::create(&self.out)?;
-        let shuffle_seed = seed::learner_shuffle(self.cfg.seed, self.state.updates);
+        let shuffle_seed = seed::learner_shuffle(self.cfg.run.seed, self.state.updates);
         let mut rng = ChaCha8Rng::seed_from_u64(shuffle_seed);
-        progress.on_start(&self.cfg, self.cfg.steps, self.state.env_steps);
+        progress.on_start(&self.cfg, self.cfg.run.steps, self.state.env_steps);
         let mut since = (self.wall_offset, self.state.env_steps);
         let _learning = cores::Learning::start();
         self.publish(exchange)?;
-        while self.state.env_steps < self.cfg.steps {
+        while self.state.env_steps < self.cfg.run.steps {
             let Some(batch) = self.gather_batch(exchange)? else {
                 return Err(self.stop_interrupted());
             };
@@ -475,7 +475,7 @@ impl Run {
             tracing::debug!(?row, "update");
             progress.on_update(&row);
             progress.on_exchange(&self.exchange_status(exchange));
-            let every = self.cfg.checkpoint_every;
+            let every = self.cfg.run.checkpoint_every;
             if every > 0 && self.state.updates.is_multiple_of(every) {
                 let dir = checkpoint::update_dir(&self.out, self.state.updates);
                 self.save_checkpoint(&dir)?;
@@ -640,17 +640,18 @@ impl Run {
         if !probe.due(at.env_steps) {
             return Ok(false);
         }
-        let env = env_config(&self.cfg, self.cfg.seed);
-        probe.run(&self.policy, map.clone(), env, self.cfg.seed, at)
+        let env = env_config(&self.cfg, self.cfg.run.seed);
+        probe.run(&self.policy, map.clone(), env, self.cfg.run.seed, at)
     }
 
     /// Whether the `stop_return` (and `stop_len`) goal holds over a full window.
     fn goal_reached(&self) -> bool {
-        let Some(goal) = self.cfg.stop_return else {
+        let Some(goal) = self.cfg.run.stop_return else {
             return false;
         };
         let len_ok = self
             .cfg
+            .run
             .stop_len
             .is_none_or(|l| self.window.len_mean() <= l);
         self.window.len() >= metrics::EPISODE_WINDOW && self.window.return_mean() >= goal && len_ok

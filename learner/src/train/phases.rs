@@ -56,17 +56,17 @@ pub(super) fn imitate(
     policy: &Policy,
     out: &Path,
 ) -> Result<(), TrainError> {
-    let seed = seed::actor_env(cfg.seed, phase.stream(), 0);
+    let seed = seed::actor_env(cfg.run.seed, phase.stream(), 0);
     let env = env_config(cfg, seed);
     let kind = cfg.mode.obs_kind();
     let imitated = match layouts {
         [(map, _)] => {
             let mut venv = VecEnv::new(map.clone(), env, im.envs, kind, 1)?;
-            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut |_| {})
+            buridan_imitate::dagger(im, policy, &mut venv, cfg.run.seed, &mut |_| {})
         }
         _ => {
             let mut venv = VecEnv::with_layouts(layouts, env, im.envs, kind, 1)?;
-            buridan_imitate::dagger(im, policy, &mut venv, cfg.seed, &mut |_| {})
+            buridan_imitate::dagger(im, policy, &mut venv, cfg.run.seed, &mut |_| {})
         }
     };
     let rounds = imitated.map_err(|e| TrainError::Imitation(Box::new(e)))?;

@@ -14,7 +14,9 @@ use buridan_policy::Mode;
 use serde::{Deserialize, Serialize};
 
 use super::{Algo, Algorithm};
-use super::{ImpalaConfig, ModelConfig, PpoConfig, Task, TaskKeysError, TrainConfig, WeightedMap};
+use super::{
+    ImpalaConfig, ModelConfig, PpoConfig, RunConfig, Task, TaskKeysError, TrainConfig, WeightedMap,
+};
 use crate::train::stop::StopRule;
 
 /// Whether failure replay is off (then `[replay]` is left out of a saved config).
@@ -134,7 +136,7 @@ impl TrainFile {
 }
 
 /// Both conversions from one list of the fields the two forms share (every
-/// field but the task's, the model's and the algorithm's). Each side is destructured whole,
+/// field but the task's, the model's, the algorithm's and the run's). Each side is destructured whole,
 /// so a field added to one form and not to this list fails to compile.
 macro_rules! convert_through_shared_fields {
     ($($field:ident),* $(,)?) => {
@@ -142,11 +144,12 @@ macro_rules! convert_through_shared_fields {
             type Error = FileError;
 
             fn try_from(file: TrainFile) -> Result<Self, FileError> {
-                let TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, algo, ppo, impala, $($field),* } = file;
+                let TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, algo, ppo, impala, seed, steps, num_actors, envs_per_actor, actor_nice, fragment_len, checkpoint_every, stop_return, stop_len, stop, resume, $($field),* } = file;
                 Ok(TrainConfig {
                     task: Task::from_keys(map, maps, plant)?,
                     algorithm: TrainFile::algorithm(algo, ppo, impala)?,
                     model: ModelConfig { hidden, lstm, lstm_cells, max_seq_len },
+                    run: RunConfig { seed, steps, num_actors, envs_per_actor, actor_nice, fragment_len, checkpoint_every, stop_return, stop_len, stop, resume },
                     $($field),*
                 })
             }
@@ -154,7 +157,7 @@ macro_rules! convert_through_shared_fields {
 
         impl From<TrainConfig> for TrainFile {
             fn from(cfg: TrainConfig) -> Self {
-                let TrainConfig { task, model, algorithm, $($field),* } = cfg;
+                let TrainConfig { task, model, algorithm, run, $($field),* } = cfg;
                 let (map, maps, plant) = task.into_keys();
                 let algo = algorithm.algo();
                 let (ppo, impala) = match algorithm {
@@ -162,7 +165,8 @@ macro_rules! convert_through_shared_fields {
                     Algorithm::Impala(i) => (None, Some(i)),
                 };
                 let ModelConfig { hidden, lstm, lstm_cells, max_seq_len } = model;
-                TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, algo, ppo, impala, $($field),* }
+                let RunConfig { seed, steps, num_actors, envs_per_actor, actor_nice, fragment_len, checkpoint_every, stop_return, stop_len, stop, resume } = run;
+                TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, algo, ppo, impala, seed, steps, num_actors, envs_per_actor, actor_nice, fragment_len, checkpoint_every, stop_return, stop_len, stop, resume, $($field),* }
             }
         }
     };
@@ -177,20 +181,9 @@ convert_through_shared_fields!(
     sensor_range,
     features,
     shaping,
-    seed,
-    steps,
-    num_actors,
-    envs_per_actor,
-    actor_nice,
-    fragment_len,
     shield_rollouts,
     replay,
     gamma,
-    checkpoint_every,
-    stop_return,
-    stop_len,
-    stop,
-    resume,
     imitation,
     polish,
 );

@@ -117,7 +117,7 @@ impl TrainConfig {
         plant.episode.t_max = self.t_max;
         PlantEnv::new(
             std::sync::Arc::new(plant.clone()),
-            self.plant_config(self.seed),
+            self.plant_config(self.run.seed),
         )
         .map_err(|source| ConfigError::AgentsDoNotFit {
             map: self.map_label(),
@@ -191,7 +191,7 @@ impl TrainConfig {
                     map: m.name.clone(),
                     source,
                 })?;
-                buridan_env::episode_instance(&map, self.agents, self.starts, self.seed, 0)
+                buridan_env::episode_instance(&map, self.agents, self.starts, self.run.seed, 0)
                     .map_err(|source| ConfigError::AgentsDoNotFit {
                         map: m.name.clone(),
                         agents: self.agents,

@@ -1,7 +1,7 @@
 //! Training configuration: every hyperparameter of SPEC §4, with the
 //! dissertation's comparison settings as defaults, loadable from TOML.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use buridan_env::replay::ReplayConfig;
 use buridan_env::{ObsFeatures, Rules, Starts};
@@ -20,6 +20,7 @@ mod error;
 mod file;
 mod layouts;
 mod model;
+mod run;
 mod task;
 #[cfg(test)]
 mod tests;
@@ -29,6 +30,7 @@ pub use algo::{Algo, Algorithm, ImpalaConfig, PpoConfig};
 pub use error::ConfigError;
 pub use layouts::WeightedMap;
 pub use model::ModelConfig;
+pub use run::RunConfig;
 pub use task::{Task, TaskKeysError};
 
 /// Everything a training run needs.
@@ -90,23 +92,9 @@ pub struct TrainConfig {
     /// Potential-based shaping on the goal distance: reward per step gained
     /// (0 = off, the dissertation's rewards). Uses `gamma`.
     pub shaping: f32,
-    /// Seed of weights, sampling and the env episodes (actor `i` uses env seed `seed + i`).
-    pub seed: u64,
-    /// Env-step budget.
-    pub steps: u64,
-    /// Actor threads.
-    pub num_actors: usize,
-    /// Envs per actor (one VecEnv each).
-    pub envs_per_actor: usize,
-    /// Niceness of the embedded actor threads (0–19; 0: the learner's
-    /// priority), as `actor --nice` sets it for an actor process. Measured
-    /// on 2 cores it leaves an embedded IMPALA run's speed unchanged (0.99)
-    /// while it speeds up an actor process beside the learner; the
-    /// transport bench sets both alike (README, "Measured on this 2-core
-    /// machine").
-    pub actor_nice: u8,
-    /// Rollout fragment length T (50).
-    pub fragment_len: usize,
+    /// How the run is carried out ([`RunConfig`]): its seed and budget,
+    /// the actors, checkpoints and when it stops, TOML top-level keys.
+    pub run: RunConfig,
     /// Rollouts through the PIBT collision shield, as a shielded policy is
     /// deployed (`buridan_actor::shield`; CS-PIBT): the policy acts under
     /// wall masks, so asking for a neighbour's cell is legal, and the env
@@ -126,19 +114,6 @@ pub struct TrainConfig {
     /// The network: layer sizes and the LSTM, TOML top-level keys
     /// ([`ModelConfig`]).
     pub model: ModelConfig,
-    /// Save a checkpoint every this many updates (0: only the final one).
-    pub checkpoint_every: u64,
-    /// Stop early once the mean return of the last 100 episodes reaches this.
-    pub stop_return: Option<f64>,
-    /// …and (if set) their mean length is at most this.
-    pub stop_len: Option<f64>,
-    /// Stop once the policy has learned, TOML `[stop]`: the training
-    /// success has held `success` for `hold` env steps, or (`[stop.greedy]`)
-    /// the greedy policy solves a share of held-out episodes (`steps` stays
-    /// the cap; [`super::stop`]). Off by default; the recipe sets it.
-    pub stop: Option<StopRule>,
-    /// Continue from this checkpoint directory (weights, optimiser, counters).
-    pub resume: Option<PathBuf>,
     /// Imitate a planner before learning from rewards, TOML `[imitation]`
     /// (DAgger, `buridan_imitate`): a fresh run's policy is first fitted
     /// to the planner's actions on the states it visits, then trained by
@@ -165,21 +140,11 @@ impl Default for TrainConfig {
             sensor_range: 2,
             features: ObsFeatures::default(),
             shaping: 0.0,
-            seed: 0,
-            steps: 2_000_000,
-            num_actors: 1,
-            envs_per_actor: 16,
-            actor_nice: 0,
-            fragment_len: 50,
+            run: RunConfig::default(),
             shield_rollouts: false,
             replay: ReplayConfig::default(),
             gamma: 0.99,
             model: ModelConfig::default(),
-            checkpoint_every: 50,
-            stop_return: None,
-            stop_len: None,
-            stop: None,
-            resume: None,
             imitation: None,
             polish: None,
         }
@@ -211,8 +176,8 @@ impl TrainConfig {
     /// assert!(r.model.lstm && r.features.path && r.features.intent && r.shaping > 0.0);
     /// let imitation = r.imitation.as_ref().unwrap();
     /// assert_eq!((imitation.rounds, imitation.expert.as_slice()), (4, &["lacam".to_string(), "od-astar".into()][..]));
-    /// assert_eq!(r.stop.map(|s| (s.success, s.hold)), Some((0.99, 200_000)));
-    /// let greedy = r.stop.and_then(|s| s.greedy).unwrap();
+    /// assert_eq!(r.run.stop.map(|s| (s.success, s.hold)), Some((0.99, 200_000)));
+    /// let greedy = r.run.stop.and_then(|s| s.greedy).unwrap();
     /// assert_eq!((greedy.success, greedy.episodes, greedy.every), (0.99, 200, 20_000));
     /// r.validate().unwrap();
     /// ```
@@ -228,16 +193,19 @@ impl TrainConfig {
                 ..ObsFeatures::default()
             },
             shaping: 0.05,
-            steps: 1_000_000,
-            stop: Some(StopRule {
-                success: 0.99,
-                hold: 200_000,
-                greedy: Some(GreedyCheck {
+            run: RunConfig {
+                steps: 1_000_000,
+                stop: Some(StopRule {
                     success: 0.99,
-                    episodes: 200,
-                    every: 20_000,
+                    hold: 200_000,
+                    greedy: Some(GreedyCheck {
+                        success: 0.99,
+                        episodes: 200,
+                        every: 20_000,
+                    }),
                 }),
-            }),
+                ..RunConfig::default()
+            },
             model: ModelConfig {
                 lstm: true,
                 ..ModelConfig::default()
@@ -366,7 +334,7 @@ impl TrainConfig {
 
     /// Env steps one fragment holds: `fragment_len · envs_per_actor`.
     pub fn fragment_env_steps(&self) -> usize {
-        self.fragment_len * self.envs_per_actor
+        self.run.fragment_len * self.run.envs_per_actor
     }
 
     /// Fragments per train batch (rounded up).

@@ -22,13 +22,16 @@ impl TrainConfig {
             self.shaping.is_finite() && self.shaping >= 0.0,
             "shaping must be finite and at least 0",
         )?;
-        ensure(self.num_actors >= 1, "num_actors must be at least 1")?;
+        ensure(self.run.num_actors >= 1, "num_actors must be at least 1")?;
         ensure(
-            self.envs_per_actor >= 1,
+            self.run.envs_per_actor >= 1,
             "envs_per_actor must be at least 1",
         )?;
-        ensure(self.actor_nice <= 19, "actor_nice must be at most 19")?;
-        ensure(self.fragment_len >= 1, "fragment_len must be at least 1")?;
+        ensure(self.run.actor_nice <= 19, "actor_nice must be at most 19")?;
+        ensure(
+            self.run.fragment_len >= 1,
+            "fragment_len must be at least 1",
+        )?;
         ensure(
             !self.model.hidden.is_empty() && !self.model.hidden.contains(&0),
             "hidden sizes must be positive",
@@ -52,7 +55,7 @@ impl TrainConfig {
         }
         ensure(self.model.lstm_cells >= 1, "lstm_cells must be positive")?;
         self.replay.validate().map_err(ConfigError::Replay)?;
-        if let Some(stop) = &self.stop {
+        if let Some(stop) = &self.run.stop {
             stop.validate().map_err(ConfigError::Invalid)?;
             ensure(
                 stop.greedy.is_none() || self.task.grid_map().is_some(),
