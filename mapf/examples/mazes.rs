@@ -143,33 +143,26 @@ fn planner(args: &Args) -> Box<dyn Planner> {
     {
         return planner_for_rules(&args.planner, Rules::Pogema).expect("a known planner");
     }
-    let rules = ConflictModel::SIMULTANEOUS;
+    let base = Lacam::default();
+    let lacam = Lacam {
+        rules: ConflictModel::SIMULTANEOUS,
+        swap: args.swap.unwrap_or(base.swap),
+        restart: args.restart.unwrap_or(base.restart),
+        seed: args.seed.unwrap_or(base.seed),
+        generators: args.generators.unwrap_or(base.generators),
+        within_cap: args.within_cap.unwrap_or(base.within_cap),
+    };
     match args.planner.as_str() {
-        "lacam" => {
-            let base = Lacam::default();
-            Box::new(Lacam {
-                rules,
-                swap: args.swap.unwrap_or(base.swap),
-                restart: args.restart.unwrap_or(base.restart),
-                seed: args.seed.unwrap_or(base.seed),
-                generators: args.generators.unwrap_or(base.generators),
-                within_cap: args.within_cap.unwrap_or(base.within_cap),
-            })
-        }
+        "lacam" => Box::new(lacam),
         "lacam-star" | "lacam-star-makespan" => {
             let base = LacamStar::default();
             Box::new(LacamStar {
-                rules,
-                swap: args.swap.unwrap_or(base.swap),
-                restart: args.restart.unwrap_or(base.restart),
-                seed: args.seed.unwrap_or(base.seed),
-                generators: args.generators.unwrap_or(base.generators),
+                lacam,
                 objective: if args.planner == "lacam-star" {
                     Objective::SumOfLoss
                 } else {
                     Objective::Makespan
                 },
-                within_cap: args.within_cap.unwrap_or(base.within_cap),
                 refine_time: args
                     .refine
                     .map(Duration::from_secs_f64)

@@ -163,7 +163,7 @@ pub fn planner_for_rules(
 /// The planner of a name for `rules` (as [`planner_for_rules`]) that plans
 /// within [`Limits::max_makespan`] where one is set: LaCAM searches on
 /// until its plan fits ([`crate::Lacam::within_cap`]) and LaCAM\* returns a
-/// plan within it ([`crate::LacamStar::within_cap`]), so a plan that
+/// plan within it ([`crate::Lacam::within_cap`], in [`crate::LacamStar::lacam`]), so a plan that
 /// cannot succeed within an episode's T_max is refined or rejected
 /// ([`SolveError::NoSolutionWithin`] once the search proves that none
 /// fits). The other planners search within the cap anyway (OD-A\*, CBS,
@@ -209,6 +209,13 @@ fn build(
         return Ok(Box::new(Portfolio::new(planners)));
     }
     let lower = name.to_ascii_lowercase();
+    // PIBT's swap operation is on under both rule sets (measured under
+    // each, see `Lacam::swap`).
+    let lacam = crate::Lacam {
+        rules,
+        within_cap,
+        ..crate::Lacam::default()
+    };
     Ok(match lower.as_str() {
         "ma-astar" | "maastar" | "ma-a*" | "ma_astar" => Box::new(crate::MaAstar {
             rules,
@@ -240,21 +247,13 @@ fn build(
             rules,
             ..crate::Prioritized::default()
         }),
-        // PIBT's swap operation is on under both rule sets (measured under
-        // each, see `Lacam::swap`).
-        "lacam" => Box::new(crate::Lacam {
-            rules,
-            within_cap,
-            ..crate::Lacam::default()
-        }),
+        "lacam" => Box::new(lacam),
         "lacam-star" | "lacam*" | "lacam_star" | "lacamstar" => Box::new(crate::LacamStar {
-            rules,
-            within_cap,
+            lacam,
             ..crate::LacamStar::default()
         }),
         "lacam-star-makespan" => Box::new(crate::LacamStar {
-            rules,
-            within_cap,
+            lacam,
             objective: crate::Objective::Makespan,
             ..crate::LacamStar::default()
         }),

@@ -23,7 +23,10 @@ fn limits(secs: u64) -> Limits {
 /// A LaCAM* that refines until it proves optimality.
 fn star(objective: Objective, rules: ConflictModel) -> LacamStar {
     LacamStar {
-        rules,
+        lacam: Lacam {
+            rules,
+            ..Lacam::default()
+        },
         objective,
         refine_time: None,
         ..LacamStar::default()

@@ -12,7 +12,8 @@ use std::time::Duration;
 use buridan_env::{Cell, Grid, Map, Rules as RuleSet, Scenario};
 use buridan_mapf::{
     planner_by_name, planner_for_rules, replay_exact_with, replay_with, validate_with,
-    ConflictModel, LacamStar, Limits, Plan, PlanError, Planner, PlannerLookupError, SolveError,
+    ConflictModel, Lacam, LacamStar, Limits, Plan, PlanError, Planner, PlannerLookupError,
+    SolveError,
 };
 
 fn c(row: usize, col: usize) -> Cell {
@@ -237,7 +238,10 @@ fn lacam_solves_pogema_warehouse_instances_and_plans_replay() {
 #[test]
 fn lacam_star_refined_by_lns_shortens_warehouse_plans_that_replay() {
     let with_lns = LacamStar {
-        rules: ConflictModel::SIMULTANEOUS,
+        lacam: Lacam {
+            rules: ConflictModel::SIMULTANEOUS,
+            ..Lacam::default()
+        },
         refine_time: Some(Duration::from_millis(400)),
         ..LacamStar::default()
     };

@@ -83,7 +83,7 @@
 //! ([`SolveError::NoSolutionWithin`]); at a limit the shortest plan found
 //! so far is returned even if it is longer than the cap.
 //!
-//! [`LacamStar::within_cap`] does the same for LaCAM*: minimising the
+//! `within_cap` in [`LacamStar::lacam`] does the same for LaCAM*: minimising the
 //! makespan it prunes by the cap and refines as usual (an exhausted search
 //! proves its plan optimal, or that none fits); minimising the sum of loss
 //! it refines as usual (LNS repairing a plan longer than the cap first,
@@ -226,10 +226,11 @@ impl Default for Lacam {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LacamStar {
-    /// The conflict model (default: env-executable plans).
-    pub rules: ConflictModel,
-    /// Seed of PIBT's tie-breaking.
-    pub seed: u64,
+    /// LaCAM's settings, which LaCAM* searches with: the conflict model,
+    /// PIBT's seed, swap, random restarts, generators and the makespan cap
+    /// ([`Lacam`]; TOML keys at the top level).
+    #[serde(flatten)]
+    pub lacam: Lacam,
     /// What to minimise (default: sum of loss).
     pub objective: Objective,
     /// CPU time after which a search that has a solution stops refining it
@@ -239,20 +240,6 @@ pub struct LacamStar {
     /// proven optimal or [`Limits::time`] runs out. Without a solution the
     /// search goes on until the limits.
     pub refine_time: Option<Duration>,
-    /// PIBT's *swap* operation (default on, see [`Lacam::swap`]).
-    #[serde(default = "swap_default")]
-    pub swap: bool,
-    /// Random restarts (default 0.1, see [`Lacam::restart`]).
-    #[serde(default = "restart_default")]
-    pub restart: f64,
-    /// Configuration generators per successor (default 1, see
-    /// [`Lacam::generators`]).
-    #[serde(default = "generators_default")]
-    pub generators: u32,
-    /// Return a plan within [`Limits::max_makespan`] (default off; see
-    /// [LaCAM within a makespan cap](self#lacam-within-a-makespan-cap)).
-    #[serde(default)]
-    pub within_cap: bool,
     /// Refine by large neighbourhood search (MAPF-LNS, see the [module
     /// docs](self)) in the second half of `refine_time` (default on; sum of
     /// loss only): the search itself refines during the first half and,
@@ -269,14 +256,9 @@ fn lns_default() -> bool {
 impl Default for LacamStar {
     fn default() -> Self {
         Self {
-            rules: ConflictModel::default(),
-            seed: 0,
+            lacam: Lacam::default(),
             objective: Objective::default(),
             refine_time: Some(Duration::from_millis(500)),
-            swap: swap_default(),
-            restart: restart_default(),
-            generators: generators_default(),
-            within_cap: false,
             lns: lns_default(),
         }
     }
@@ -351,7 +333,7 @@ impl LacamStar {
     pub fn search(&self, problem: Problem<'_>, limits: &Limits) -> Result<Outcome, SolveError> {
         let mut clock = Budget::new(limits);
         let setup = Setup::new(problem)?;
-        let cap = limits.max_makespan.filter(|_| self.within_cap);
+        let cap = limits.max_makespan.filter(|_| self.lacam.within_cap);
         // With LNS the search refines for the first half of the time.
         let lns_until = self.refine_time.filter(|_| self.lns_applies());
         let star = Star {
@@ -361,7 +343,7 @@ impl LacamStar {
                 None => self.refine_time,
             },
         };
-        let mut search = Search::new(&setup, self.lacam().generator(), Some(star), limits);
+        let mut search = Search::new(&setup, self.lacam.generator(), Some(star), limits);
         if self.objective == Objective::Makespan {
             search.cap = cap.map(|c| c as u64);
         }
@@ -380,7 +362,7 @@ impl LacamStar {
     }
 
     /// The plan shortened by LNS until `until` on `clock`: within the cap
-    /// (`cap`, [`LacamStar::within_cap`]) a plan that does not fit is
+    /// (`cap`, from `within_cap` in [`LacamStar::lacam`]) a plan that does not fit is
     /// repaired first; otherwise its sum of loss never grows, and a
     /// makespan within [`Limits::max_makespan`] stays within it.
     fn shorten(
@@ -407,10 +389,10 @@ impl LacamStar {
             dist: &setup.dist,
             starts: &setup.starts,
             goals: &setup.goals,
-            forbid_following: self.rules.forbid_following,
+            forbid_following: self.lacam.rules.forbid_following,
             cap: cap.or(limits.max_makespan.filter(|&c| plan.makespan() <= c)),
         };
-        let done = lns::refine(&inst, &mut paths, clock, until, self.seed);
+        let done = lns::refine(&inst, &mut paths, clock, until, self.lacam.seed);
         if done.accepted == 0 {
             return found;
         }
@@ -456,7 +438,7 @@ impl LacamStar {
                 };
                 let within = Lacam {
                     within_cap: true,
-                    ..self.lacam()
+                    ..self.lacam
                 };
                 match within.solve(problem, &left) {
                     Ok(solution) if solution.plan.makespan() <= cap => Ok(Outcome {
@@ -472,27 +454,15 @@ impl LacamStar {
             other => other,
         }
     }
-
-    /// LaCAM with these settings (returning its first plan).
-    fn lacam(&self) -> Lacam {
-        Lacam {
-            rules: self.rules,
-            seed: self.seed,
-            swap: self.swap,
-            restart: self.restart,
-            generators: self.generators,
-            within_cap: false,
-        }
-    }
 }
 
 impl Planner for LacamStar {
     fn rules(&self) -> ConflictModel {
-        self.rules
+        self.lacam.rules
     }
 
     fn name(&self) -> &str {
-        match (self.rules.forbid_following, self.objective) {
+        match (self.lacam.rules.forbid_following, self.objective) {
             (true, Objective::SumOfLoss) => "lacam-star",
             (true, Objective::Makespan) => "lacam-star-makespan",
             (false, Objective::SumOfLoss) => "lacam-star-simultaneous",
