@@ -74,6 +74,18 @@ pub struct EvalArgs {
     /// thesis, 128 for pogema).
     #[arg(long, alias = "max-steps")]
     pub t_max: Option<u32>,
+    /// Execution delays: the probability in [0, 1) that a robot fails to
+    /// carry out its move in a step and stays put, each robot and step
+    /// independently, seeded by --seed (0: none). Controllers see the
+    /// positions that resulted, not the moves they commanded.
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "P",
+        conflicts_with = "plant"
+    )]
+    pub delay: f32,
+
     /// Per-instance planning time limit in seconds (planners).
     #[arg(long, default_value_t = 60.0, conflicts_with = "plant")]
     pub time_limit: f64,
@@ -294,6 +306,7 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
             t_max,
             jobs: args.jobs.max(1),
             rules: args.rules,
+            delay: args.delay,
         };
         let progress = EpisodeProgress::new(
             &format!("{} {} agents={agents}", args.controller, map.name),

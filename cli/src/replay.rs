@@ -46,6 +46,11 @@ pub struct ReplayArgs {
     /// thesis, 128 for pogema).
     #[arg(long)]
     pub t_max: Option<u32>,
+    /// Execution delays: the probability in [0, 1) that a robot fails to
+    /// carry out its move in a step and stays put (`learner eval --delay`;
+    /// here `--delay` is the GIF's frame time; 0: none).
+    #[arg(long, default_value_t = 0.0, value_name = "P")]
+    pub exec_delay: f32,
     /// Per-instance planning time limit in seconds (planners).
     #[arg(long, default_value_t = 60.0)]
     pub time_limit: f64,
@@ -120,6 +125,7 @@ pub fn run(args: &ReplayArgs) -> Result<Trace> {
         t_max: args.t_max.unwrap_or(args.rules.default_t_max()),
         jobs: 1,
         rules: args.rules,
+        delay: args.exec_delay,
     };
     let opts = GifOptions {
         cell_px: args.cell_px,

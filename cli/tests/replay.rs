@@ -25,6 +25,7 @@ fn replay_args(out: PathBuf) -> ReplayArgs {
         sample: false,
         cell_px: 0,
         delay: 15,
+        exec_delay: 0.0,
         out,
     }
 }
@@ -157,4 +158,66 @@ fn a_replay_under_pogema_rules_is_the_episode_eval_plays_under_them() {
     args.controller = "od-astar".into();
     let err = format!("{:#}", replay::run(&args).unwrap_err());
     assert!(err.contains("cannot plan under pogema rules"), "{err}");
+}
+
+#[test]
+fn an_evaluation_under_delays_records_them_and_replays_each_episode() {
+    let dir = tempfile::tempdir().unwrap();
+    let eval_dir = |name: &str| dir.path().join(name).display().to_string();
+    let run = |delay: &str, out: &str| {
+        let args = common::eval_args(&[
+            "--map",
+            "rm-2.1",
+            "--agents",
+            "8",
+            "--episodes",
+            "6",
+            "--rules",
+            "pogema",
+            "--controller",
+            "pibt",
+            "--delay",
+            delay,
+            "--json",
+            "--out",
+            out,
+        ]);
+        eval::run(&args)
+    };
+    run("0.3", &eval_dir("lagging")).unwrap();
+    run("0", &eval_dir("prompt")).unwrap();
+    let summary = |name: &str| -> serde_json::Value {
+        let text = std::fs::read_to_string(dir.path().join(name).join("summary.json")).unwrap();
+        serde_json::from_str(&text).unwrap()
+    };
+    let delay = summary("lagging")["delay"].as_f64().unwrap();
+    assert!((delay - 0.3).abs() < 1e-6, "{delay}");
+    assert!(
+        summary("prompt").get("delay").is_none(),
+        "no delays, no key"
+    );
+    let steps = |name: &str| -> Vec<String> {
+        let csv = std::fs::read_to_string(dir.path().join(name).join("episodes.csv")).unwrap();
+        csv.lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(2).unwrap().to_string())
+            .collect()
+    };
+    assert_ne!(
+        steps("lagging"),
+        steps("prompt"),
+        "lagging robots take longer"
+    );
+    // The replay of an episode under the same delays is that episode.
+    let mut args = replay_args(dir.path().join("ep3.json"));
+    (args.rules, args.t_max, args.controller) = (Rules::Pogema, None, "pibt".into());
+    args.exec_delay = 0.3;
+    let trace = replay::run(&args).unwrap();
+    assert_eq!(steps("lagging")[3], trace.record.timesteps.to_string());
+    // A delay that is no probability is refused, naming it.
+    let err = format!("{:#}", run("1.5", &eval_dir("bad")).unwrap_err());
+    assert!(
+        err.contains("delay must be a probability in [0, 1)"),
+        "{err}"
+    );
 }

@@ -72,6 +72,14 @@ pub struct EnvConfig {
     pub features: crate::ObsFeatures,
     /// Potential-based reward shaping on the goal distance (off by default).
     pub shaping: Option<crate::Shaping>,
+    /// Execution uncertainty: the probability (in [0, 1), 0 by default)
+    /// that an agent fails to carry out its move in a step and stays where
+    /// it is, each agent and step independently, drawn from a seeded
+    /// stream of the episode ([`crate::seed::delays`]). Real robots lag:
+    /// a move takes longer or a robot stalls; a controller sees the
+    /// positions that resulted, not the ones it commanded. Waits are not
+    /// delayed; a delayed move is not a blocked move.
+    pub delay: f32,
 }
 
 impl Default for EnvConfig {
@@ -87,6 +95,7 @@ impl Default for EnvConfig {
             stall_window: crate::monitor::DEFAULT_WINDOW,
             features: crate::ObsFeatures::default(),
             shaping: None,
+            delay: 0.0,
         }
     }
 }
@@ -106,6 +115,7 @@ struct EnvConfigFile {
     stall_window: u32,
     features: crate::ObsFeatures,
     shaping: Option<crate::Shaping>,
+    delay: f32,
 }
 
 impl Default for EnvConfigFile {
@@ -122,6 +132,7 @@ impl Default for EnvConfigFile {
             stall_window: d.stall_window,
             features: d.features,
             shaping: d.shaping,
+            delay: d.delay,
         }
     }
 }
@@ -139,6 +150,7 @@ impl From<EnvConfigFile> for EnvConfig {
             stall_window: f.stall_window,
             features: f.features,
             shaping: f.shaping,
+            delay: f.delay,
         }
     }
 }
@@ -196,6 +208,12 @@ impl EnvConfig {
         }
         if let Some(shaping) = &self.shaping {
             shaping.validate().map_err(EnvError::InvalidConfig)?;
+        }
+        if !(0.0..1.0).contains(&self.delay) {
+            return Err(EnvError::InvalidConfig(format!(
+                "delay must be a probability in [0, 1), got {}",
+                self.delay
+            )));
         }
         Ok(())
     }

@@ -72,6 +72,14 @@ pub fn lifelong_goals(env_seed: u64) -> u64 {
     env_seed ^ 0x6c69_6665_6c6f_6e67 // "lifelong"
 }
 
+/// Seed of the execution delays of an env seeded `env_seed`
+/// ([`crate::EnvConfig::delay`]: which agents fail to carry out their move
+/// at each step; a stream apart from the episode instances' and the
+/// lifelong goals').
+pub fn delays(env_seed: u64) -> u64 {
+    env_seed ^ 0x6465_6c61_7973 // "delays"
+}
+
 /// Seed of the layout draws of a multi-layout env seeded `env_seed` (which
 /// layout each episode plays; a stream apart from the episode instances').
 pub fn layout_draw(env_seed: u64) -> u64 {

@@ -28,6 +28,10 @@ pub struct EvalSpec {
     /// The rule set the env moves agents by (thesis by default). `t_max`
     /// is set separately: [`Rules::default_t_max`] is the rule set's own.
     pub rules: Rules,
+    /// Execution delays: the probability that an agent fails to carry out
+    /// its move in a step ([`buridan_env::EnvConfig::delay`]; 0, the
+    /// default: none). Controllers see the positions that resulted.
+    pub delay: f32,
 }
 
 impl Default for EvalSpec {
@@ -40,8 +44,14 @@ impl Default for EvalSpec {
             t_max: 100,
             jobs: 1,
             rules: Rules::Thesis,
+            delay: 0.0,
         }
     }
+}
+
+/// Whether a delay is off (then the summary leaves it out).
+fn is_zero(p: &f32) -> bool {
+    *p == 0.0
 }
 
 /// One evaluated episode: a CSV row.
@@ -179,6 +189,10 @@ pub struct EvalSummary {
     pub rules: Rules,
     /// Truncation step count `T_max`.
     pub t_max: u32,
+    /// The execution delays' probability ([`EvalSpec::delay`]; left out
+    /// of the file when 0).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub delay: f32,
     /// Episodes that came from `.scen` files (0: the seeded generator's).
     pub instances: usize,
     /// Worst compute time per instance, milliseconds.
@@ -371,6 +385,7 @@ pub fn episode_config(spec: &EvalSpec, controller: &dyn Controller) -> EnvConfig
         seed: spec.seed,
         sensor_range: controller.obs_sensor_range(),
         features: controller.obs_features(),
+        delay: spec.delay,
         ..EnvConfig::default()
     }
 }
@@ -603,6 +618,7 @@ fn summarize(
         wall_seconds: wall.as_secs_f64(),
         rules: spec.rules,
         t_max: spec.t_max,
+        delay: spec.delay,
         instances: 0,
         compute_ms_max: compute.iter().copied().fold(0.0, f64::max),
         soc_mean: records.iter().map(|r| r.soc as f64).sum::<f64>() / n,

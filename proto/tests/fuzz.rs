@@ -857,6 +857,9 @@ fn fuzz_env_settings() {
                 pressure_feature: flags[3],
                 intent_feature: flags[4],
                 order_feature: flags[5],
+                // Edge floats, as the shaping discount's: NaN, infinities,
+                // negatives and values past 1 are refused by the env.
+                delay: shaping.1,
             };
             convert_env(&m, seed)
         },

@@ -64,6 +64,11 @@ fn lifelong_rng(seed: u64, episode: u64) -> ChaCha8Rng {
     episode_rng(crate::seed::lifelong_goals(seed), episode)
 }
 
+/// The execution-delay draws of `episode` ([`EnvConfig::delay`]).
+fn delay_rng(seed: u64, episode: u64) -> ChaCha8Rng {
+    episode_rng(crate::seed::delays(seed), episode)
+}
+
 /// `(row, col)` change of each action.
 pub(crate) const MOVE_DELTAS: [(isize, isize); NUM_ACTIONS] =
     [(0, 0), (-1, 0), (0, 1), (1, 0), (0, -1)];
@@ -134,6 +139,12 @@ pub struct GridEnv {
     over: bool,
     /// The lifelong goal draws.
     rng: ChaCha8Rng,
+    /// The execution-delay draws ([`EnvConfig::delay`]).
+    delay_rng: ChaCha8Rng,
+    /// The actions carried out in a step with delays (a buffer).
+    executed: Vec<u8>,
+    /// Moves that delays turned into waits this episode.
+    delayed_moves: u32,
     /// Whether each agent has stood on its goal in this episode.
     reached: Vec<bool>,
     /// Steps each agent has been off its goal since it last stood on it
@@ -181,6 +192,9 @@ impl GridEnv {
             episode,
             over: false,
             rng: lifelong_rng(cfg.seed, episode),
+            delay_rng: delay_rng(cfg.seed, episode),
+            executed: Vec::new(),
+            delayed_moves: 0,
             reached: vec![false; n],
             off_goal: vec![0; n],
             arrival: vec![0; n],
@@ -249,6 +263,8 @@ impl GridEnv {
         self.episode = episode;
         self.over = false;
         self.rng = lifelong_rng(self.cfg.seed, episode);
+        self.delay_rng = delay_rng(self.cfg.seed, episode);
+        self.delayed_moves = 0;
         self.episode_reward = 0.0;
         self.blocked_moves = 0;
         self.goals_reached = 0;
@@ -333,10 +349,13 @@ impl GridEnv {
     pub fn step(&mut self, actions: &[u8], rewards: &mut [f32]) -> Result<StepOutcome, EnvError> {
         self.validate_step(actions, rewards)?;
         self.before_moves();
+        let mut executed = std::mem::take(&mut self.executed);
+        let actions = self.delay(actions, &mut executed);
         let blocked_moves = match self.cfg.rules {
             Rules::Thesis => self.move_sequentially(actions),
             Rules::Pogema => self.move_simultaneously(actions),
         };
+        self.executed = executed;
         let outcome = self.account(blocked_moves, rewards);
         self.observe(rewards);
         self.over = outcome.done();
@@ -371,6 +390,34 @@ impl GridEnv {
             return Err(EnvError::EpisodeOver);
         }
         Ok(())
+    }
+
+    /// The actions carried out: `actions` itself without delays; with
+    /// them ([`EnvConfig::delay`]) a copy in `buffer` in which each move
+    /// fails, becoming a wait, with probability `delay`.
+    fn delay<'a>(&mut self, actions: &'a [u8], buffer: &'a mut Vec<u8>) -> &'a [u8] {
+        let p = self.cfg.delay;
+        if p <= 0.0 {
+            return actions;
+        }
+        buffer.clear();
+        buffer.extend_from_slice(actions);
+        for action in buffer.iter_mut() {
+            // One draw per agent and step, waits included, so that which
+            // agents lag does not depend on what the others were told.
+            let fails = self.delay_rng.random::<f32>() < p;
+            if fails && *action != 0 {
+                *action = 0;
+                self.delayed_moves += 1;
+            }
+        }
+        buffer
+    }
+
+    /// Moves that delays ([`EnvConfig::delay`]) turned into waits in this
+    /// episode.
+    pub fn delayed_moves(&self) -> u32 {
+        self.delayed_moves
     }
 
     /// Moves the agents one after another in index order under the thesis

@@ -85,6 +85,7 @@ pub fn env_to_message(e: &EnvConfig) -> v1::EnvSettings {
         shaping: e.shaping.map_or(0.0, |s| s.coeff),
         shaping_gamma: e.shaping.map_or(0.0, |s| s.gamma),
         rules: e.rules.name().into(),
+        delay: e.delay,
     }
 }
 
@@ -118,6 +119,7 @@ pub fn env_from_message(m: &v1::EnvSettings, seed: u64) -> Result<EnvConfig, Con
             coeff: m.shaping,
             gamma: m.shaping_gamma,
         }),
+        delay: m.delay,
     })
 }
 
