@@ -266,10 +266,12 @@ def evaluate(
     memory_limit_mib: int = 2048,
     jobs: int = 1,
     sample: bool = False,
+    delay: float = 0.0,
 ) -> EvalReport:
     """``learner eval`` on episodes ``0..episodes``: a planner name,
     ``"random"``, ``"checkpoint:DIR"``, ``"shield:checkpoint:DIR"``,
-    ``"rescue:CONTROLLER"``, …"""
+    ``"rescue:CONTROLLER"``, …; ``delay``: the probability that a robot
+    fails to carry out its move in a step (``learner eval --delay``)."""
 
 class Policy:
     """A trained policy for inference (``learner train`` checkpoints)."""

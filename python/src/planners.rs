@@ -361,9 +361,11 @@ fn json_loads(py: Python<'_>, text: &str) -> PyResult<Py<PyAny>> {
 /// `settle`, `ordered`, `lanes`), `"sampled:CONTROLLER"`, or a planner net
 /// around any of these (`"rescue[=PLANNER]:CONTROLLER"`, `"lookahead:…"`,
 /// `"backstop:…"`, `"pace:…"`); `buridan_eval::by_name::Controller` has
-/// the grammar's table. The GIL is released while episodes run.
+/// the grammar's table. `delay` is the probability that a robot fails to
+/// carry out its move in a step (`learner eval --delay`; 0: none). The
+/// GIL is released while episodes run.
 #[pyfunction]
-#[pyo3(signature = (map, controller, *, agents=4, episodes=100, seed=42, starts="random", t_max=None, rules="thesis", time_limit=60.0, memory_limit_mib=2048, jobs=1, sample=false))]
+#[pyo3(signature = (map, controller, *, agents=4, episodes=100, seed=42, starts="random", t_max=None, rules="thesis", time_limit=60.0, memory_limit_mib=2048, jobs=1, sample=false, delay=0.0))]
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate(
     py: Python<'_>,
@@ -379,6 +381,7 @@ pub fn evaluate(
     memory_limit_mib: usize,
     jobs: usize,
     sample: bool,
+    delay: f32,
 ) -> PyResult<PyEvalReport> {
     let map = map_arg(map)?;
     let rules = rules_arg(rules)?;
@@ -393,6 +396,7 @@ pub fn evaluate(
         t_max: t_max.unwrap_or(rules.default_t_max()),
         jobs: jobs.max(1),
         rules,
+        delay,
     };
     let report = py
         .detach(|| eval_run(&map, &spec, &*make, &|_| {}))

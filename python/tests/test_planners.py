@@ -164,6 +164,17 @@ def test_evaluate_random_is_reproducible():
     assert strip(a) == strip(b)
 
 
+def test_evaluate_under_delays_is_seeded_and_recorded():
+    a = buridan.evaluate("rm-2.1", "pibt", agents=4, episodes=6, rules="pogema", delay=0.3)
+    b = buridan.evaluate("rm-2.1", "pibt", agents=4, episodes=6, rules="pogema", delay=0.3)
+    prompt = buridan.evaluate("rm-2.1", "pibt", agents=4, episodes=6, rules="pogema")
+    steps = lambda rep: [r["timesteps"] for r in rep.records]  # noqa: E731
+    assert steps(a) == steps(b) and steps(a) != steps(prompt)
+    assert abs(a.summary["delay"] - 0.3) < 1e-6 and "delay" not in prompt.summary
+    with pytest.raises(buridan.EnvError, match=r"delay must be a probability in \[0, 1\)"):
+        buridan.evaluate("rm-2.1", "pibt", agents=4, episodes=1, delay=1.5)
+
+
 def test_evaluate_bad_controller_names():
     with pytest.raises(PlannerError, match="unknown controller 'dijkstra'"):
         buridan.evaluate("rm-1.1", "dijkstra", agents=2)
