@@ -487,3 +487,19 @@ fn a_greedy_check_on_held_out_episodes_stops_a_run_that_has_learned() {
     }
     assert!(rows.iter().all(|r| r.solved < r.episodes), "{rows:?}");
 }
+
+#[test]
+fn a_run_under_execution_delays_trains_and_keeps_them_in_its_config() {
+    buridan_policy::threads::pin_threads(1);
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = TrainConfig {
+        delay: 0.3,
+        ..tiny(Algo::Ppo, Mode::Ctde)
+    };
+    let mut rec = Record::default();
+    let s = train(&cfg, &dir.path().join("run"), &mut rec).unwrap();
+    assert_eq!(s.env_steps, 800);
+    let saved = TrainConfig::from_toml_file(&dir.path().join("run/config.toml")).unwrap();
+    assert_eq!(saved.delay, 0.3);
+    assert_eq!(buridan_learner::train::env_config(&saved, 0).delay, 0.3);
+}

@@ -121,6 +121,7 @@ pub fn env_config(cfg: &TrainConfig, seed: u64) -> EnvConfig {
             coeff: cfg.shaping,
             gamma: cfg.gamma,
         }),
+        delay: cfg.delay,
         ..EnvConfig::default()
     }
 }

@@ -24,6 +24,10 @@ fn is_zero(n: &u8) -> bool {
     *n == 0
 }
 
+fn no_delay(delay: &f32) -> bool {
+    *delay == 0.0
+}
+
 fn replay_off(replay: &ReplayConfig) -> bool {
     *replay == ReplayConfig::default()
 }
@@ -61,6 +65,8 @@ pub(super) struct TrainFile {
     shield_rollouts: bool,
     #[serde(skip_serializing_if = "replay_off")]
     replay: ReplayConfig,
+    #[serde(skip_serializing_if = "no_delay")]
+    delay: f32,
     gamma: f32,
     hidden: Vec<usize>,
     lstm: bool,
@@ -183,6 +189,7 @@ convert_through_shared_fields!(
     shaping,
     shield_rollouts,
     replay,
+    delay,
     gamma,
     imitation,
     polish,

@@ -109,6 +109,12 @@ pub struct TrainConfig {
     /// actors get the settings with their join reply. Grid runs only; off
     /// by default (`share = 0`).
     pub replay: ReplayConfig,
+    /// Execution delays while training, as deployed robots lag: the
+    /// probability in [0, 1) that an agent fails to carry out its move in
+    /// a step ([`buridan_env::EnvConfig::delay`]; 0, the default: none,
+    /// and the key is left out of a written config). Grid runs only;
+    /// remote actors get it with the env settings.
+    pub delay: f32,
     /// Discount γ (0.99).
     pub gamma: f32,
     /// The network: layer sizes and the LSTM, TOML top-level keys
@@ -143,6 +149,7 @@ impl Default for TrainConfig {
             run: RunConfig::default(),
             shield_rollouts: false,
             replay: ReplayConfig::default(),
+            delay: 0.0,
             gamma: 0.99,
             model: ModelConfig::default(),
             imitation: None,

@@ -33,6 +33,11 @@ fn a_plant_run_refuses_imitation_and_grid_options() {
         msg.contains("[polish] cannot be used with a plant"),
         "{msg}"
     );
+    let err = plant_run(|c| c.delay = 0.1);
+    assert!(
+        matches!(err, Err(ConfigError::GridOnlyOption { what: "delay" })),
+        "{err:?}"
+    );
     let err = plant_run(|c| c.shaping = 0.05);
     assert!(
         matches!(err, Err(ConfigError::GridOnlyOption { what: "shaping" })),
@@ -298,6 +303,22 @@ fn a_config_carries_its_algorithms_table_and_refuses_the_others_settings() {
     // Without its table an algorithm takes its defaults.
     let cfg = read_file("algo = \"impala\"\n").unwrap();
     assert_eq!(cfg.algorithm, Algorithm::Impala(ImpalaConfig::default()));
+}
+
+#[test]
+fn training_delays_read_write_and_reach_the_env() {
+    let cfg = read_file("delay = 0.1\n").unwrap();
+    assert_eq!(cfg.delay, 0.1);
+    assert_eq!(crate::train::env_config(&cfg, 3).delay, 0.1);
+    assert!(cfg.to_toml().contains("delay = 0.1"), "{}", cfg.to_toml());
+    assert!(!TrainConfig::default().to_toml().contains("delay"));
+    for bad in [1.0, -0.5, f32::NAN] {
+        let err = with(|c| c.delay = bad).unwrap_err().to_string();
+        assert!(
+            err.contains("delay must be a probability in [0, 1)"),
+            "{err}"
+        );
+    }
 }
 
 #[test]

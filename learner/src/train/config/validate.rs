@@ -37,6 +37,10 @@ impl TrainConfig {
             "hidden sizes must be positive",
         )?;
         ensure((0.0..=1.0).contains(&self.gamma), "gamma must be in [0, 1]")?;
+        ensure(
+            (0.0..1.0).contains(&self.delay),
+            "delay must be a probability in [0, 1)",
+        )?;
         match &self.algorithm {
             Algorithm::Ppo(p) => {
                 ensure(p.epochs >= 1, "ppo.epochs must be at least 1")?;
@@ -181,6 +185,9 @@ impl TrainConfig {
         }
         if self.replay.enabled() {
             return Err(ConfigError::GridOnlyOption { what: "replay" });
+        }
+        if self.delay != 0.0 {
+            return Err(ConfigError::GridOnlyOption { what: "delay" });
         }
         ensure(self.t_max >= 1, "t_max must be at least 1")
     }
