@@ -85,7 +85,6 @@ pub struct EvalArgs {
         conflicts_with = "plant"
     )]
     pub delay: f32,
-
     /// Per-instance planning time limit in seconds (planners).
     #[arg(long, default_value_t = 60.0, conflicts_with = "plant")]
     pub time_limit: f64,
