@@ -9,6 +9,7 @@ pub mod bench_train;
 pub mod dashboard;
 pub mod eval;
 pub mod heartbeat;
+pub mod maps;
 pub mod replay;
 pub mod serve;
 pub mod signals;

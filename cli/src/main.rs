@@ -41,8 +41,8 @@ enum Command {
         #[arg(long, default_value = "training run")]
         title: String,
     },
-    /// List the bundled reference models.
-    Maps,
+    /// List the bundled reference models and the map generators, or write a generated map.
+    Maps(cli::maps::MapsArgs),
 }
 
 fn main() -> Result<()> {
@@ -79,18 +79,6 @@ fn main() -> Result<()> {
         Command::Tune(args) => cli::tune::run(&args).map(|_| ()),
         Command::Study(args) => cli::study::run(&args).map(|_| ()),
         Command::Curves { out, title } => cli::train::write_curves(&out, &title),
-        Command::Maps => {
-            for m in buridan_env::REFERENCE_MODELS {
-                let map = m.load();
-                println!(
-                    "{:8} {:>3}x{:<3} {}",
-                    m.id,
-                    map.grid.height(),
-                    map.grid.width(),
-                    m.description
-                );
-            }
-            Ok(())
-        }
+        Command::Maps(args) => cli::maps::run(&args),
     }
 }

@@ -24,13 +24,17 @@ pub enum MapError {
         problem: String,
     },
     /// Neither a bundled reference model id nor an existing file.
-    #[error("unknown map '{name}': not a file and not a reference model id (known ids: {known})")]
+    #[error("unknown map '{name}': not a file and not a reference model id (known ids: {known}; a generated map is named by its spec, e.g. maze/19x19/seed=0)")]
     UnknownMap {
         /// What the user asked for.
         name: String,
         /// The bundled ids, comma separated.
         known: String,
     },
+    /// A generated map's spec that does not parse
+    /// ([`crate::generate::GeneratedMap`]).
+    #[error(transparent)]
+    Spec(#[from] crate::generate::SpecError),
 }
 
 /// The environment was configured or driven incorrectly.

@@ -2,6 +2,7 @@
 //! dissertation as a fast multi-agent simulator.
 //!
 //! - [`map`]: MovingAI `.map`/`.scen` loading, the 17 bundled reference models.
+//! - [`generate`]: seeded map generators (mazes, random obstacles, warehouses).
 //! - [`world`]: [`GridEnv`], one env under either rule set.
 //! - [`rules`]: the rule sets, [`Rules::Thesis`] (sequential moves, the
 //!   default) and [`Rules::Pogema`] (POGEMA 1.4.0's simultaneous moves).
@@ -26,6 +27,7 @@
 pub mod api;
 pub mod config;
 pub mod error;
+pub mod generate;
 pub mod map;
 pub mod mixture;
 pub mod monitor;

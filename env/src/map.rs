@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 use crate::error::MapError;
+use crate::generate::GeneratedMap;
 
 /// A grid cell as `(row, col)`.
 #[derive(
@@ -114,6 +115,25 @@ impl Grid {
             rows.join("\n")
         );
         parse_map("<rows>", &text)
+    }
+
+    /// The grid as MovingAI `.map` text (`.` free, `@` wall), which
+    /// [`parse_map`] reads back.
+    ///
+    /// ```
+    /// let g = buridan_env::Grid::from_rows(&["@.@", "..."]).unwrap();
+    /// assert_eq!(g.to_movingai(), "type octile\nheight 2\nwidth 3\nmap\n@.@\n...\n");
+    /// ```
+    pub fn to_movingai(&self) -> String {
+        let mut text = format!(
+            "type octile\nheight {}\nwidth {}\nmap\n",
+            self.height, self.width
+        );
+        for row in self.walls.chunks(self.width.max(1)) {
+            text.extend(row.iter().map(|&wall| if wall { '@' } else { '.' }));
+            text.push('\n');
+        }
+        text
     }
 
     /// Number of rows.
@@ -294,9 +314,10 @@ impl ReferenceModel {
 }
 
 impl Map {
-    /// Loads a bundled reference model by id (`rm-2.1`) or a MovingAI `.map`
-    /// file by path; a `.scen` file with the same stem next to it is loaded as
-    /// the fixed scenario.
+    /// Loads a bundled reference model by id (`rm-2.1`), a MovingAI `.map`
+    /// file by path (a `.scen` file with the same stem next to it is loaded
+    /// as the fixed scenario) or a generated map by its spec
+    /// (`maze/19x19/seed=0`: [`GeneratedMap`], no scenario), in that order.
     ///
     /// ```
     /// let map = buridan_env::Map::load("rm-2.1").unwrap();
@@ -311,6 +332,9 @@ impl Map {
         let path = Path::new(id_or_path);
         if path.is_file() {
             return Map::from_file(path);
+        }
+        if GeneratedMap::is_spec(id_or_path) {
+            return Ok(id_or_path.parse::<GeneratedMap>()?.map());
         }
         Err(unknown_map(id_or_path))
     }
@@ -369,7 +393,8 @@ pub struct MapSource {
 
 impl MapSource {
     /// Reads the texts of a bundled reference model or of a `.map` file (and
-    /// the `.scen` beside it), as [`Map::load`] resolves `id_or_path`.
+    /// the `.scen` beside it), or writes a generated map's, as
+    /// [`Map::load`] resolves `id_or_path`.
     pub fn read(id_or_path: &str) -> Result<MapSource, MapError> {
         if let Some(model) = REFERENCE_MODELS.iter().find(|m| m.id == id_or_path) {
             return Ok(MapSource {
@@ -379,6 +404,14 @@ impl MapSource {
             });
         }
         let path = Path::new(id_or_path);
+        if !path.is_file() && GeneratedMap::is_spec(id_or_path) {
+            let spec: GeneratedMap = id_or_path.parse()?;
+            return Ok(MapSource {
+                name: spec.to_string(),
+                map_text: spec.grid().to_movingai(),
+                scen_text: None,
+            });
+        }
         if !path.is_file() {
             return Err(unknown_map(id_or_path));
         }

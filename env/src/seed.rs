@@ -111,6 +111,12 @@ pub fn greedy_check(run: u64, check: u64) -> u64 {
     (run ^ 0x6772_6565_6479_0000).wrapping_add(check.wrapping_mul(GOLDEN)) // "greedy"
 }
 
+/// Seed of the draws that generate the layout of a generated map's spec
+/// with seed `seed` ([`crate::generate`]).
+pub fn generated_map(seed: u64) -> u64 {
+    seed ^ 0x6d61_7067_656e // "mapgen"
+}
+
 /// Seed of the random controller's action draws for evaluation seed `seed`.
 pub fn random_controller(seed: u64) -> u64 {
     seed ^ 0x7261_6e64_6f6d // "random"

@@ -49,8 +49,10 @@ def planner_names() -> list[str]:
     """Planner names :func:`plan` accepts (join several with ``+``)."""
 
 class Map:
-    """A grid layout: ``Map("rm-2.1")`` (a bundled reference model) or
-    ``Map("path/to.map")`` (MovingAI, with the ``.scen`` beside it)."""
+    """A grid layout: ``Map("rm-2.1")`` (a bundled reference model),
+    ``Map("path/to.map")`` (MovingAI, with the ``.scen`` beside it) or
+    ``Map("maze/19x19/seed=0")`` (a generated map, named by its spec:
+    ``maze``, ``random`` or ``warehouse``; ``learner maps`` lists the keys)."""
 
     def __init__(self, id_or_path: Union[str, os.PathLike[str]]) -> None: ...
     @staticmethod

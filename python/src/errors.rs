@@ -63,6 +63,7 @@ pub fn map_err(py: Python<'_>, e: buridan_env::MapError) -> PyErr {
             .and_then(|_| value.setattr("problem", problem)),
         buridan_env::MapError::Io { path, .. } => value.setattr("path", path.clone()),
         buridan_env::MapError::UnknownMap { name, .. } => value.setattr("name", name),
+        buridan_env::MapError::Spec(e) => value.setattr("name", &e.spec),
     };
     err
 }

@@ -209,6 +209,21 @@ def test_unknown_map():
         Map("rm-9.9")
 
 
+def test_generated_maps_load_by_their_spec():
+    m = Map("maze/19x19/seed=3")
+    assert m.name == "maze/19x19/seed=3" and m.walls.shape == (19, 19) and m.scenario is None
+    assert (Map("maze/19x19/seed=3").walls == m.walls).all()
+    assert not (Map("maze/19x19/seed=4").walls == m.walls).all()
+    # POGEMA's warehouse is the warehouse family at its defaults.
+    assert int(Map("warehouse/33x46/seed=0").walls.sum()) == 240
+    env = GridEnv("random/16x16/density=0.2/seed=1", 8)
+    env.reset(3)
+    assert env.map.name == "random/16x16/density=0.2/seed=1"
+    with pytest.raises(MapError, match=r"^map spec 'maze/20x19/seed=0': a maze's height and width are odd") as e:
+        Map("maze/20x19/seed=0")
+    assert e.value.name == "maze/20x19/seed=0"
+
+
 def test_map_properties():
     m = Map("rm-1.1")
     assert m.name == "rm-1.1" and m.walls.shape == (m.height, m.width)

@@ -15,7 +15,9 @@ use crate::errors::map_err;
 /// a `.scen` beside them) fixed starts and goals.
 ///
 /// `Map("rm-2.1")` loads a bundled reference model, `Map("path/to.map")` a
-/// MovingAI `.map` file (and the `.scen` of the same stem beside it);
+/// MovingAI `.map` file (and the `.scen` of the same stem beside it),
+/// `Map("maze/19x19/seed=0")` a generated map by its spec
+/// (`buridan_env::generate`);
 /// `Map.from_text(...)` parses text. Malformed text raises `MapError` whose
 /// message names the file and line (`file:line: problem`).
 #[pyclass(name = "Map", module = "buridan._buridan", frozen)]
@@ -25,7 +27,8 @@ pub struct PyMap {
 
 #[pymethods]
 impl PyMap {
-    /// Loads a reference model id (`"rm-2.1"`) or a MovingAI `.map` path.
+    /// Loads a reference model id (`"rm-2.1"`), a MovingAI `.map` path or
+    /// a generated map's spec (`"maze/19x19/seed=0"`).
     #[new]
     fn new(py: Python<'_>, id_or_path: &Bound<'_, PyAny>) -> PyResult<Self> {
         let name = path_like(id_or_path)?;

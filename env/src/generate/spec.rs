@@ -1,0 +1,374 @@
+//! The name of a generated map, `FAMILY/HEIGHTxWIDTH[/KEY=VALUE…]/seed=S`:
+//! one parser ([`GeneratedMap::from_str`](std::str::FromStr)) and one
+//! printer ([`std::fmt::Display`]) that round-trip.
+
+use std::fmt;
+use std::str::FromStr;
+
+use super::{MapGenerator, Maze, RandomObstacles, Warehouse};
+use crate::map::{Grid, Map};
+
+/// The generator families, as spelled in a spec.
+pub const FAMILIES: &[&str] = &["maze", "random", "warehouse"];
+
+/// The largest height or width a spec may ask for.
+const MAX_SIDE: usize = 1024;
+
+/// A generator with its settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Family {
+    /// [`Maze`]: `maze/HxW[/loops=F]` (odd H and W).
+    Maze(Maze),
+    /// [`RandomObstacles`]: `random/HxW[/density=F]`.
+    Random(RandomObstacles),
+    /// [`Warehouse`]: `warehouse/HxW[/shelf=N][/gap=N][/aisle=N][/margin=N][/edge=N][/missing=F]`.
+    Warehouse(Warehouse),
+}
+
+impl Family {
+    /// The family's name in a spec ([`FAMILIES`]).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Family::Maze(_) => "maze",
+            Family::Random(_) => "random",
+            Family::Warehouse(_) => "warehouse",
+        }
+    }
+}
+
+impl MapGenerator for Family {
+    fn generate(&self, height: usize, width: usize, seed: u64) -> Grid {
+        match self {
+            Family::Maze(g) => g.generate(height, width, seed),
+            Family::Random(g) => g.generate(height, width, seed),
+            Family::Warehouse(g) => g.generate(height, width, seed),
+        }
+    }
+}
+
+/// One generated map: a family's settings, the size and the seed.
+///
+/// ```
+/// use buridan_env::generate::GeneratedMap;
+/// let spec: GeneratedMap = "warehouse/20x30/missing=0.25/shelf=4/seed=3".parse().unwrap();
+/// // Printed in one order, defaults left out.
+/// assert_eq!(spec.to_string(), "warehouse/20x30/shelf=4/missing=0.25/seed=3");
+/// let err = "maze/20x19/seed=1".parse::<GeneratedMap>().unwrap_err();
+/// assert_eq!(
+///     err.to_string(),
+///     "map spec 'maze/20x19/seed=1': a maze's height and width are odd (its rooms sit on even rows and columns), not 20x19"
+/// );
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GeneratedMap {
+    /// The generator and its settings.
+    pub family: Family,
+    /// Rows.
+    pub height: usize,
+    /// Columns.
+    pub width: usize,
+    /// Which of the family's layouts.
+    pub seed: u64,
+}
+
+impl GeneratedMap {
+    /// The grid this spec names.
+    pub fn grid(&self) -> Grid {
+        self.family.generate(self.height, self.width, self.seed)
+    }
+
+    /// The map this spec names: its grid, named by the spec, no fixed
+    /// scenario.
+    pub fn map(&self) -> Map {
+        Map {
+            name: self.to_string(),
+            grid: self.grid(),
+            scenario: None,
+        }
+    }
+
+    /// Whether `name` is meant as a spec: its first `/`-separated part is
+    /// a family's name ([`FAMILIES`]).
+    ///
+    /// ```
+    /// use buridan_env::generate::GeneratedMap;
+    /// assert!(GeneratedMap::is_spec("maze/19x19/seed=0"));
+    /// assert!(GeneratedMap::is_spec("random/oops"));
+    /// assert!(!GeneratedMap::is_spec("rm-2.1"));
+    /// assert!(!GeneratedMap::is_spec("maps/maze.map"));
+    /// ```
+    pub fn is_spec(name: &str) -> bool {
+        name.split_once('/')
+            .is_some_and(|(family, _)| FAMILIES.contains(&family))
+    }
+}
+
+/// A spec that does not parse: the spec and what is wrong with it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("map spec '{spec}': {problem}")]
+pub struct SpecError {
+    /// The spec as given.
+    pub spec: String,
+    /// What is wrong.
+    pub problem: SpecProblem,
+}
+
+/// What is wrong with a spec.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SpecProblem {
+    /// Too few parts.
+    #[error("the form is FAMILY/HEIGHTxWIDTH[/KEY=VALUE...]/seed=SEED (families: maze, random, warehouse; e.g. maze/19x19/seed=0)")]
+    Form,
+    /// The first part is not a family.
+    #[error("unknown family '{0}' (known: maze, random, warehouse)")]
+    UnknownFamily(String),
+    /// The size part is not `HEIGHTxWIDTH` within 1..=1024.
+    #[error("the size is HEIGHTxWIDTH, each 1 to 1024 (e.g. 19x19), not '{0}'")]
+    Size(String),
+    /// A maze with an even side.
+    #[error(
+        "a maze's height and width are odd (its rooms sit on even rows and columns), not {0}x{1}"
+    )]
+    EvenMaze(usize, usize),
+    /// A part that is not `KEY=VALUE`.
+    #[error("'{0}' is not KEY=VALUE")]
+    NotKeyValue(String),
+    /// A key the family does not have.
+    #[error("{family} has no key '{key}' (its keys: {known})")]
+    UnknownKey {
+        /// The family.
+        family: &'static str,
+        /// The key given.
+        key: String,
+        /// The family's keys, comma separated.
+        known: &'static str,
+    },
+    /// A key given twice.
+    #[error("'{0}' is given twice")]
+    Repeated(String),
+    /// A value out of its range or not a number.
+    #[error("{key} = '{value}' is not {expected}")]
+    Value {
+        /// The key.
+        key: String,
+        /// The value given.
+        value: String,
+        /// What it must be, in words.
+        expected: &'static str,
+    },
+    /// No `seed=` part.
+    #[error("seed=SEED is missing (the last part, e.g. .../seed=0)")]
+    NoSeed,
+    /// A warehouse's settings leave no room for a shelf.
+    #[error(
+        "no shelf fits in {height}x{width} with shelf={shelf}, margin={margin} and edge={edge}"
+    )]
+    NoShelf {
+        /// Rows.
+        height: usize,
+        /// Columns.
+        width: usize,
+        /// Shelf cells per block.
+        shelf: usize,
+        /// Free columns at each end.
+        margin: usize,
+        /// Free rows at top and bottom.
+        edge: usize,
+    },
+}
+
+impl FromStr for GeneratedMap {
+    type Err = SpecError;
+
+    fn from_str(spec: &str) -> Result<Self, SpecError> {
+        parse(spec).map_err(|problem| SpecError {
+            spec: spec.to_string(),
+            problem,
+        })
+    }
+}
+
+/// The parts of a spec after the size, as key and value, checked for
+/// repeats and for `seed`.
+struct Settings<'a> {
+    pairs: Vec<(&'a str, &'a str)>,
+}
+
+impl<'a> Settings<'a> {
+    fn new(parts: &[&'a str]) -> Result<Self, SpecProblem> {
+        let mut pairs: Vec<(&str, &str)> = Vec::new();
+        for part in parts {
+            let (key, value) = part
+                .split_once('=')
+                .ok_or_else(|| SpecProblem::NotKeyValue(part.to_string()))?;
+            if pairs.iter().any(|&(k, _)| k == key) {
+                return Err(SpecProblem::Repeated(key.to_string()));
+            }
+            pairs.push((key, value));
+        }
+        Ok(Self { pairs })
+    }
+
+    /// Refuses a key outside `known` (seed aside).
+    fn check_keys(&self, family: &'static str, known: &'static str) -> Result<(), SpecProblem> {
+        let keys: Vec<&str> = known.split(", ").collect();
+        match self
+            .pairs
+            .iter()
+            .find(|(k, _)| *k != "seed" && !keys.contains(k))
+        {
+            Some((key, _)) => Err(SpecProblem::UnknownKey {
+                family,
+                key: key.to_string(),
+                known,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// `key`'s value parsed and checked by `ok`, or `default`.
+    fn get<T: FromStr + Copy>(
+        &self,
+        key: &str,
+        default: T,
+        ok: impl Fn(T) -> bool,
+        expected: &'static str,
+    ) -> Result<T, SpecProblem> {
+        let Some(&(_, value)) = self.pairs.iter().find(|(k, _)| *k == key) else {
+            return Ok(default);
+        };
+        value
+            .parse::<T>()
+            .ok()
+            .filter(|&v| ok(v))
+            .ok_or_else(|| SpecProblem::Value {
+                key: key.to_string(),
+                value: value.to_string(),
+                expected,
+            })
+    }
+}
+
+const UNIT: &str = "a number from 0 to 1";
+
+fn parse(spec: &str) -> Result<GeneratedMap, SpecProblem> {
+    let parts: Vec<&str> = spec.split('/').collect();
+    let [family, size, rest @ ..] = parts.as_slice() else {
+        return Err(SpecProblem::Form);
+    };
+    let (height, width) = parse_size(size)?;
+    let settings = Settings::new(rest)?;
+    if !settings.pairs.iter().any(|(k, _)| *k == "seed") {
+        return Err(SpecProblem::NoSeed);
+    }
+    let seed = settings.get("seed", 0u64, |_| true, "a whole number from 0 to 2^64 - 1")?;
+    let family = match *family {
+        "maze" => {
+            settings.check_keys("maze", "loops")?;
+            if height % 2 == 0 || width % 2 == 0 {
+                return Err(SpecProblem::EvenMaze(height, width));
+            }
+            let loops = settings.get(
+                "loops",
+                Maze::default().loops,
+                |v: f64| (0.0..=1.0).contains(&v),
+                UNIT,
+            )?;
+            Family::Maze(Maze { loops })
+        }
+        "random" => {
+            settings.check_keys("random", "density")?;
+            let density = settings.get(
+                "density",
+                RandomObstacles::default().density,
+                |v: f64| (0.0..1.0).contains(&v),
+                "a number from 0 up to (not including) 1",
+            )?;
+            Family::Random(RandomObstacles { density })
+        }
+        "warehouse" => {
+            settings.check_keys("warehouse", "shelf, gap, aisle, margin, edge, missing")?;
+            let d = Warehouse::default();
+            let positive = |v: usize| (1..=MAX_SIDE).contains(&v);
+            let small = |v: usize| v <= MAX_SIDE;
+            const POSITIVE: &str = "a whole number from 1 to 1024";
+            const SMALL: &str = "a whole number from 0 to 1024";
+            let w = Warehouse {
+                shelf: settings.get("shelf", d.shelf, positive, POSITIVE)?,
+                gap: settings.get("gap", d.gap, positive, POSITIVE)?,
+                aisle: settings.get("aisle", d.aisle, positive, POSITIVE)?,
+                margin: settings.get("margin", d.margin, small, SMALL)?,
+                edge: settings.get("edge", d.edge, small, SMALL)?,
+                missing: settings.get(
+                    "missing",
+                    d.missing,
+                    |v: f64| (0.0..=1.0).contains(&v),
+                    UNIT,
+                )?,
+            };
+            let (rows, blocks) = w.fits(height, width);
+            if rows == 0 || blocks == 0 {
+                return Err(SpecProblem::NoShelf {
+                    height,
+                    width,
+                    shelf: w.shelf,
+                    margin: w.margin,
+                    edge: w.edge,
+                });
+            }
+            Family::Warehouse(w)
+        }
+        other => return Err(SpecProblem::UnknownFamily(other.to_string())),
+    };
+    Ok(GeneratedMap {
+        family,
+        height,
+        width,
+        seed,
+    })
+}
+
+fn parse_size(size: &str) -> Result<(usize, usize), SpecProblem> {
+    let bad = || SpecProblem::Size(size.to_string());
+    let (h, w) = size.split_once('x').ok_or_else(bad)?;
+    let side = |s: &str| {
+        s.parse::<usize>()
+            .ok()
+            .filter(|v| (1..=MAX_SIDE).contains(v))
+            .ok_or_else(bad)
+    };
+    Ok((side(h)?, side(w)?))
+}
+
+impl fmt::Display for GeneratedMap {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        // Each setting away from its default, in the family's key order.
+        fn set<T: PartialEq + fmt::Display>(
+            f: &mut fmt::Formatter<'_>,
+            key: &str,
+            value: T,
+            default: T,
+        ) -> fmt::Result {
+            if value == default {
+                Ok(())
+            } else {
+                write!(f, "/{key}={value}")
+            }
+        }
+        write!(f, "{}/{}x{}", self.family.name(), self.height, self.width)?;
+        match &self.family {
+            Family::Maze(m) => set(f, "loops", m.loops, Maze::default().loops)?,
+            Family::Random(r) => set(f, "density", r.density, RandomObstacles::default().density)?,
+            Family::Warehouse(w) => {
+                let d = Warehouse::default();
+                set(f, "shelf", w.shelf, d.shelf)?;
+                set(f, "gap", w.gap, d.gap)?;
+                set(f, "aisle", w.aisle, d.aisle)?;
+                set(f, "margin", w.margin, d.margin)?;
+                set(f, "edge", w.edge, d.edge)?;
+                set(f, "missing", w.missing, d.missing)?;
+            }
+        }
+        write!(f, "/seed={}", self.seed)
+    }
+}
