@@ -24,8 +24,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// Arguments of `learner eval`.
 #[derive(Debug, clap::Args)]
 pub struct EvalArgs {
-    /// Reference model id (`rm-2.1`) or path to a MovingAI `.map` file;
-    /// with --scen, the map the `.scen` files name (beside them) unless given.
+    /// Reference model id (`rm-2.1`), path to a MovingAI `.map` file or a
+    /// generated map's spec (`maze/19x19/seed=0`); with --scen, the map
+    /// the `.scen` files name (beside them) unless given.
     #[arg(long, required_unless_present_any = ["scen", "plant"])]
     pub map: Option<String>,
     /// Evaluate on an AGV plant instead: a bundled plant id

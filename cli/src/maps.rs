@@ -25,8 +25,12 @@ pub struct MapsArgs {
 /// The families and keys `learner maps` lists, one line each.
 const GENERATORS: &[(&str, &str)] = &[
     (
-        "maze/HxW[/loops=0.5]/seed=S",
-        "mazes of one-cell corridors (odd H and W)",
+        "maze/HxW[/density=0.3][/walls=8][/straight=0.8]/seed=S",
+        "walls grown as mostly straight random walks, like POGEMA's mazes",
+    ),
+    (
+        "braid/HxW[/loops=0.5]/seed=S",
+        "a perfect maze with loops knocked through (odd H and W)",
     ),
     (
         "random/HxW[/density=0.3]/seed=S",

@@ -19,8 +19,9 @@ use buridan_learner::train::{Algo, MetricsRow, Progress, Summary, TrainConfig};
 /// Arguments of `learner train`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct TrainArgs {
-    /// Reference model id (`rm-2.1`) or path to a MovingAI `.map` file
-    /// (replaces a config's `maps` or `plant`).
+    /// Reference model id (`rm-2.1`), path to a MovingAI `.map` file or a
+    /// generated map's spec (`maze/19x19/seed=0`; `learner maps` lists the
+    /// families); replaces a config's `maps` or `plant`.
     #[arg(long, conflicts_with_all = ["maps", "plant"])]
     pub map: Option<String>,
     /// Train on an AGV plant instead of a grid map: a bundled plant id
@@ -32,6 +33,8 @@ pub struct TrainArgs {
     pub plant: Option<String>,
     /// Several layouts with weights, `NAME:WEIGHT,…` (weight 1 if left
     /// out), e.g. `rm-2.2:1,rm-3.1:1`: each env draws every episode's layout.
+    /// A generated map's spec may name a seed range, one layout per seed
+    /// sharing the weight: `maze/19x19/seed=0..100`.
     #[arg(long, value_name = "NAME[:WEIGHT],...")]
     pub maps: Option<String>,
     /// Agents per env.

@@ -20,7 +20,7 @@ fn maps_lists_the_reference_models_and_the_generators() {
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("rm-2.1 "), "{text}");
-    for family in ["maze/HxW", "random/HxW", "warehouse/HxW"] {
+    for family in ["maze/HxW", "braid/HxW", "random/HxW", "warehouse/HxW"] {
         assert!(text.contains(family), "{family} missing:\n{text}");
     }
 }
@@ -29,11 +29,11 @@ fn maps_lists_the_reference_models_and_the_generators() {
 fn maps_writes_a_generated_map_that_loads_back_as_the_same_grid() {
     let dir = std::env::temp_dir().join(format!("buridan-cli-maps-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join("maze.map");
+    let file = dir.join("braid.map");
     let out = learner(&[
         "maps",
         "--generate",
-        "maze/21x19/loops=0.25/seed=4",
+        "braid/21x19/loops=0.25/seed=4",
         "--out",
         file.to_str().unwrap(),
     ]);
@@ -42,13 +42,13 @@ fn maps_writes_a_generated_map_that_loads_back_as_the_same_grid() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let spec: GeneratedMap = "maze/21x19/loops=0.25/seed=4".parse().unwrap();
+    let spec: GeneratedMap = "braid/21x19/loops=0.25/seed=4".parse().unwrap();
     assert_eq!(
         Map::from_file(&file).unwrap().grid.walls(),
         spec.grid().walls()
     );
     // Without --out, the text goes to standard output.
-    let out = learner(&["maps", "--generate", "maze/21x19/loops=0.25/seed=4"]);
+    let out = learner(&["maps", "--generate", "braid/21x19/loops=0.25/seed=4"]);
     assert_eq!(
         String::from_utf8(out.stdout).unwrap(),
         std::fs::read_to_string(&file).unwrap()
@@ -58,7 +58,7 @@ fn maps_writes_a_generated_map_that_loads_back_as_the_same_grid() {
 
 #[test]
 fn a_bad_spec_is_refused_naming_its_problem() {
-    let out = learner(&["maps", "--generate", "maze/20x19/seed=0"]);
+    let out = learner(&["maps", "--generate", "braid/20x19/seed=0"]);
     assert!(!out.status.success());
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(err.contains("odd") && err.contains("20x19"), "{err}");

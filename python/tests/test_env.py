@@ -219,9 +219,9 @@ def test_generated_maps_load_by_their_spec():
     env = GridEnv("random/16x16/density=0.2/seed=1", 8)
     env.reset(3)
     assert env.map.name == "random/16x16/density=0.2/seed=1"
-    with pytest.raises(MapError, match=r"^map spec 'maze/20x19/seed=0': a maze's height and width are odd") as e:
-        Map("maze/20x19/seed=0")
-    assert e.value.name == "maze/20x19/seed=0"
+    with pytest.raises(MapError, match=r"^map spec 'braid/20x19/seed=0': a braid maze's height and width are odd") as e:
+        Map("braid/20x19/seed=0")
+    assert e.value.name == "braid/20x19/seed=0"
 
 
 def test_map_properties():

@@ -1,5 +1,5 @@
-//! Seeded map generators: mazes, random obstacles and warehouse-like rows
-//! of shelves, for training on many layouts of a kind rather than a few
+//! Seeded map generators: mazes, braid mazes, random obstacles and
+//! warehouse-like rows of shelves, for training on many layouts of a kind rather than a few
 //! fixed ones.
 //!
 //! A generated map is named by its spec, `FAMILY/HEIGHTxWIDTH[/KEY=VALUE…]/seed=S`,
@@ -10,7 +10,8 @@
 //!
 //! | family | keys (default) | what varies with the seed |
 //! |---|---|---|
-//! | `maze` | `loops` (0.5): share of the walls a perfect maze keeps that are knocked out | the maze |
+//! | `maze` | `density` (0.3), `walls` (8), `straight` (0.8): walls grown as mostly straight random walks, like POGEMA's mazes | the walls |
+//! | `braid` | `loops` (0.5): share of the walls a perfect maze keeps that are knocked out (odd sides) | the maze |
 //! | `random` | `density` (0.3): chance that a cell is an obstacle | the obstacles |
 //! | `warehouse` | `shelf` (10), `gap` (1), `aisle` (3), `margin` (7), `edge` (2), `missing` (0) | which shelves are missing |
 //!
@@ -30,11 +31,13 @@
 //! assert_eq!(pogema.free_cells().len(), 33 * 46 - 8 * 30);
 //! ```
 
+mod braid;
 mod maze;
 mod random;
 mod spec;
 mod warehouse;
 
+pub use braid::Braid;
 pub use maze::Maze;
 pub use random::RandomObstacles;
 pub use spec::{Family, GeneratedMap, SpecError, SpecProblem, FAMILIES};

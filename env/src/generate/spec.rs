@@ -5,20 +5,25 @@
 use std::fmt;
 use std::str::FromStr;
 
-use super::{MapGenerator, Maze, RandomObstacles, Warehouse};
+use super::{Braid, MapGenerator, Maze, RandomObstacles, Warehouse};
 use crate::map::{Grid, Map};
 
 /// The generator families, as spelled in a spec.
-pub const FAMILIES: &[&str] = &["maze", "random", "warehouse"];
+pub const FAMILIES: &[&str] = &["maze", "braid", "random", "warehouse"];
 
 /// The largest height or width a spec may ask for.
 const MAX_SIDE: usize = 1024;
 
+/// The most seeds a range may name ([`GeneratedMap::expand`]).
+const MAX_SEEDS: u64 = 10_000;
+
 /// A generator with its settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Family {
-    /// [`Maze`]: `maze/HxW[/loops=F]` (odd H and W).
+    /// [`Maze`]: `maze/HxW[/density=F][/walls=N][/straight=F]`.
     Maze(Maze),
+    /// [`Braid`]: `braid/HxW[/loops=F]` (odd H and W).
+    Braid(Braid),
     /// [`RandomObstacles`]: `random/HxW[/density=F]`.
     Random(RandomObstacles),
     /// [`Warehouse`]: `warehouse/HxW[/shelf=N][/gap=N][/aisle=N][/margin=N][/edge=N][/missing=F]`.
@@ -30,6 +35,7 @@ impl Family {
     pub fn name(&self) -> &'static str {
         match self {
             Family::Maze(_) => "maze",
+            Family::Braid(_) => "braid",
             Family::Random(_) => "random",
             Family::Warehouse(_) => "warehouse",
         }
@@ -40,6 +46,7 @@ impl MapGenerator for Family {
     fn generate(&self, height: usize, width: usize, seed: u64) -> Grid {
         match self {
             Family::Maze(g) => g.generate(height, width, seed),
+            Family::Braid(g) => g.generate(height, width, seed),
             Family::Random(g) => g.generate(height, width, seed),
             Family::Warehouse(g) => g.generate(height, width, seed),
         }
@@ -53,10 +60,10 @@ impl MapGenerator for Family {
 /// let spec: GeneratedMap = "warehouse/20x30/missing=0.25/shelf=4/seed=3".parse().unwrap();
 /// // Printed in one order, defaults left out.
 /// assert_eq!(spec.to_string(), "warehouse/20x30/shelf=4/missing=0.25/seed=3");
-/// let err = "maze/20x19/seed=1".parse::<GeneratedMap>().unwrap_err();
+/// let err = "braid/20x19/seed=1".parse::<GeneratedMap>().unwrap_err();
 /// assert_eq!(
 ///     err.to_string(),
-///     "map spec 'maze/20x19/seed=1': a maze's height and width are odd (its rooms sit on even rows and columns), not 20x19"
+///     "map spec 'braid/20x19/seed=1': a braid maze's height and width are odd (its rooms sit on even rows and columns), not 20x19"
 /// );
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -85,6 +92,45 @@ impl GeneratedMap {
             grid: self.grid(),
             scenario: None,
         }
+    }
+
+    /// The maps of a spec whose seed may be a range, `seed=A..B` (A up to,
+    /// not including, B; at most 10,000 seeds): one per seed, in order. A
+    /// plain spec gives itself.
+    ///
+    /// ```
+    /// use buridan_env::generate::GeneratedMap;
+    /// let maps = GeneratedMap::expand("maze/19x19/seed=3..6").unwrap();
+    /// let names: Vec<String> = maps.iter().map(|m| m.to_string()).collect();
+    /// assert_eq!(names, ["maze/19x19/seed=3", "maze/19x19/seed=4", "maze/19x19/seed=5"]);
+    /// assert_eq!(GeneratedMap::expand("maze/19x19/seed=3").unwrap().len(), 1);
+    /// assert!(GeneratedMap::expand("maze/19x19/seed=6..6").is_err());
+    /// ```
+    pub fn expand(text: &str) -> Result<Vec<GeneratedMap>, SpecError> {
+        let range = text
+            .split('/')
+            .find_map(|part| part.strip_prefix("seed="))
+            .and_then(|seed| seed.split_once(".."));
+        let Some((from, to)) = range else {
+            return Ok(vec![text.parse()?]);
+        };
+        let bad = || SpecError {
+            spec: text.to_string(),
+            problem: SpecProblem::SeedRange(format!("{from}..{to}")),
+        };
+        let (from, to) = (
+            from.parse::<u64>().map_err(|_| bad())?,
+            to.parse::<u64>().map_err(|_| bad())?,
+        );
+        if from >= to || to - from > MAX_SEEDS {
+            return Err(bad());
+        }
+        let first: GeneratedMap = text
+            .replace(&format!("seed={from}..{to}"), &format!("seed={from}"))
+            .parse()?;
+        Ok((from..to)
+            .map(|seed| GeneratedMap { seed, ..first })
+            .collect())
     }
 
     /// Whether `name` is meant as a spec: its first `/`-separated part is
@@ -117,19 +163,19 @@ pub struct SpecError {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SpecProblem {
     /// Too few parts.
-    #[error("the form is FAMILY/HEIGHTxWIDTH[/KEY=VALUE...]/seed=SEED (families: maze, random, warehouse; e.g. maze/19x19/seed=0)")]
+    #[error("the form is FAMILY/HEIGHTxWIDTH[/KEY=VALUE...]/seed=SEED (families: maze, braid, random, warehouse; e.g. maze/19x19/seed=0)")]
     Form,
     /// The first part is not a family.
-    #[error("unknown family '{0}' (known: maze, random, warehouse)")]
+    #[error("unknown family '{0}' (known: maze, braid, random, warehouse)")]
     UnknownFamily(String),
     /// The size part is not `HEIGHTxWIDTH` within 1..=1024.
     #[error("the size is HEIGHTxWIDTH, each 1 to 1024 (e.g. 19x19), not '{0}'")]
     Size(String),
-    /// A maze with an even side.
+    /// A braid maze with an even side.
     #[error(
-        "a maze's height and width are odd (its rooms sit on even rows and columns), not {0}x{1}"
+        "a braid maze's height and width are odd (its rooms sit on even rows and columns), not {0}x{1}"
     )]
-    EvenMaze(usize, usize),
+    EvenBraid(usize, usize),
     /// A part that is not `KEY=VALUE`.
     #[error("'{0}' is not KEY=VALUE")]
     NotKeyValue(String),
@@ -159,6 +205,10 @@ pub enum SpecProblem {
     /// No `seed=` part.
     #[error("seed=SEED is missing (the last part, e.g. .../seed=0)")]
     NoSeed,
+    /// A seed range that is not `A..B` with A < B and at most 10,000
+    /// seeds ([`GeneratedMap::expand`]).
+    #[error("the seed range {0} is not A..B with A < B and at most 10000 seeds")]
+    SeedRange(String),
     /// A warehouse's settings leave no room for a shelf.
     #[error(
         "no shelf fits in {height}x{width} with shelf={shelf}, margin={margin} and edge={edge}"
@@ -250,6 +300,16 @@ impl<'a> Settings<'a> {
 }
 
 const UNIT: &str = "a number from 0 to 1";
+const BELOW_ONE: &str = "a number from 0 up to (not including) 1";
+const POSITIVE: &str = "a whole number from 1 to 1024";
+
+fn unit(v: f64) -> bool {
+    (0.0..=1.0).contains(&v)
+}
+
+fn below_one(v: f64) -> bool {
+    (0.0..1.0).contains(&v)
+}
 
 fn parse(spec: &str) -> Result<GeneratedMap, SpecProblem> {
     let parts: Vec<&str> = spec.split('/').collect();
@@ -264,25 +324,34 @@ fn parse(spec: &str) -> Result<GeneratedMap, SpecProblem> {
     let seed = settings.get("seed", 0u64, |_| true, "a whole number from 0 to 2^64 - 1")?;
     let family = match *family {
         "maze" => {
-            settings.check_keys("maze", "loops")?;
+            settings.check_keys("maze", "density, walls, straight")?;
+            let d = Maze::default();
+            Family::Maze(Maze {
+                density: settings.get("density", d.density, below_one, BELOW_ONE)?,
+                walls: settings.get(
+                    "walls",
+                    d.walls,
+                    |v: usize| (1..=MAX_SIDE).contains(&v),
+                    POSITIVE,
+                )?,
+                straight: settings.get("straight", d.straight, unit, UNIT)?,
+            })
+        }
+        "braid" => {
+            settings.check_keys("braid", "loops")?;
             if height % 2 == 0 || width % 2 == 0 {
-                return Err(SpecProblem::EvenMaze(height, width));
+                return Err(SpecProblem::EvenBraid(height, width));
             }
-            let loops = settings.get(
-                "loops",
-                Maze::default().loops,
-                |v: f64| (0.0..=1.0).contains(&v),
-                UNIT,
-            )?;
-            Family::Maze(Maze { loops })
+            let loops = settings.get("loops", Braid::default().loops, unit, UNIT)?;
+            Family::Braid(Braid { loops })
         }
         "random" => {
             settings.check_keys("random", "density")?;
             let density = settings.get(
                 "density",
                 RandomObstacles::default().density,
-                |v: f64| (0.0..1.0).contains(&v),
-                "a number from 0 up to (not including) 1",
+                below_one,
+                BELOW_ONE,
             )?;
             Family::Random(RandomObstacles { density })
         }
@@ -291,7 +360,6 @@ fn parse(spec: &str) -> Result<GeneratedMap, SpecProblem> {
             let d = Warehouse::default();
             let positive = |v: usize| (1..=MAX_SIDE).contains(&v);
             let small = |v: usize| v <= MAX_SIDE;
-            const POSITIVE: &str = "a whole number from 1 to 1024";
             const SMALL: &str = "a whole number from 0 to 1024";
             let w = Warehouse {
                 shelf: settings.get("shelf", d.shelf, positive, POSITIVE)?,
@@ -299,12 +367,7 @@ fn parse(spec: &str) -> Result<GeneratedMap, SpecProblem> {
                 aisle: settings.get("aisle", d.aisle, positive, POSITIVE)?,
                 margin: settings.get("margin", d.margin, small, SMALL)?,
                 edge: settings.get("edge", d.edge, small, SMALL)?,
-                missing: settings.get(
-                    "missing",
-                    d.missing,
-                    |v: f64| (0.0..=1.0).contains(&v),
-                    UNIT,
-                )?,
+                missing: settings.get("missing", d.missing, unit, UNIT)?,
             };
             let (rows, blocks) = w.fits(height, width);
             if rows == 0 || blocks == 0 {
@@ -357,7 +420,13 @@ impl fmt::Display for GeneratedMap {
         }
         write!(f, "{}/{}x{}", self.family.name(), self.height, self.width)?;
         match &self.family {
-            Family::Maze(m) => set(f, "loops", m.loops, Maze::default().loops)?,
+            Family::Maze(m) => {
+                let d = Maze::default();
+                set(f, "density", m.density, d.density)?;
+                set(f, "walls", m.walls, d.walls)?;
+                set(f, "straight", m.straight, d.straight)?;
+            }
+            Family::Braid(b) => set(f, "loops", b.loops, Braid::default().loops)?,
             Family::Random(r) => set(f, "density", r.density, RandomObstacles::default().density)?,
             Family::Warehouse(w) => {
                 let d = Warehouse::default();

@@ -7,8 +7,12 @@ use crate::Map;
 fn specs() -> Vec<GeneratedMap> {
     [
         "maze/19x19/seed=0",
-        "maze/21x17/loops=0/seed=3",
+        "maze/21x17/density=0.45/walls=3/straight=0.5/seed=3",
         "maze/1x9/seed=1",
+        "maze/2x2/density=0.9/seed=1",
+        "braid/19x19/seed=0",
+        "braid/21x17/loops=0/seed=3",
+        "braid/1x9/seed=1",
         "random/20x20/seed=0",
         "random/16x40/density=0.45/seed=9",
         "random/1x1/density=0.9/seed=2",
@@ -49,6 +53,7 @@ fn the_same_spec_draws_the_same_grid_and_seeds_differ() {
     }
     for spec in [
         "maze/19x19/seed=0",
+        "braid/19x19/seed=0",
         "random/20x20/seed=0",
         "warehouse/33x46/missing=0.3/seed=0",
     ] {
@@ -59,9 +64,9 @@ fn the_same_spec_draws_the_same_grid_and_seeds_differ() {
 }
 
 #[test]
-fn a_maze_keeps_its_pillars_and_rooms_and_loops_open_it_up() {
+fn a_braid_maze_keeps_its_pillars_and_rooms_and_loops_open_it_up() {
     let free = |loops: f64, seed: u64| {
-        let grid = Maze { loops }.generate(19, 21, seed);
+        let grid = Braid { loops }.generate(19, 21, seed);
         for r in 0..19 {
             for c in 0..21 {
                 let cell = Cell::new(r, c);
@@ -123,10 +128,10 @@ fn map_load_and_map_source_name_the_spec_canonically() {
     let parsed = source.parse().unwrap();
     assert_eq!(parsed.grid.walls(), map.grid.walls());
     // A bad spec says what is wrong rather than "unknown map".
-    let err = Map::load("maze/19x19/loops=2/seed=0").unwrap_err();
+    let err = Map::load("braid/19x19/loops=2/seed=0").unwrap_err();
     assert_eq!(
         err.to_string(),
-        "map spec 'maze/19x19/loops=2/seed=0': loops = '2' is not a number from 0 to 1"
+        "map spec 'braid/19x19/loops=2/seed=0': loops = '2' is not a number from 0 to 1"
     );
     assert!(MapSource::read("random/19").is_err());
     // Not a family: still an unknown map, naming the spec form.
@@ -154,20 +159,23 @@ fn bad_specs_name_their_problem() {
         problem("random/2000x9/seed=0"),
         SpecProblem::Size("2000x9".into())
     );
-    assert_eq!(problem("maze/9x10/seed=0"), SpecProblem::EvenMaze(9, 10));
+    assert_eq!(problem("braid/9x10/seed=0"), SpecProblem::EvenBraid(9, 10));
     assert_eq!(
-        problem("maze/9x9/loops/seed=0"),
+        problem("braid/9x9/loops/seed=0"),
         SpecProblem::NotKeyValue("loops".into())
     );
     assert!(
-        matches!(problem("maze/9x9/density=0.1/seed=0"), SpecProblem::UnknownKey { key, .. } if key == "density")
+        matches!(problem("braid/9x9/density=0.1/seed=0"), SpecProblem::UnknownKey { key, .. } if key == "density")
     );
     assert_eq!(
         problem("maze/9x9/seed=0/seed=1"),
         SpecProblem::Repeated("seed".into())
     );
     assert_eq!(problem("maze/9x9"), SpecProblem::NoSeed);
-    assert_eq!(problem("maze/9x9/loops=0.2"), SpecProblem::NoSeed);
+    assert_eq!(problem("braid/9x9/loops=0.2"), SpecProblem::NoSeed);
+    assert!(
+        matches!(problem("maze/9x9/walls=0/seed=0"), SpecProblem::Value { key, .. } if key == "walls")
+    );
     assert!(matches!(problem("maze/9x9/seed=-1"), SpecProblem::Value { key, .. } if key == "seed"));
     assert!(
         matches!(problem("random/9x9/density=1/seed=0"), SpecProblem::Value { key, .. } if key == "density")
@@ -188,12 +196,30 @@ fn unit() -> impl Strategy<Value = f64> {
     prop_oneof![Just(0.0), Just(0.5), Just(1.0), 0.0..=1.0f64]
 }
 
-/// A spec of any family: mazes of odd sides, warehouses large enough
+/// A spec of any family: braid mazes of odd sides, warehouses large enough
 /// for a shelf.
 fn spec() -> impl Strategy<Value = GeneratedMap> {
     let odd = || (0usize..60).prop_map(|k| 2 * k + 1);
-    let maze =
-        (odd(), odd(), unit()).prop_map(|(h, w, loops)| (Family::Maze(Maze { loops }), h, w));
+    let braid =
+        (odd(), odd(), unit()).prop_map(|(h, w, loops)| (Family::Braid(Braid { loops }), h, w));
+    let maze = (
+        1usize..100,
+        1usize..100,
+        prop_oneof![Just(0.3), 0.0..1.0f64],
+        1usize..20,
+        unit(),
+    )
+        .prop_map(|(h, w, density, walls, straight)| {
+            (
+                Family::Maze(Maze {
+                    density,
+                    walls,
+                    straight,
+                }),
+                h,
+                w,
+            )
+        });
     let density = prop_oneof![Just(0.3), 0.0..1.0f64];
     let random = (1usize..100, 1usize..100, density)
         .prop_map(|(h, w, density)| (Family::Random(RandomObstacles { density }), h, w));
@@ -218,7 +244,7 @@ fn spec() -> impl Strategy<Value = GeneratedMap> {
             (Family::Warehouse(settings), h, w)
         },
     );
-    (prop_oneof![maze, random, warehouse], any::<u64>()).prop_map(
+    (prop_oneof![maze, braid, random, warehouse], any::<u64>()).prop_map(
         |((family, height, width), seed)| GeneratedMap {
             family,
             height,

@@ -65,6 +65,12 @@ pub enum ConfigError {
         /// The entry.
         entry: String,
     },
+    /// A generated map's spec with a seed range that does not expand.
+    #[error("invalid maps entry: {source}")]
+    BadMapSpec {
+        /// What is wrong with the spec.
+        source: buridan_env::generate::SpecError,
+    },
     /// A layout's weight is not a positive finite number.
     #[error("invalid configuration: map '{map}' has weight {weight}: weights must be positive and finite")]
     BadWeight {

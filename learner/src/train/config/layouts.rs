@@ -3,6 +3,7 @@
 
 use std::sync::Arc;
 
+use buridan_env::generate::GeneratedMap;
 use buridan_env::{Map, WeightedLayout};
 use buridan_plant::{Plant, PlantConfig, PlantEnv};
 use serde::{Deserialize, Serialize};
@@ -35,9 +36,20 @@ fn unit_weight() -> f64 {
 }
 
 impl WeightedMap {
-    /// Parses `NAME[:WEIGHT],…` (weight 1 if left out).
+    /// Parses `NAME[:WEIGHT],…` (weight 1 if left out). A generated map's
+    /// spec with a seed range (`maze/19x19/seed=0..100`) stands for one
+    /// layout per seed, sharing its weight equally.
+    ///
+    /// ```
+    /// use buridan_learner::train::WeightedMap;
+    /// let maps = WeightedMap::parse_list("rm-2.2:2,maze/19x19/seed=0..4").unwrap();
+    /// assert_eq!(maps.len(), 5);
+    /// assert_eq!(maps[4], WeightedMap { name: "maze/19x19/seed=3".into(), weight: 0.25 });
+    /// assert!(WeightedMap::parse_list("maze/19x19/seed=4..0").is_err());
+    /// ```
     pub fn parse_list(text: &str) -> Result<Vec<WeightedMap>, ConfigError> {
-        text.split(',')
+        let entries: Vec<WeightedMap> = text
+            .split(',')
             .map(|entry| {
                 let entry = entry.trim();
                 let bad = || ConfigError::BadMapsEntry {
@@ -56,7 +68,21 @@ impl WeightedMap {
                     weight,
                 })
             })
-            .collect()
+            .collect::<Result<_, _>>()?;
+        let mut maps = Vec::with_capacity(entries.len());
+        for entry in entries {
+            if !GeneratedMap::is_spec(&entry.name) || !entry.name.contains("..") {
+                maps.push(entry);
+                continue;
+            }
+            let seeds = GeneratedMap::expand(&entry.name).map_err(|source| ConfigError::BadMapSpec { source })?;
+            let weight = entry.weight / seeds.len() as f64;
+            maps.extend(seeds.iter().map(|spec| WeightedMap {
+                name: spec.to_string(),
+                weight,
+            }));
+        }
+        Ok(maps)
     }
 
     /// A short name of a list: `NAME:WEIGHT` joined by `+`.
