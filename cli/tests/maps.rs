@@ -68,6 +68,11 @@ fn a_bad_spec_is_refused_naming_its_problem() {
         "random/9x9/density=2/seed=0",
         "--controller",
         "pibt",
+        "--out",
+        std::env::temp_dir()
+            .join("buridan-cli-maps-bad")
+            .to_str()
+            .unwrap(),
     ]);
     assert!(!out.status.success());
     let err = String::from_utf8(out.stderr).unwrap();

@@ -75,7 +75,8 @@ impl WeightedMap {
                 maps.push(entry);
                 continue;
             }
-            let seeds = GeneratedMap::expand(&entry.name).map_err(|source| ConfigError::BadMapSpec { source })?;
+            let seeds = GeneratedMap::expand(&entry.name)
+                .map_err(|source| ConfigError::BadMapSpec { source })?;
             let weight = entry.weight / seeds.len() as f64;
             maps.extend(seeds.iter().map(|spec| WeightedMap {
                 name: spec.to_string(),
