@@ -83,12 +83,13 @@ pub enum EnvError {
         /// Agents requested.
         requested: usize,
     },
-    /// A start or goal lies on a wall or outside the grid.
+    /// A start, goal or reported position lies on a wall or outside the
+    /// grid.
     #[error("agent {agent}: {which} ({row}, {col}) is {problem}")]
     BadCell {
         /// Agent index.
         agent: usize,
-        /// "start" or "goal".
+        /// "start", "goal" or "position".
         which: &'static str,
         /// Row of the cell.
         row: usize,
@@ -97,19 +98,30 @@ pub enum EnvError {
         /// "a wall" or "outside the grid".
         problem: &'static str,
     },
-    /// Two agents share a start or a goal.
+    /// Two agents share a start, a goal or a reported position.
     #[error("agents {first} and {second} share the {which} cell ({row}, {col})")]
     SharedCell {
         /// Lower agent index.
         first: usize,
         /// Higher agent index.
         second: usize,
-        /// "start" or "goal".
+        /// "start", "goal" or "position".
         which: &'static str,
         /// Row of the shared cell.
         row: usize,
         /// Column of the shared cell.
         col: usize,
+    },
+    /// A reported position more than one cell from the agent's last one
+    /// ([`crate::GridEnv::report`]).
+    #[error("agent {agent} moved from {from} to {to}: more than one cell in a step")]
+    Jump {
+        /// The agent.
+        agent: usize,
+        /// Its last position.
+        from: crate::map::Cell,
+        /// The position reported.
+        to: crate::map::Cell,
     },
     /// A configuration value is out of its range.
     #[error("invalid configuration: {0}")]

@@ -42,6 +42,7 @@ use stall::StallWatch;
 use visits::VisitCounts;
 
 mod board;
+mod report;
 mod shaping;
 mod stall;
 mod view;
@@ -303,35 +304,53 @@ impl GridEnv {
                 needed: n + 1,
             });
         }
-        for (which, list) in [("start", starts), ("goal", goals)] {
-            for (i, &cell) in list.iter().enumerate() {
-                if !grid.contains(cell) {
-                    return Err(EnvError::BadCell {
-                        agent: i,
-                        which,
-                        row: cell.row,
-                        col: cell.col,
-                        problem: "outside the grid",
-                    });
-                }
-                if grid.is_wall(cell) {
-                    return Err(EnvError::BadCell {
-                        agent: i,
-                        which,
-                        row: cell.row,
-                        col: cell.col,
-                        problem: "a wall",
-                    });
-                }
-                if let Some(j) = list[..i].iter().position(|&c| c == cell) {
-                    return Err(EnvError::SharedCell {
-                        first: j,
-                        second: i,
-                        which,
-                        row: cell.row,
-                        col: cell.col,
-                    });
-                }
+        self.check_cells("starts", "start", starts)?;
+        self.check_cells("goals", "goal", goals)
+    }
+
+    /// Checks one cell per agent (`what`, e.g. "starts"; `which` names one,
+    /// "start"): as many as agents, inside the grid, not on walls,
+    /// pairwise distinct.
+    fn check_cells(
+        &self,
+        what: &'static str,
+        which: &'static str,
+        list: &[Cell],
+    ) -> Result<(), EnvError> {
+        let n = self.cfg.agents;
+        if list.len() != n {
+            return Err(EnvError::WrongLength {
+                what,
+                expected: n,
+                got: list.len(),
+            });
+        }
+        let grid = &self.map.grid;
+        for (i, &cell) in list.iter().enumerate() {
+            let problem = if !grid.contains(cell) {
+                "outside the grid"
+            } else if grid.is_wall(cell) {
+                "a wall"
+            } else {
+                ""
+            };
+            if !problem.is_empty() {
+                return Err(EnvError::BadCell {
+                    agent: i,
+                    which,
+                    row: cell.row,
+                    col: cell.col,
+                    problem,
+                });
+            }
+            if let Some(j) = list[..i].iter().position(|&c| c == cell) {
+                return Err(EnvError::SharedCell {
+                    first: j,
+                    second: i,
+                    which,
+                    row: cell.row,
+                    col: cell.col,
+                });
             }
         }
         Ok(())

@@ -1,0 +1,113 @@
+//! Closed-loop control: the env takes a fleet's report of where each
+//! agent stands and where it heads as the state after one step, whatever
+//! the agents were told to do.
+
+use super::board::NOBODY;
+use super::GridEnv;
+use crate::error::EnvError;
+use crate::map::Cell;
+
+impl GridEnv {
+    /// Takes `positions` and `goals` (one per agent) as the state after
+    /// one step: a controller that drives real robots acts on what they
+    /// report, never on what it commanded (a robot may lag, or stall).
+    ///
+    /// Each position must lie inside the grid, off the walls, apart from
+    /// the others and at most one cell from the agent's last one; each
+    /// goal inside the grid, off the walls and apart from the others. A
+    /// goal may change at any step. Invalid input is refused before
+    /// anything changes.
+    ///
+    /// The step is accounted as [`Self::step`] accounts one: time advances,
+    /// arrivals and the steps each agent spends off its goal are kept, the
+    /// heatmap and the stall monitor see the new positions. An agent whose
+    /// goal changes while it stands on the old one has arrived, as in
+    /// lifelong mode. No rewards are given and the episode never ends:
+    /// reporting the positions and goals a stepped env reaches reproduces
+    /// its state, observations included (`env/tests/report.rs`).
+    ///
+    /// ```
+    /// use buridan_env::{Cell, EnvConfig, GridEnv, Map, Starts};
+    /// let map = std::sync::Arc::new(Map::load("rm-1.1").unwrap());
+    /// let cfg = EnvConfig { agents: 2, starts: Starts::Fixed, ..EnvConfig::default() };
+    /// let mut env = GridEnv::new(map, cfg).unwrap();
+    /// let (start, goals) = (env.positions(), env.goals());
+    /// // Agent 0 moved right; agent 1 lagged and stayed.
+    /// env.report(&[Cell::new(1, 2), start[1]], &goals).unwrap();
+    /// assert_eq!(env.position(0), Cell::new(1, 2));
+    /// assert_eq!(env.t(), 1);
+    /// // A jump of two cells is refused.
+    /// let err = env.report(&[Cell::new(1, 4), start[1]], &goals).unwrap_err();
+    /// assert_eq!(err.to_string(), "agent 0 moved from (1, 2) to (1, 4): more than one cell in a step");
+    /// ```
+    pub fn report(&mut self, positions: &[Cell], goals: &[Cell]) -> Result<(), EnvError> {
+        self.check_cells("positions", "position", positions)?;
+        self.check_cells("goals", "goal", goals)?;
+        if let Some(agent) =
+            (0..positions.len()).find(|&i| positions[i].manhattan(self.cells[i]) > 1)
+        {
+            return Err(EnvError::Jump {
+                agent,
+                from: self.cells[agent],
+                to: positions[agent],
+            });
+        }
+        let n = self.cfg.agents;
+        // Goals: every changed goal leaves the board before any is put
+        // back, so that goals may trade places.
+        let changed: Vec<usize> = (0..n).filter(|&i| goals[i] != self.goal_cells[i]).collect();
+        let arrived: Vec<bool> = (0..n)
+            .map(|i| changed.contains(&i) && positions[i] == self.goal_cells[i])
+            .collect();
+        for &i in &changed {
+            self.board.goal_owner[self.goal[i]] = NOBODY;
+            self.board.refresh_code(self.goal[i]);
+        }
+        for &i in &changed {
+            let p = self.board.padded(goals[i]);
+            self.board.goal_owner[p] = i as u16 + 1;
+            self.board.refresh_code(p);
+            self.goal[i] = p;
+            self.goal_cells[i] = goals[i];
+            self.goal_distance[i] = self.map.grid.distances_to(goals[i]);
+            self.stall.new_goal(i);
+        }
+        // Moves: every source is vacated before any target is filled.
+        let moved: Vec<usize> = (0..n).filter(|&i| positions[i] != self.cells[i]).collect();
+        for &i in &moved {
+            self.board.leave(self.pos[i]);
+        }
+        for &i in &moved {
+            let p = self.board.padded(positions[i]);
+            self.board.enter(i, p);
+            self.pos[i] = p;
+            self.cells[i] = positions[i];
+            self.stall.moved(i, positions[i]);
+        }
+        // Accounts, as `account` keeps them, without rewards or an end.
+        self.t += 1;
+        let t = self.t;
+        for (i, &arrived) in arrived.iter().enumerate() {
+            let home = arrived || self.pos[i] == self.goal[i];
+            if home && (self.off_goal[i] != 0 || t == 1) {
+                self.arrival[i] = t;
+            }
+            if arrived {
+                // Its new goal is already set; the stall watch knows.
+                self.off_goal[i] = 0;
+                self.goals_reached += 1;
+                continue;
+            }
+            self.stall.set_at_goal(i, home);
+            self.off_goal[i] = if home { 0 } else { self.off_goal[i] + 1 };
+            if home && !self.reached[i] {
+                self.reached[i] = true;
+                self.goals_reached += 1;
+            }
+        }
+        let (distance, width) = (&self.goal_distance, self.map.grid.width());
+        self.visits.record(&self.cells);
+        self.stall.observe(|i, (r, c)| distance[i][r * width + c]);
+        Ok(())
+    }
+}
