@@ -321,15 +321,17 @@ impl Net {
         obs: &Tensor,
         input: &RecurrentInput,
     ) -> Result<(NetOutput, (Tensor, Tensor)), PolicyError> {
-        let Some((cell, _)) = &self.lstm else {
-            return Ok((self.forward(obs)?, (input.h.clone(), input.c.clone())));
-        };
-        let (h, c) = self.recur(cell, obs, input)?;
-        let out = NetOutput {
-            logits: self.logits.forward(&h)?,
-            value: self.value.forward(&h)?.squeeze(D::Minus1)?,
-        };
-        Ok((out, (h, c)))
+        self.step_with(
+            obs,
+            input,
+            |obs| self.forward(obs),
+            |h| {
+                Ok(NetOutput {
+                    logits: self.logits.forward(h)?,
+                    value: self.value.forward(h)?.squeeze(D::Minus1)?,
+                })
+            },
+        )
     }
 
     /// One recurrent step's logits and new `(h, c)`, without the value
@@ -339,27 +341,33 @@ impl Net {
         obs: &Tensor,
         input: &RecurrentInput,
     ) -> Result<(Tensor, (Tensor, Tensor)), PolicyError> {
-        let Some((cell, _)) = &self.lstm else {
-            return Ok((
-                self.forward_logits(obs)?,
-                (input.h.clone(), input.c.clone()),
-            ));
-        };
-        let (h, c) = self.recur(cell, obs, input)?;
-        Ok((self.logits.forward(&h)?, (h, c)))
+        self.step_with(
+            obs,
+            input,
+            |obs| self.forward_logits(obs),
+            |h| Ok(self.logits.forward(h)?),
+        )
     }
 
-    /// The LSTM state after one step of a recurrent net.
-    fn recur(
+    /// One step of either kind of net: a feed-forward net's
+    /// `feed_forward(obs)` with the state passed through as it is, or a
+    /// recurrent net's `heads(h)` of its new LSTM output `h`, with the new
+    /// `(h, c)`.
+    fn step_with<T>(
         &self,
-        cell: &LstmCell,
         obs: &Tensor,
         input: &RecurrentInput,
-    ) -> Result<(Tensor, Tensor), PolicyError> {
+        feed_forward: impl FnOnce(&Tensor) -> Result<T, PolicyError>,
+        heads: impl FnOnce(&Tensor) -> Result<T, PolicyError>,
+    ) -> Result<(T, (Tensor, Tensor)), PolicyError> {
+        let Some((cell, _)) = &self.lstm else {
+            return Ok((feed_forward(obs)?, (input.h.clone(), input.c.clone())));
+        };
         let feat = self.pi.forward(obs)?;
         let x = self.lstm_input(&feat, &input.prev_action, &input.prev_reward)?;
         let xp = cell.project_input(&x)?;
-        cell.step(&xp, &input.h, &input.c)
+        let (h, c) = cell.step(&xp, &input.h, &input.c)?;
+        Ok((heads(&h)?, (h, c)))
     }
 
     /// Unrolls over a time-major sequence of `t` steps and `b` rows.
