@@ -335,10 +335,10 @@ impl BatchTensors {
         let w = b.heads * b.actions_per_head;
         let mask_bias = dist::mask_bias(&b.masks, n, w, device)?;
         let logits = Tensor::from_slice(&b.behaviour_logits, (n, w), device)?;
-        let behaviour_log_probs = dist::masked_log_probs(&logits, &mask_bias, b.heads)?;
         let actions: Vec<u32> = b.actions.iter().map(|&a| a as u32).collect();
         let actions = Tensor::from_vec(actions, (n, b.heads), device)?;
-        let behaviour_logp = dist::joint_log_prob(&behaviour_log_probs, &actions)?;
+        let (behaviour_log_probs, behaviour_logp) =
+            masked_policy(&logits, &mask_bias, b.heads, &actions)?;
         let recurrent = match &b.initial_state {
             None => None,
             Some(st) => Some(recurrent_inputs(b, st, device)?),
@@ -354,6 +354,21 @@ impl BatchTensors {
             behaviour_logp,
             recurrent,
         })
+    }
+
+    /// A policy's view of this batch from its `logits [T·R, heads·A]`:
+    /// the log-probabilities of all actions under the batch's masks,
+    /// `[T·R, heads, A]`, and the joint log-prob of the actions taken,
+    /// `[T·R]`.
+    pub fn log_probs(&self, logits: &Tensor) -> Result<(Tensor, Tensor)> {
+        masked_policy(logits, &self.mask_bias, self.heads, &self.actions)
+    }
+
+    /// Mean `KL(behaviour ‖ current)` over the batch, for the current
+    /// policy's log-probabilities `lp_all` (as [`Self::log_probs`] gives
+    /// them).
+    pub fn kl_from_behaviour(&self, lp_all: &Tensor) -> Result<Tensor> {
+        Ok(dist::kl(&self.behaviour_log_probs, lp_all)?.mean_all()?)
     }
 
     /// Runs a recurrent `net` over this batch's sequences (truncated BPTT
@@ -433,6 +448,20 @@ impl BatchTensors {
         flat.extend_from_slice(&dims[1..]);
         Ok(y.reshape(flat)?)
     }
+}
+
+/// Log-probabilities of all actions, `[N, heads, A]`, of `logits [N,
+/// heads·A]` masked by `mask_bias`, and the joint log-prob of `actions`,
+/// `[N]`.
+fn masked_policy(
+    logits: &Tensor,
+    mask_bias: &Tensor,
+    heads: usize,
+    actions: &Tensor,
+) -> Result<(Tensor, Tensor)> {
+    let lp_all = dist::masked_log_probs(logits, mask_bias, heads)?;
+    let logp = dist::joint_log_prob(&lp_all, actions)?;
+    Ok((lp_all, logp))
 }
 
 fn recurrent_inputs(

@@ -16,7 +16,7 @@ use crate::algo::optim::ClippedAdam;
 use crate::algo::ppo::LossTerms;
 use crate::algo::shards::{sharded_gradient, share_count, share_range};
 use crate::algo::vtrace::{vtrace, VTraceParams};
-use crate::algo::{add_loss, Result, UpdateStats};
+use crate::algo::{add_loss, scalar, Result, UpdateStats};
 
 /// Coefficients of the IMPALA loss.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,20 +38,19 @@ pub fn impala_loss(
     vs: &Tensor,
     p: &ImpalaLossParams,
 ) -> Result<(Tensor, LossTerms)> {
-    let lp_all = dist::masked_log_probs(logits, &bt.mask_bias, bt.heads)?;
-    let logp = dist::joint_log_prob(&lp_all, &bt.actions)?;
+    let (lp_all, logp) = bt.log_probs(logits)?;
     let pi_loss = (logp * pg_advantages)?.mean_all()?.neg()?;
     let vf_loss = ((values - vs)?.sqr()?.mean_all()? * 0.5)?;
     let entropy = dist::entropy(&lp_all)?.mean_all()?;
     let total =
         ((&pi_loss + (&vf_loss * p.vf_coeff as f64)?)? - (&entropy * p.entropy_coeff as f64)?)?;
-    let kl = dist::kl(&bt.behaviour_log_probs, &lp_all.detach())?.mean_all()?;
+    let kl = bt.kl_from_behaviour(&lp_all.detach())?;
     let terms = LossTerms {
-        total: total.to_scalar::<f32>()? as f64,
-        policy: pi_loss.to_scalar::<f32>()? as f64,
-        vf: vf_loss.to_scalar::<f32>()? as f64,
-        entropy: entropy.to_scalar::<f32>()? as f64,
-        kl: kl.to_scalar::<f32>()? as f64,
+        total: scalar(&total)?,
+        policy: scalar(&pi_loss)?,
+        vf: scalar(&vf_loss)?,
+        entropy: scalar(&entropy)?,
+        kl: scalar(&kl)?,
     };
     Ok((total, terms))
 }
@@ -165,8 +164,7 @@ impl Impala {
         let dev = policy.device().clone();
         let bt = BatchTensors::new(b, &dev)?;
         let ev = evaluate(policy.net(k), b, &bt, s.max_seq_len, &dev)?;
-        let lp_all = dist::masked_log_probs(&ev.logits.detach(), &bt.mask_bias, bt.heads)?;
-        let target_logp = dist::joint_log_prob(&lp_all, &bt.actions)?;
+        let (_, target_logp) = bt.log_probs(&ev.logits.detach())?;
         let log_rhos: Vec<f32> = (target_logp - &bt.behaviour_logp)?.to_vec1()?;
         let vt = vtrace(&ev.trajectory(b), &log_rhos, s.vtrace);
         let mean_rho = vt.rhos.iter().map(|&x| x as f64).sum::<f64>() / vt.rhos.len().max(1) as f64;

@@ -92,6 +92,11 @@ impl UpdateStats {
     }
 }
 
+/// The value of a scalar f32 tensor (a loss term), as a plain number.
+fn scalar(t: &Tensor) -> Result<f64> {
+    Ok(t.to_scalar::<f32>()? as f64)
+}
+
 /// `total + loss`, starting from nothing: the sum of the weight sets' losses.
 fn add_loss(total: Option<Tensor>, loss: Tensor) -> Result<Option<Tensor>> {
     Ok(Some(match total {

@@ -36,7 +36,7 @@ use crate::algo::batch::{build_net_batches, evaluate, BatchTensors, NetBatch};
 use crate::algo::gae::{gae, standardize, GaeParams};
 use crate::algo::optim::{zeros_like, ClippedAdam};
 use crate::algo::shards::{sharded_gradient, share_count, share_range};
-use crate::algo::{add_loss, AlgoError, Result, UpdateStats};
+use crate::algo::{add_loss, scalar, AlgoError, Result, UpdateStats};
 
 /// Coefficients of the PPO loss.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -103,15 +103,14 @@ pub fn ppo_loss(
     targets: &Tensor,
     p: &PpoLossParams,
 ) -> Result<(Tensor, LossTerms)> {
-    let lp_all = dist::masked_log_probs(logits, &bt.mask_bias, bt.heads)?;
-    let logp = dist::joint_log_prob(&lp_all, &bt.actions)?;
+    let (lp_all, logp) = bt.log_probs(logits)?;
     let ratio = (logp - &bt.behaviour_logp)?.exp()?;
     let unclipped = (&ratio * advantages)?;
     let clipped = (ratio.clamp(1.0 - p.clip, 1.0 + p.clip)? * advantages)?;
     let surrogate = unclipped.minimum(&clipped)?;
     let vf = clipped_value_error(values, targets, p.vf_clip)?;
     let entropy = dist::entropy(&lp_all)?;
-    let kl = dist::kl(&bt.behaviour_log_probs, &lp_all)?.mean_all()?;
+    let kl = bt.kl_from_behaviour(&lp_all)?;
     let per_sample =
         ((surrogate.neg()? + (&vf * p.vf_coeff as f64)?)? - (&entropy * p.entropy_coeff as f64)?)?;
     let mut total = per_sample.mean_all()?;
@@ -119,11 +118,11 @@ pub fn ppo_loss(
         total = (total + (&kl * p.kl_coeff as f64)?)?;
     }
     let terms = LossTerms {
-        total: total.to_scalar::<f32>()? as f64,
-        policy: -surrogate.mean_all()?.to_scalar::<f32>()? as f64,
-        vf: vf.mean_all()?.to_scalar::<f32>()? as f64,
-        entropy: entropy.mean_all()?.to_scalar::<f32>()? as f64,
-        kl: kl.to_scalar::<f32>()? as f64,
+        total: scalar(&total)?,
+        policy: -scalar(&surrogate.mean_all()?)?,
+        vf: scalar(&vf.mean_all()?)?,
+        entropy: scalar(&entropy.mean_all()?)?,
+        kl: scalar(&kl)?,
     };
     Ok((total, terms))
 }
@@ -139,17 +138,15 @@ pub fn critic_loss(
     targets: &Tensor,
     p: &PpoLossParams,
 ) -> Result<(Tensor, LossTerms)> {
-    let lp_all = dist::masked_log_probs(logits, &bt.mask_bias, bt.heads)?;
+    let (lp_all, _) = bt.log_probs(logits)?;
     let vf = clipped_value_error(values, targets, p.vf_clip)?.mean_all()?;
     let total = (&vf * p.vf_coeff as f64)?;
     let terms = LossTerms {
-        total: total.to_scalar::<f32>()? as f64,
+        total: scalar(&total)?,
         policy: 0.0,
-        vf: vf.to_scalar::<f32>()? as f64,
-        entropy: dist::entropy(&lp_all)?.mean_all()?.to_scalar::<f32>()? as f64,
-        kl: dist::kl(&bt.behaviour_log_probs, &lp_all)?
-            .mean_all()?
-            .to_scalar::<f32>()? as f64,
+        vf: scalar(&vf)?,
+        entropy: scalar(&dist::entropy(&lp_all)?.mean_all()?)?,
+        kl: scalar(&bt.kl_from_behaviour(&lp_all)?)?,
     };
     Ok((total, terms))
 }

@@ -61,9 +61,7 @@ pub struct StopRule {
 impl StopRule {
     /// Checks the levels and the stretches; the message names the bad key.
     pub fn validate(&self) -> Result<(), &'static str> {
-        if !(self.success > 0.0 && self.success <= 1.0) {
-            return Err("stop.success must lie in (0, 1]");
-        }
+        check_level(self.success, "stop.success must lie in (0, 1]")?;
         if self.hold == 0 {
             return Err("stop.hold must be at least 1 env step");
         }
@@ -71,6 +69,16 @@ impl StopRule {
             g.validate()?;
         }
         Ok(())
+    }
+}
+
+/// `Ok` for a success level in (0, 1], else `err` (the message naming
+/// the key).
+fn check_level(success: f64, err: &'static str) -> Result<(), &'static str> {
+    if success > 0.0 && success <= 1.0 {
+        Ok(())
+    } else {
+        Err(err)
     }
 }
 
@@ -99,9 +107,7 @@ pub struct GreedyCheck {
 impl GreedyCheck {
     /// Checks the level, the episode count and the interval.
     pub fn validate(&self) -> Result<(), &'static str> {
-        if !(self.success > 0.0 && self.success <= 1.0) {
-            return Err("stop.greedy.success must lie in (0, 1]");
-        }
+        check_level(self.success, "stop.greedy.success must lie in (0, 1]")?;
         if self.episodes == 0 {
             return Err("stop.greedy.episodes must be at least 1");
         }
