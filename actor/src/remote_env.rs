@@ -35,7 +35,7 @@
 
 use std::time::Duration;
 
-use buridan_env::{BatchedEnv, EnvError, EpisodeStats, ObsKind};
+use buridan_env::{batched_env_buffers, BatchedEnv, EnvError, ObsKind, StepBuffers};
 use buridan_proto::env_convert::{
     check_reset_reply, check_step_reply, ended, episode_from_message, spec_from_message, EnvSpec,
 };
@@ -181,13 +181,7 @@ pub struct RemoteEnv {
     spec: EnvSpec,
     session: u64,
     mask_slots: usize,
-    obs: Vec<f32>,
-    masks: Vec<u8>,
-    rewards: Vec<f32>,
-    terminated: Vec<u8>,
-    truncated: Vec<u8>,
-    final_obs: Vec<f32>,
-    episodes: Vec<EpisodeStats>,
+    buffers: StepBuffers,
     kpis: Vec<Vec<(String, f64)>>,
 }
 
@@ -240,20 +234,17 @@ impl RemoteEnv {
             seed,
             "remote env session opened"
         );
-        let (envs, agents) = (spec.num_envs, spec.agents);
+        let buffers = StepBuffers {
+            obs: reset.obs,
+            ..StepBuffers::new(spec.num_envs, spec.agents, spec.obs_len(), 0)
+        };
         let mut env = Self {
             url: url.to_string(),
             runtime: Some(runtime),
             client,
             session: reset.session,
             mask_slots,
-            obs: reset.obs,
-            masks: Vec::new(),
-            rewards: vec![0.0; envs * agents],
-            terminated: vec![0; envs],
-            truncated: vec![0; envs],
-            final_obs: vec![0.0; spec.obs_len()],
-            episodes: Vec::new(),
+            buffers,
             kpis: Vec::new(),
             spec,
         };
@@ -322,20 +313,20 @@ impl RemoteEnv {
         let (per_env, d) = (self.spec.rows_per_env(), self.spec.obs_dim);
         let row_len = per_env * d;
         for (k, e) in ended(&reply.terminated, &reply.truncated).enumerate() {
-            self.final_obs[e * row_len..(e + 1) * row_len]
+            self.buffers.final_obs[e * row_len..(e + 1) * row_len]
                 .copy_from_slice(&reply.final_obs[k * row_len..(k + 1) * row_len]);
         }
         for episode in &reply.episodes {
             // Checked above.
             if let Ok((stats, kpis)) = episode_from_message(episode) {
-                self.episodes.push(stats);
+                self.buffers.episodes.push(stats);
                 self.kpis.push(kpis);
             }
         }
-        self.obs = reply.obs;
-        self.rewards = reply.rewards;
-        self.terminated = reply.terminated;
-        self.truncated = reply.truncated;
+        self.buffers.obs = reply.obs;
+        self.buffers.rewards = reply.rewards;
+        self.buffers.terminated = reply.terminated;
+        self.buffers.truncated = reply.truncated;
         self.set_masks(reply.masks);
         Ok(())
     }
@@ -344,17 +335,16 @@ impl RemoteEnv {
     /// `mask_slots` per agent with the extra slots masked out.
     fn set_masks(&mut self, masks: Vec<u8>) {
         let a = self.spec.num_actions;
+        let out = &mut self.buffers.masks;
         if self.mask_slots == a {
-            self.masks = masks;
+            *out = masks;
             return;
         }
-        self.masks.clear();
-        self.masks
-            .reserve(self.spec.agent_slots() * self.mask_slots);
+        out.clear();
+        out.reserve(self.spec.agent_slots() * self.mask_slots);
         for agent in masks.chunks_exact(a) {
-            self.masks.extend_from_slice(agent);
-            self.masks
-                .extend(std::iter::repeat_n(0u8, self.mask_slots - a));
+            out.extend_from_slice(agent);
+            out.extend(std::iter::repeat_n(0u8, self.mask_slots - a));
         }
     }
 }
@@ -444,31 +434,11 @@ impl BatchedEnv for RemoteEnv {
     fn obs_dim(&self) -> usize {
         self.spec.obs_dim
     }
-    fn obs(&self) -> &[f32] {
-        &self.obs
-    }
-    fn masks(&self) -> &[u8] {
-        &self.masks
-    }
     /// Steps the session over the wire; a failure is
     /// [`EnvError::Remote`] (with `retryable` set when the server went
     /// away, restarted or dropped the session).
     fn step(&mut self, actions: &[u8]) -> Result<(), EnvError> {
         self.try_step(actions).map_err(EnvError::from)
     }
-    fn rewards(&self) -> &[f32] {
-        &self.rewards
-    }
-    fn terminated(&self) -> &[u8] {
-        &self.terminated
-    }
-    fn truncated(&self) -> &[u8] {
-        &self.truncated
-    }
-    fn final_obs(&self) -> &[f32] {
-        &self.final_obs
-    }
-    fn drain_episodes(&mut self) -> Vec<EpisodeStats> {
-        std::mem::take(&mut self.episodes)
-    }
+    batched_env_buffers!(buffers);
 }

@@ -25,6 +25,7 @@
 //! ```
 
 pub mod api;
+pub mod buffers;
 pub mod config;
 pub mod error;
 pub mod generate;
@@ -42,6 +43,7 @@ pub mod vec_env;
 pub mod world;
 
 pub use api::BatchedEnv;
+pub use buffers::StepBuffers;
 pub use config::{episode_instance, episode_rng, EnvConfig, Starts};
 pub use error::{EnvError, MapError};
 pub use map::{Cell, Grid, Map, MapSource, Scenario, REFERENCE_MODELS};

@@ -151,9 +151,6 @@ impl EnvSlot for LayoutMixture {
     fn reset_to(&mut self, episode: u64) -> Result<(), EnvError> {
         LayoutMixture::reset_to(self, episode)
     }
-    fn reset_next(&mut self, stride: u64) -> Result<(), EnvError> {
-        LayoutMixture::reset_next(self, stride)
-    }
     fn stats(&self) -> EpisodeStats {
         LayoutMixture::stats(self)
     }

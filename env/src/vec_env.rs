@@ -33,6 +33,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 use crate::api::BatchedEnv;
+use crate::buffers::StepBuffers;
 use crate::config::EnvConfig;
 use crate::error::EnvError;
 use crate::map::Map;
@@ -55,9 +56,13 @@ pub trait EnvSlot: Send {
     /// mixture, follow from the index).
     fn reset_to(&mut self, episode: u64) -> Result<(), EnvError>;
     /// Starts the slot's next episode (`episode + stride`).
-    fn reset_next(&mut self, stride: u64) -> Result<(), EnvError>;
+    fn reset_next(&mut self, stride: u64) -> Result<(), EnvError> {
+        self.reset_to(self.env().episode() + stride)
+    }
     /// Statistics of the current episode.
-    fn stats(&self) -> EpisodeStats;
+    fn stats(&self) -> EpisodeStats {
+        self.env().stats()
+    }
 }
 
 impl EnvSlot for GridEnv {
@@ -72,12 +77,6 @@ impl EnvSlot for GridEnv {
     fn reset_to(&mut self, episode: u64) -> Result<(), EnvError> {
         GridEnv::reset_to(self, episode)
     }
-    fn reset_next(&mut self, stride: u64) -> Result<(), EnvError> {
-        GridEnv::reset_next(self, stride)
-    }
-    fn stats(&self) -> EpisodeStats {
-        GridEnv::stats(self)
-    }
 }
 
 /// A batch of environments with flat observation, mask and reward buffers;
@@ -89,14 +88,8 @@ pub struct VecEnv<S: EnvSlot = GridEnv> {
     agents: usize,
     obs_dim: usize,
     mask_dim: usize,
-    obs: Vec<f32>,
-    final_obs: Vec<f32>,
-    masks: Vec<u8>,
-    rewards: Vec<f32>,
-    terminated: Vec<u8>,
-    truncated: Vec<u8>,
+    buffers: StepBuffers,
     finished: Vec<Option<EpisodeStats>>,
-    episodes: Vec<EpisodeStats>,
     pool: Option<rayon::ThreadPool>,
 }
 
@@ -110,11 +103,10 @@ impl VecEnv {
         kind: ObsKind,
         threads: usize,
     ) -> Result<Self, EnvError> {
-        let n = cfg.agents;
-        let envs = (0..num_envs)
-            .map(|e| GridEnv::with_episode(map.clone(), cfg.clone(), e as u64))
-            .collect::<Result<Vec<_>, _>>()?;
-        Self::from_slots(envs, n, kind, threads)
+        let envs = slots(num_envs, |e| {
+            GridEnv::with_episode(map.clone(), cfg.clone(), e)
+        })?;
+        Self::from_slots(envs, cfg.agents, kind, threads)
     }
 
     /// Visit counts summed over all envs since creation (row-major cells).
@@ -141,10 +133,7 @@ impl VecEnv<LayoutMixture> {
         kind: ObsKind,
         threads: usize,
     ) -> Result<Self, EnvError> {
-        let n = cfg.agents;
-        let envs = (0..num_envs)
-            .map(|e| LayoutMixture::new(layouts, cfg.clone(), e as u64))
-            .collect::<Result<Vec<_>, _>>()?;
+        let envs = slots(num_envs, |e| LayoutMixture::new(layouts, cfg.clone(), e))?;
         if let Some(first) = envs.first() {
             let dims: Vec<usize> = first
                 .envs()
@@ -158,8 +147,16 @@ impl VecEnv<LayoutMixture> {
                 )));
             }
         }
-        Self::from_slots(envs, n, kind, threads)
+        Self::from_slots(envs, cfg.agents, kind, threads)
     }
+}
+
+/// `num_envs` slots, slot `e` made by `make(e)` (its first episode).
+fn slots<S>(
+    num_envs: usize,
+    make: impl Fn(u64) -> Result<S, EnvError>,
+) -> Result<Vec<S>, EnvError> {
+    (0..num_envs as u64).map(make).collect()
 }
 
 /// Floats per observation row and bytes per mask row of `env` for `kind`.
@@ -200,22 +197,17 @@ impl<S: EnvSlot> VecEnv<S> {
             agents: n,
             obs_dim,
             mask_dim,
-            obs: vec![0.0; rows * obs_dim],
-            final_obs: vec![0.0; rows * obs_dim],
-            masks: vec![0; rows * mask_dim],
-            rewards: vec![0.0; num_envs * n],
-            terminated: vec![0; num_envs],
-            truncated: vec![0; num_envs],
+            buffers: StepBuffers::new(num_envs, n, rows * obs_dim, rows * mask_dim),
             finished: vec![None; num_envs],
-            episodes: Vec::new(),
             envs,
             pool,
         };
         let rows = kind.rows_per_env(n);
         let per_env = venv
+            .buffers
             .obs
             .chunks_mut(rows * obs_dim)
-            .zip(venv.masks.chunks_mut(rows * mask_dim));
+            .zip(venv.buffers.masks.chunks_mut(rows * mask_dim));
         for (slot, (obs, masks)) in venv.envs.iter().zip(per_env) {
             write_obs(slot.env(), kind, obs, masks)?;
         }
@@ -244,6 +236,7 @@ impl<S: EnvSlot> VecEnv<S> {
         let (o, m) = (rows * self.obs_dim, rows * self.mask_dim);
         let stride = self.envs.len() as u64;
         let kind = self.kind;
+        let b = &mut self.buffers;
         let step_one =
             |(env, act, rew, obs, final_obs, mask, term, trunc, finished): SlotBuffers<'_, S>| {
                 step_env(
@@ -255,12 +248,12 @@ impl<S: EnvSlot> VecEnv<S> {
                 (
                     self.envs.par_iter_mut(),
                     actions.par_chunks(n),
-                    self.rewards.par_chunks_mut(n),
-                    self.obs.par_chunks_mut(o),
-                    self.final_obs.par_chunks_mut(o),
-                    self.masks.par_chunks_mut(m),
-                    self.terminated.par_iter_mut(),
-                    self.truncated.par_iter_mut(),
+                    b.rewards.par_chunks_mut(n),
+                    b.obs.par_chunks_mut(o),
+                    b.final_obs.par_chunks_mut(o),
+                    b.masks.par_chunks_mut(m),
+                    b.terminated.par_iter_mut(),
+                    b.truncated.par_iter_mut(),
                     self.finished.par_iter_mut(),
                 )
                     .into_par_iter()
@@ -273,12 +266,12 @@ impl<S: EnvSlot> VecEnv<S> {
                     .envs
                     .iter_mut()
                     .zip(actions.chunks(n))
-                    .zip(self.rewards.chunks_mut(n))
-                    .zip(self.obs.chunks_mut(o))
-                    .zip(self.final_obs.chunks_mut(o))
-                    .zip(self.masks.chunks_mut(m))
-                    .zip(self.terminated.iter_mut())
-                    .zip(self.truncated.iter_mut())
+                    .zip(b.rewards.chunks_mut(n))
+                    .zip(b.obs.chunks_mut(o))
+                    .zip(b.final_obs.chunks_mut(o))
+                    .zip(b.masks.chunks_mut(m))
+                    .zip(b.terminated.iter_mut())
+                    .zip(b.truncated.iter_mut())
                     .zip(self.finished.iter_mut());
                 for ((((((((env, act), rew), obs), final_obs), mask), term), trunc), finished) in
                     per_env
@@ -287,7 +280,7 @@ impl<S: EnvSlot> VecEnv<S> {
                 }
             }
         }
-        self.episodes
+        b.episodes
             .extend(self.finished.iter_mut().filter_map(Option::take));
         Ok(())
     }
@@ -319,32 +312,32 @@ impl<S: EnvSlot> VecEnv<S> {
 
     /// Current observations, one row per agent (local) or per env (central).
     pub fn obs(&self) -> &[f32] {
-        &self.obs
+        &self.buffers.obs
     }
 
     /// Last observations of episodes that ended in the last step.
     pub fn final_obs(&self) -> &[f32] {
-        &self.final_obs
+        &self.buffers.final_obs
     }
 
     /// Current action masks.
     pub fn masks(&self) -> &[u8] {
-        &self.masks
+        &self.buffers.masks
     }
 
     /// Rewards of the last step, per agent, env-major.
     pub fn rewards(&self) -> &[f32] {
-        &self.rewards
+        &self.buffers.rewards
     }
 
     /// Per env: 1 if its episode terminated (success) in the last step.
     pub fn terminated(&self) -> &[u8] {
-        &self.terminated
+        &self.buffers.terminated
     }
 
     /// Per env: 1 if its episode was truncated in the last step.
     pub fn truncated(&self) -> &[u8] {
-        &self.truncated
+        &self.buffers.truncated
     }
 
     /// The envs, for inspection.
@@ -354,7 +347,7 @@ impl<S: EnvSlot> VecEnv<S> {
 
     /// Takes the statistics of the episodes finished since the last call.
     pub fn drain_episodes(&mut self) -> Vec<EpisodeStats> {
-        std::mem::take(&mut self.episodes)
+        self.buffers.drain_episodes()
     }
 
     /// The same batch, each slot replaying its failed episodes
@@ -395,14 +388,8 @@ impl<S: EnvSlot> VecEnv<S> {
             agents: self.agents,
             obs_dim: self.obs_dim,
             mask_dim: self.mask_dim,
-            obs: self.obs,
-            final_obs: self.final_obs,
-            masks: self.masks,
-            rewards: self.rewards,
-            terminated: self.terminated,
-            truncated: self.truncated,
+            buffers: self.buffers,
             finished: self.finished,
-            episodes: self.episodes,
             pool: self.pool,
         })
     }
@@ -514,30 +501,10 @@ impl<S: EnvSlot> BatchedEnv for VecEnv<S> {
     fn obs_dim(&self) -> usize {
         VecEnv::obs_dim(self)
     }
-    fn obs(&self) -> &[f32] {
-        VecEnv::obs(self)
-    }
-    fn masks(&self) -> &[u8] {
-        VecEnv::masks(self)
-    }
     fn step(&mut self, actions: &[u8]) -> Result<(), EnvError> {
         VecEnv::step(self, actions)
     }
-    fn rewards(&self) -> &[f32] {
-        VecEnv::rewards(self)
-    }
-    fn terminated(&self) -> &[u8] {
-        VecEnv::terminated(self)
-    }
-    fn truncated(&self) -> &[u8] {
-        VecEnv::truncated(self)
-    }
-    fn final_obs(&self) -> &[f32] {
-        VecEnv::final_obs(self)
-    }
-    fn drain_episodes(&mut self) -> Vec<EpisodeStats> {
-        VecEnv::drain_episodes(self)
-    }
+    crate::batched_env_buffers!(buffers);
     fn grid_env(&self, e: usize) -> Option<&GridEnv> {
         self.envs.get(e).map(EnvSlot::env)
     }

@@ -22,7 +22,7 @@
 
 use std::sync::Arc;
 
-use buridan_env::{BatchedEnv, EnvError, EpisodeStats, ObsKind};
+use buridan_env::{batched_env_buffers, BatchedEnv, EnvError, ObsKind, StepBuffers};
 
 use crate::env::{PlantConfig, PlantEnv, NUM_ACTIONS};
 use crate::kpi::Kpis;
@@ -36,13 +36,7 @@ pub struct PlantVecEnv {
     agents: usize,
     obs_dim: usize,
     mask_dim: usize,
-    obs: Vec<f32>,
-    final_obs: Vec<f32>,
-    masks: Vec<u8>,
-    rewards: Vec<f32>,
-    terminated: Vec<u8>,
-    truncated: Vec<u8>,
-    episodes: Vec<EpisodeStats>,
+    buffers: StepBuffers,
     kpis: Vec<Kpis>,
 }
 
@@ -74,13 +68,7 @@ impl PlantVecEnv {
             agents,
             obs_dim,
             mask_dim,
-            obs: vec![0.0; rows * obs_dim],
-            final_obs: vec![0.0; rows * obs_dim],
-            masks: vec![0; rows * mask_dim],
-            rewards: vec![0.0; num_envs * agents],
-            terminated: vec![0; num_envs],
-            truncated: vec![0; num_envs],
-            episodes: Vec::new(),
+            buffers: StepBuffers::new(num_envs, agents, rows * obs_dim, rows * mask_dim),
             kpis: Vec::new(),
         };
         for e in 0..num_envs {
@@ -101,7 +89,7 @@ impl PlantVecEnv {
 
     /// Takes the KPIs of the episodes finished since the last call (kept
     /// apart from [`BatchedEnv::drain_episodes`], which drains the
-    /// [`EpisodeStats`]).
+    /// [`buridan_env::EpisodeStats`]).
     pub fn drain_kpis(&mut self) -> Vec<Kpis> {
         std::mem::take(&mut self.kpis)
     }
@@ -112,11 +100,11 @@ impl PlantVecEnv {
         let (o, m) = (rows * self.obs_dim, rows * self.mask_dim);
         let env = &self.envs[e];
         let obs = if last {
-            &mut self.final_obs[e * o..(e + 1) * o]
+            &mut self.buffers.final_obs[e * o..(e + 1) * o]
         } else {
-            &mut self.obs[e * o..(e + 1) * o]
+            &mut self.buffers.obs[e * o..(e + 1) * o]
         };
-        let masks = &mut self.masks[e * m..(e + 1) * m];
+        let masks = &mut self.buffers.masks[e * m..(e + 1) * m];
         let slots = env.config().action_slots;
         match self.kind {
             ObsKind::Local => {
@@ -146,12 +134,6 @@ impl BatchedEnv for PlantVecEnv {
     fn obs_dim(&self) -> usize {
         self.obs_dim
     }
-    fn obs(&self) -> &[f32] {
-        &self.obs
-    }
-    fn masks(&self) -> &[u8] {
-        &self.masks
-    }
 
     /// Steps every env (`num_envs · agents` actions, env-major); invalid
     /// actions are rejected before any env moves.
@@ -177,14 +159,14 @@ impl BatchedEnv for PlantVecEnv {
         for e in 0..self.envs.len() {
             let out = self.envs[e].step(
                 &actions[e * n..(e + 1) * n],
-                &mut self.rewards[e * n..(e + 1) * n],
+                &mut self.buffers.rewards[e * n..(e + 1) * n],
             )?;
-            self.terminated[e] = 0;
-            self.truncated[e] = u8::from(out.truncated);
+            self.buffers.terminated[e] = 0;
+            self.buffers.truncated[e] = u8::from(out.truncated);
             if out.truncated {
                 self.write_env_obs(e, true)?;
                 let kpis = self.envs[e].kpis();
-                self.episodes.push(kpis.episode_stats());
+                self.buffers.episodes.push(kpis.episode_stats());
                 self.kpis.push(kpis);
                 self.envs[e].reset_next(stride);
             }
@@ -193,19 +175,5 @@ impl BatchedEnv for PlantVecEnv {
         Ok(())
     }
 
-    fn rewards(&self) -> &[f32] {
-        &self.rewards
-    }
-    fn terminated(&self) -> &[u8] {
-        &self.terminated
-    }
-    fn truncated(&self) -> &[u8] {
-        &self.truncated
-    }
-    fn final_obs(&self) -> &[f32] {
-        &self.final_obs
-    }
-    fn drain_episodes(&mut self) -> Vec<EpisodeStats> {
-        std::mem::take(&mut self.episodes)
-    }
+    batched_env_buffers!(buffers);
 }
