@@ -265,6 +265,16 @@ mod tests {
         v
     }
 
+    /// [`decode`] of `len` values, with no limit on the decoded size.
+    fn decode_len(
+        field: &'static str,
+        wire: &[u8],
+        encoding: ObsEncoding,
+        len: usize,
+    ) -> Result<Vec<f32>, ObsDecodeError> {
+        decode(field, wire, encoding, Some(len), usize::MAX)
+    }
+
     fn bits(v: &[f32]) -> Vec<u32> {
         v.iter().map(|x| x.to_bits()).collect()
     }
@@ -274,7 +284,7 @@ mod tests {
         let v = awkward();
         for encoding in [ObsEncoding::Raw, ObsEncoding::Lz4, ObsEncoding::Codes] {
             let wire = encode(&v, encoding);
-            let back = decode("obs", &wire, encoding, Some(v.len()), usize::MAX).unwrap();
+            let back = decode_len("obs", &wire, encoding, v.len()).unwrap();
             assert_eq!(bits(&back), bits(&v), "{encoding:?}");
         }
         let empty = encode(&[], ObsEncoding::Lz4);
@@ -313,24 +323,12 @@ mod tests {
     fn a_block_of_the_wrong_size_is_refused() {
         let v = awkward();
         let wire = encode(&v, ObsEncoding::Lz4);
-        let short = decode(
-            "obs",
-            &wire,
-            ObsEncoding::Lz4,
-            Some(v.len() + 1),
-            usize::MAX,
-        );
+        let short = decode_len("obs", &wire, ObsEncoding::Lz4, v.len() + 1);
         assert!(
             matches!(short, Err(ObsDecodeError::WrongSize { field: "obs", .. })),
             "{short:?}"
         );
-        let long = decode(
-            "last_obs",
-            &wire,
-            ObsEncoding::Lz4,
-            Some(v.len() - 1),
-            usize::MAX,
-        );
+        let long = decode_len("last_obs", &wire, ObsEncoding::Lz4, v.len() - 1);
         assert!(
             matches!(
                 long,
@@ -349,14 +347,7 @@ mod tests {
         let wire = encode(&v, ObsEncoding::Codes);
         // About as small as LZ4 on one-hot values.
         assert!(wire.len() * 8 < v.len() * 4);
-        let e = decode(
-            "last_obs",
-            &wire,
-            ObsEncoding::Codes,
-            Some(v.len() + 4),
-            usize::MAX,
-        )
-        .unwrap_err();
+        let e = decode_len("last_obs", &wire, ObsEncoding::Codes, v.len() + 4).unwrap_err();
         assert!(
             matches!(
                 e,
@@ -380,18 +371,17 @@ mod tests {
         let mut wire = encode(&v, ObsEncoding::Lz4);
         // Truncated, and then every byte flipped in turn: refused or (if the
         // flip still parses) decoded to exactly the asked size, never a panic.
-        let cut = decode(
+        let cut = decode_len(
             "final_obs",
             &wire[..wire.len() / 2],
             ObsEncoding::Lz4,
-            Some(v.len()),
-            usize::MAX,
+            v.len(),
         )
         .unwrap_err();
         assert!(cut.to_string().starts_with("final_obs "), "{cut}");
         for i in 0..wire.len() {
             wire[i] ^= 0xa5;
-            if let Ok(back) = decode("obs", &wire, ObsEncoding::Lz4, Some(v.len()), usize::MAX) {
+            if let Ok(back) = decode_len("obs", &wire, ObsEncoding::Lz4, v.len()) {
                 assert_eq!(back.len(), v.len());
             }
             wire[i] ^= 0xa5;

@@ -378,11 +378,17 @@ mod tests {
         ));
     }
 
+    /// The error a good fragment's message gets refused with once `spoil`
+    /// has changed it.
+    fn refusal(spoil: impl FnOnce(&mut v1::Fragment)) -> ConvertError {
+        let mut m = fragment_to_message(fragment(), &tag());
+        spoil(&mut m);
+        fragment_from_message(m).unwrap_err()
+    }
+
     #[test]
     fn nan_observation_is_named() {
-        let mut m = fragment_to_message(fragment(), &tag());
-        m.obs[20..24].copy_from_slice(&f32::NAN.to_le_bytes());
-        let err = fragment_from_message(m).unwrap_err();
+        let err = refusal(|m| m.obs[20..24].copy_from_slice(&f32::NAN.to_le_bytes()));
         assert!(matches!(
             err,
             ConvertError::NonFinite {
@@ -396,62 +402,48 @@ mod tests {
 
     #[test]
     fn infinite_reward_is_refused() {
-        let mut m = fragment_to_message(fragment(), &tag());
-        m.rewards[1] = f32::INFINITY;
-        assert_eq!(
-            fragment_from_message(m).unwrap_err().to_string(),
-            "rewards[1] is inf (must be finite)"
-        );
+        let err = refusal(|m| m.rewards[1] = f32::INFINITY);
+        assert_eq!(err.to_string(), "rewards[1] is inf (must be finite)");
     }
 
     #[test]
     fn short_buffer_is_a_shape_error() {
-        let mut m = fragment_to_message(fragment(), &tag());
-        m.obs.truncate(m.obs.len() - 4);
-        assert_eq!(
-            fragment_from_message(m).unwrap_err().to_string(),
-            "fragment obs: expected 12 values, got 11"
-        );
+        let err = refusal(|m| m.obs.truncate(m.obs.len() - 4));
+        assert_eq!(err.to_string(), "fragment obs: expected 12 values, got 11");
     }
 
     #[test]
     fn float_bytes_must_be_whole_values() {
-        let mut m = fragment_to_message(fragment(), &tag());
-        m.last_obs.pop();
+        let err = refusal(|m| {
+            m.last_obs.pop();
+        });
         assert_eq!(
-            fragment_from_message(m).unwrap_err().to_string(),
+            err.to_string(),
             "last_obs holds 23 bytes, not a whole number of f32 values"
         );
     }
 
     #[test]
     fn action_out_of_range_is_refused() {
-        let mut m = fragment_to_message(fragment(), &tag());
-        m.actions[3] = 5;
+        let err = refusal(|m| m.actions[3] = 5);
         assert_eq!(
-            fragment_from_message(m).unwrap_err().to_string(),
+            err.to_string(),
             "actions[3] = 5 is out of range (must be < 5)"
         );
     }
 
     #[test]
     fn env_steps_must_match_the_shape() {
-        let mut m = fragment_to_message(fragment(), &tag());
-        m.env_steps = 1_000_000;
-        assert!(fragment_from_message(m)
-            .unwrap_err()
+        let err = refusal(|m| m.env_steps = 1_000_000);
+        assert!(err
             .to_string()
             .contains("env_steps 1000000 does not match len × envs = 2"));
     }
 
     #[test]
     fn final_obs_must_point_at_truncations() {
-        let mut m = fragment_to_message(fragment(), &tag());
-        m.final_obs_index = vec![0, 3];
-        assert!(fragment_from_message(m)
-            .unwrap_err()
-            .to_string()
-            .contains("final_obs_index[0] = 0"));
+        let err = refusal(|m| m.final_obs_index = vec![0, 3]);
+        assert!(err.to_string().contains("final_obs_index[0] = 0"));
     }
 
     #[test]
