@@ -7,7 +7,7 @@ mod vec;
 
 use buridan_env::{GridEnv, NUM_ACTIONS};
 use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyArray1, PyArray2};
+use numpy::{Element, IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 
 pub use args::{config, features_arg, read_actions, rules_arg, starts_arg};
@@ -94,26 +94,14 @@ impl PyGridEnv {
     /// Local observations of all agents, `(agents, obs_dim)` float32 (a new
     /// array; layout in `env/src/obs.rs`).
     fn obs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        let (n, d) = (self.env.agents(), self.env.local_obs_dim());
-        let mut buf = vec![0.0f32; n * d];
-        for (i, row) in buf.chunks_mut(d).enumerate() {
-            self.env.write_local_obs(i, row).map_err(env_err)?;
-        }
-        Ok(Array2::from_shape_vec((n, d), buf)
-            .expect("n x d")
-            .into_pyarray(py))
+        self.agent_rows(py, self.env.local_obs_dim(), |i, row| {
+            self.env.write_local_obs(i, row)
+        })
     }
 
     /// Action masks of all agents, `(agents, 5)` uint8, 1 = legal.
     fn masks<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<u8>>> {
-        let n = self.env.agents();
-        let mut buf = vec![0u8; n * NUM_ACTIONS];
-        for (i, row) in buf.chunks_mut(NUM_ACTIONS).enumerate() {
-            self.env.write_action_mask(i, row).map_err(env_err)?;
-        }
-        Ok(Array2::from_shape_vec((n, NUM_ACTIONS), buf)
-            .expect("n x 5")
-            .into_pyarray(py))
+        self.agent_rows(py, NUM_ACTIONS, |i, row| self.env.write_action_mask(i, row))
     }
 
     /// The central (CTE) observation, flat float32: `(1 + 2n)` one-hot
@@ -241,6 +229,24 @@ impl PyGridEnv {
             )));
         }
         Ok(())
+    }
+
+    /// An `(agents, width)` array (a new one) whose row `i` is what
+    /// `write(i, row)` writes.
+    fn agent_rows<'py, T: Element + Copy + Default>(
+        &self,
+        py: Python<'py>,
+        width: usize,
+        write: impl Fn(usize, &mut [T]) -> Result<(), buridan_env::EnvError>,
+    ) -> PyResult<Bound<'py, PyArray2<T>>> {
+        let n = self.env.agents();
+        let mut buf = vec![T::default(); n * width];
+        for (i, row) in buf.chunks_mut(width).enumerate() {
+            write(i, row).map_err(env_err)?;
+        }
+        Ok(Array2::from_shape_vec((n, width), buf)
+            .expect("agents x width")
+            .into_pyarray(py))
     }
 
     /// The wrapped env (for policies and planners).

@@ -7,7 +7,8 @@ use buridan_env::NUM_ACTIONS;
 use buridan_policy::{checkpoint, ActMode, Inference, LstmSpec, Mode, ModelSpec, Policy};
 use numpy::ndarray::Array2;
 use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods,
+    Element, IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn,
+    PyUntypedArrayMethods,
 };
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -37,24 +38,28 @@ fn parse_mode(mode: &str) -> PyResult<Mode> {
         .map_err(|e| PyPolicyError::new_err(format!("invalid model spec: {e}")))
 }
 
-/// A float32 array (any float dtype or sequence is converted).
-fn f32_array<'py>(obj: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArrayDyn<'py, f32>> {
-    if let Ok(a) = obj.extract::<PyReadonlyArrayDyn<'py, f32>>() {
+/// An array of `T`, NumPy's `dtype` (any other dtype or a sequence is
+/// converted: float32 from any float, uint8 from any integer or bool).
+fn typed_array<'py, T: Element>(
+    obj: &Bound<'py, PyAny>,
+    dtype: &str,
+) -> PyResult<PyReadonlyArrayDyn<'py, T>> {
+    if let Ok(a) = obj.extract::<PyReadonlyArrayDyn<'py, T>>() {
         return Ok(a);
     }
     let np = obj.py().import("numpy")?;
-    np.call_method1("ascontiguousarray", (obj, "float32"))?
+    np.call_method1("ascontiguousarray", (obj, dtype))?
         .extract()
+}
+
+/// A float32 array (any float dtype or sequence is converted).
+fn f32_array<'py>(obj: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArrayDyn<'py, f32>> {
+    typed_array(obj, "float32")
 }
 
 /// A uint8 mask array (any integer/bool dtype or sequence is converted).
 fn u8_array<'py>(obj: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArrayDyn<'py, u8>> {
-    if let Ok(a) = obj.extract::<PyReadonlyArrayDyn<'py, u8>>() {
-        return Ok(a);
-    }
-    let np = obj.py().import("numpy")?;
-    np.call_method1("ascontiguousarray", (obj, "uint8"))?
-        .extract()
+    typed_array(obj, "uint8")
 }
 
 /// `(actions, logp, logits)` of `Policy.act`.

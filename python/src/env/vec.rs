@@ -23,17 +23,20 @@ pub struct PyVecEnv {
     actions: Vec<u8>,
 }
 
-/// A read-only NumPy view of `data` (owned by `owner`) with `shape`.
+/// A read-only NumPy view of the buffer `data` picks from `owner`'s batch,
+/// in the shape `shape` gives.
 ///
 /// # Safety
-/// `data` must live in a buffer owned by `owner` that is never reallocated
-/// while `owner` is alive (the `VecEnv`'s buffers are sized once).
-unsafe fn view<'py, T: Element>(
+/// `data` must pick a buffer that the `VecEnv` never reallocates while
+/// `owner` is alive (its step buffers are sized once).
+unsafe fn view<'py, T: Element, const D: usize>(
     owner: &Bound<'py, PyVecEnv>,
-    data: &[T],
-    shape: &[usize],
+    data: fn(&VecEnv) -> &[T],
+    shape: fn(&PyVecEnv) -> [usize; D],
 ) -> Bound<'py, PyArrayDyn<T>> {
-    let v = ArrayView::from_shape(IxDyn(shape), data).expect("shape matches the buffer");
+    let this = owner.borrow();
+    let v = ArrayView::from_shape(IxDyn(&shape(&this)), data(&this.venv))
+        .expect("shape matches the buffer");
     // SAFETY: the caller guarantees `data` stays valid while `owner` lives;
     // the array keeps `owner` alive as its base object.
     let arr = unsafe { PyArrayDyn::borrow_from_array(&v, owner.clone().into_any()) };
@@ -107,58 +110,58 @@ impl PyVecEnv {
     /// (a read-only view; after an episode ended, the next one's first).
     #[getter]
     fn obs<'py>(slf: &Bound<'py, Self>) -> Bound<'py, PyArrayDyn<f32>> {
-        let this = slf.borrow();
-        let shape = this.row_shape(this.venv.obs_dim());
         // SAFETY: VecEnv sizes its buffers once, at construction.
-        unsafe { view(slf, this.venv.obs(), &shape) }
+        unsafe { view(slf, VecEnv::obs, |this| this.row_shape(this.venv.obs_dim())) }
     }
 
     /// Last observations of the episodes that ended in the last step (rows
     /// of other envs are stale), same shape as `obs`.
     #[getter]
     fn final_obs<'py>(slf: &Bound<'py, Self>) -> Bound<'py, PyArrayDyn<f32>> {
-        let this = slf.borrow();
-        let shape = this.row_shape(this.venv.obs_dim());
         // SAFETY: as in `obs`.
-        unsafe { view(slf, this.venv.final_obs(), &shape) }
+        unsafe {
+            view(slf, VecEnv::final_obs, |this| {
+                this.row_shape(this.venv.obs_dim())
+            })
+        }
     }
 
     /// Action masks, `(num_envs, rows_per_env, mask_dim)` uint8 (read-only view).
     #[getter]
     fn masks<'py>(slf: &Bound<'py, Self>) -> Bound<'py, PyArrayDyn<u8>> {
-        let this = slf.borrow();
-        let shape = this.row_shape(this.venv.mask_dim());
         // SAFETY: as in `obs`.
-        unsafe { view(slf, this.venv.masks(), &shape) }
+        unsafe {
+            view(slf, VecEnv::masks, |this| {
+                this.row_shape(this.venv.mask_dim())
+            })
+        }
     }
 
     /// Rewards of the last step, `(num_envs, agents)` float32 (read-only view).
     #[getter]
     fn rewards<'py>(slf: &Bound<'py, Self>) -> Bound<'py, PyArrayDyn<f32>> {
-        let this = slf.borrow();
-        let shape = [this.venv.num_envs(), this.venv.agents()];
         // SAFETY: as in `obs`.
-        unsafe { view(slf, this.venv.rewards(), &shape) }
+        unsafe {
+            view(slf, VecEnv::rewards, |this| {
+                [this.venv.num_envs(), this.venv.agents()]
+            })
+        }
     }
 
     /// Per env, 1 if the last step ended the episode with every agent home
     /// (`(num_envs,)` uint8 read-only view).
     #[getter]
     fn terminated<'py>(slf: &Bound<'py, Self>) -> Bound<'py, PyArrayDyn<u8>> {
-        let this = slf.borrow();
-        let shape = [this.venv.num_envs()];
         // SAFETY: as in `obs`.
-        unsafe { view(slf, this.venv.terminated(), &shape) }
+        unsafe { view(slf, VecEnv::terminated, |this| [this.venv.num_envs()]) }
     }
 
     /// Per env, 1 if the last step ended the episode at `T_max`
     /// (`(num_envs,)` uint8 read-only view).
     #[getter]
     fn truncated<'py>(slf: &Bound<'py, Self>) -> Bound<'py, PyArrayDyn<u8>> {
-        let this = slf.borrow();
-        let shape = [this.venv.num_envs()];
         // SAFETY: as in `obs`.
-        unsafe { view(slf, this.venv.truncated(), &shape) }
+        unsafe { view(slf, VecEnv::truncated, |this| [this.venv.num_envs()]) }
     }
 
     /// Statistics of the episodes finished since the last call, as dicts.
