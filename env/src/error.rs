@@ -145,6 +145,28 @@ pub enum EnvError {
     },
 }
 
+impl EnvError {
+    /// `Ok` if `got` is `expected`, else [`EnvError::WrongLength`] of `what`.
+    ///
+    /// ```
+    /// use buridan_env::EnvError;
+    /// assert!(EnvError::check_len("actions", 4, 4).is_ok());
+    /// let e = EnvError::check_len("actions", 4, 3).unwrap_err();
+    /// assert_eq!(e.to_string(), "expected 4 actions, got 3");
+    /// ```
+    pub fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), EnvError> {
+        if expected == got {
+            Ok(())
+        } else {
+            Err(EnvError::WrongLength {
+                what,
+                expected,
+                got,
+            })
+        }
+    }
+}
+
 /// The message of `e` and all its causes on one line, `a: b: c` — how the
 /// binaries print a typed error whose causes are its `source` chain, for
 /// places that carry errors as text (trial reports, Python exceptions).

@@ -176,18 +176,6 @@ impl ObsKind {
     }
 }
 
-fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), EnvError> {
-    if expected == got {
-        Ok(())
-    } else {
-        Err(EnvError::WrongLength {
-            what,
-            expected,
-            got,
-        })
-    }
-}
-
 impl GridEnv {
     /// Floats of one local observation of this env.
     pub fn local_obs_dim(&self) -> usize {
@@ -209,7 +197,7 @@ impl GridEnv {
     pub fn write_local_codes(&self, agent: usize, out: &mut [u8]) -> Result<(), EnvError> {
         let r = self.config().sensor_range;
         let side = 2 * r + 1;
-        check_len("window codes", side * side, out.len())?;
+        EnvError::check_len("window codes", side * side, out.len())?;
         let raw = self.raw();
         for (out_row, cells) in out.chunks_exact_mut(side).zip(raw.window_rows(agent, r)) {
             out_row.copy_from_slice(&raw.shared_code[cells]);
@@ -222,7 +210,7 @@ impl GridEnv {
 
     /// Writes agent `i`'s local observation (layout in the module docs).
     pub fn write_local_obs(&self, agent: usize, out: &mut [f32]) -> Result<(), EnvError> {
-        check_len("observation floats", self.local_obs_dim(), out.len())?;
+        EnvError::check_len("observation floats", self.local_obs_dim(), out.len())?;
         let side = 2 * self.config().sensor_range + 1;
         let (window, tail) = out.split_at_mut(side * side * NUM_LOCAL_CODES);
         let (tail, mut features) = tail.split_at_mut(4);
@@ -389,7 +377,7 @@ impl GridEnv {
 
     /// Writes agent `i`'s action mask, 5 bytes (1 = legal).
     pub fn write_action_mask(&self, agent: usize, out: &mut [u8]) -> Result<(), EnvError> {
-        check_len("mask bytes", NUM_ACTIONS, out.len())?;
+        EnvError::check_len("mask bytes", NUM_ACTIONS, out.len())?;
         let raw = self.raw();
         let p = raw.pos[agent];
         out[0] = 1;
@@ -423,7 +411,7 @@ impl GridEnv {
     /// assert_eq!(open, [1, 0, 1, 1, 0]);
     /// ```
     pub fn write_wall_mask(&self, agent: usize, out: &mut [u8]) -> Result<(), EnvError> {
-        check_len("mask bytes", NUM_ACTIONS, out.len())?;
+        EnvError::check_len("mask bytes", NUM_ACTIONS, out.len())?;
         let grid = &self.map().grid;
         let p = self.position(agent);
         out[0] = 1;
@@ -437,7 +425,7 @@ impl GridEnv {
     /// recipe features) every agent's local observation (layout in the
     /// module docs).
     pub fn write_central_obs(&self, out: &mut [f32]) -> Result<(), EnvError> {
-        check_len(
+        EnvError::check_len(
             "central observation floats",
             self.central_obs_dim(),
             out.len(),
@@ -463,7 +451,7 @@ impl GridEnv {
     /// Writes the v1.0.0 full-grid codes, `h · w` values row-major.
     pub fn write_central_codes(&self, out: &mut [u16]) -> Result<(), EnvError> {
         let grid = &self.map().grid;
-        check_len("grid codes", grid.height() * grid.width(), out.len())?;
+        EnvError::check_len("grid codes", grid.height() * grid.width(), out.len())?;
         for (o, &wall) in out.iter_mut().zip(grid.walls()) {
             *o = u16::from(wall);
         }
@@ -478,7 +466,7 @@ impl GridEnv {
 
     /// Writes the joint mask, `5n` bytes in agent order.
     pub fn write_joint_mask(&self, out: &mut [u8]) -> Result<(), EnvError> {
-        check_len("joint mask bytes", NUM_ACTIONS * self.agents(), out.len())?;
+        EnvError::check_len("joint mask bytes", NUM_ACTIONS * self.agents(), out.len())?;
         for (i, chunk) in out.chunks_exact_mut(NUM_ACTIONS).enumerate() {
             self.write_action_mask(i, chunk)?;
         }

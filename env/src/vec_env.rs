@@ -218,14 +218,7 @@ impl<S: EnvSlot> VecEnv<S> {
     /// Invalid actions are rejected before any env moves.
     pub fn step(&mut self, actions: &[u8]) -> Result<(), EnvError> {
         let n = self.agents;
-        let expected = self.envs.len() * n;
-        if actions.len() != expected {
-            return Err(EnvError::WrongLength {
-                what: "actions",
-                expected,
-                got: actions.len(),
-            });
-        }
+        EnvError::check_len("actions", self.envs.len() * n, actions.len())?;
         if let Some(k) = actions.iter().position(|&a| a as usize >= NUM_ACTIONS) {
             return Err(EnvError::InvalidAction {
                 agent: k % n,

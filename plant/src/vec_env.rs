@@ -139,14 +139,7 @@ impl BatchedEnv for PlantVecEnv {
     /// actions are rejected before any env moves.
     fn step(&mut self, actions: &[u8]) -> Result<(), EnvError> {
         let n = self.agents;
-        let expected = self.envs.len() * n;
-        if actions.len() != expected {
-            return Err(EnvError::WrongLength {
-                what: "actions",
-                expected,
-                got: actions.len(),
-            });
-        }
+        EnvError::check_len("actions", self.envs.len() * n, actions.len())?;
         if let Some(k) = actions.iter().position(|&a| usize::from(a) >= NUM_ACTIONS) {
             return Err(EnvError::InvalidConfig(format!(
                 "env {} agent {}: action {} is outside 0..3 (0 hold, 1 forward, 2 backward)",

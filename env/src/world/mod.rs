@@ -286,13 +286,7 @@ impl GridEnv {
     fn validate_instance(&self, starts: &[Cell], goals: &[Cell]) -> Result<(), EnvError> {
         let n = self.cfg.agents;
         for (what, list) in [("starts", starts), ("goals", goals)] {
-            if list.len() != n {
-                return Err(EnvError::WrongLength {
-                    what,
-                    expected: n,
-                    got: list.len(),
-                });
-            }
+            EnvError::check_len(what, n, list.len())?;
         }
         let grid = &self.map.grid;
         // Lifelong goal draws need a free cell that is nobody's goal.
@@ -385,20 +379,8 @@ impl GridEnv {
     /// out of range, or an episode that is over.
     fn validate_step(&self, actions: &[u8], rewards: &[f32]) -> Result<(), EnvError> {
         let n = self.cfg.agents;
-        if actions.len() != n {
-            return Err(EnvError::WrongLength {
-                what: "actions",
-                expected: n,
-                got: actions.len(),
-            });
-        }
-        if rewards.len() != n {
-            return Err(EnvError::WrongLength {
-                what: "rewards",
-                expected: n,
-                got: rewards.len(),
-            });
-        }
+        EnvError::check_len("actions", n, actions.len())?;
+        EnvError::check_len("rewards", n, rewards.len())?;
         if let Some(agent) = actions.iter().position(|&a| a as usize >= NUM_ACTIONS) {
             return Err(EnvError::InvalidAction {
                 agent,

@@ -103,14 +103,7 @@ fn check_shape(
     agents: usize,
     expected: usize,
 ) -> PyResult<()> {
-    let got: usize = shape.iter().product();
-    if got != expected {
-        return Err(env_err(EnvError::WrongLength {
-            what: "actions",
-            expected,
-            got,
-        }));
-    }
+    EnvError::check_len("actions", expected, shape.iter().product()).map_err(env_err)?;
     let ok = match (rows, shape) {
         (_, [_]) => true,
         (Some(r), [a, b]) => *a == r && *b == agents,
