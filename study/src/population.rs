@@ -14,7 +14,6 @@
 //! the last round measures the study's objective.
 
 use std::collections::VecDeque;
-use std::panic::AssertUnwindSafe;
 use std::path::Path;
 use std::sync::{Mutex, MutexGuard};
 use std::time::Instant;
@@ -22,7 +21,7 @@ use std::time::Instant;
 use crate::config::StudyConfig;
 use crate::lineage::{round_dir, Exploitation, PbtMember, PbtState};
 use crate::objective::{Measurement, Objective};
-use crate::runner::{Reporter, TrialError, TrialRunner, TrialSpec};
+use crate::runner::{run_caught, Reporter, TrialError, TrialRunner, TrialSpec};
 use crate::scheduler::pbt::{exploit_and_explore, Member, PbtConfig};
 use crate::scheduler::{Decision, SchedulerKind};
 use crate::state::{Report, StudyState, TrialRecord, TrialStatus};
@@ -269,9 +268,7 @@ fn worker(shared: &Shared<'_>, runner: &dyn TrialRunner, round: u32) {
             id: spec.id,
             cut: false,
         };
-        let outcome =
-            std::panic::catch_unwind(AssertUnwindSafe(|| runner.run(&spec, &mut reporter)))
-                .unwrap_or_else(|_| Err(TrialError::new("the runner panicked")));
+        let outcome = run_caught(runner, &spec, &mut reporter);
         let cut = reporter.cut;
         let mut inner = shared.lock();
         let seconds = started.elapsed().as_secs_f64();

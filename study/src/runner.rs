@@ -1,6 +1,7 @@
 //! The trait the learner implements to run one trial, in process or as a
 //! `learner train` child process; the study never imports the learner.
 
+use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
@@ -126,4 +127,15 @@ pub trait TrialRunner: Sync {
     /// final measurement (with the evaluation the objective asks for).
     fn run(&self, spec: &TrialSpec, reporter: &mut dyn Reporter)
         -> Result<Measurement, TrialError>;
+}
+
+/// Runs trial `spec` on `runner`; a runner that panics fails the trial
+/// instead of the study's worker thread.
+pub(crate) fn run_caught(
+    runner: &dyn TrialRunner,
+    spec: &TrialSpec,
+    reporter: &mut dyn Reporter,
+) -> Result<Measurement, TrialError> {
+    std::panic::catch_unwind(AssertUnwindSafe(|| runner.run(spec, reporter)))
+        .unwrap_or_else(|_| Err(TrialError::new("the runner panicked")))
 }

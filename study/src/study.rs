@@ -3,14 +3,13 @@
 //! change, and resumes without rerunning finished trials.
 
 use std::collections::VecDeque;
-use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
 use std::time::Instant;
 
 use crate::config::StudyConfig;
 use crate::objective::Measurement;
-use crate::runner::{Reporter, TrialRunner, TrialSpec};
+use crate::runner::{run_caught, Reporter, TrialRunner, TrialSpec};
 use crate::sampler::Sampler;
 use crate::scheduler::{Decision, Scheduler};
 use crate::state::{Report, StateError, StudyState, TrialRecord, TrialStatus};
@@ -503,9 +502,7 @@ fn worker(shared: &Shared<'_>, runner: &dyn TrialRunner) {
             stopped: false,
             cut: false,
         };
-        let outcome =
-            std::panic::catch_unwind(AssertUnwindSafe(|| runner.run(&spec, &mut reporter)))
-                .unwrap_or_else(|_| Err(crate::runner::TrialError::new("the runner panicked")));
+        let outcome = run_caught(runner, &spec, &mut reporter);
         let (stopped, cut) = (reporter.stopped, reporter.cut);
         let mut inner = shared.lock();
         let objective = shared.config.objective;
