@@ -8,7 +8,7 @@ use std::path::Path;
 
 use buridan_env::Grid;
 use buridan_study::figures::line_frame;
-use buridan_study::plot::{canvas, err, legend_and_present};
+use buridan_study::plot::{canvas, err, labelled_line, legend_and_present};
 pub use buridan_study::plot::{register_fonts, PlotError};
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
@@ -146,16 +146,8 @@ pub fn line_chart_with_references(
     let mut chart = line_frame(&root, path, labels, (x0, x1, y0, y1))?;
     for (k, s) in series.iter().enumerate() {
         let color = Palette99::pick(k).to_rgba();
-        chart
-            .draw_series(LineSeries::new(
-                s.points.iter().copied(),
-                color.stroke_width(2),
-            ))
-            .map_err(|e| err(path, e))?
-            .label(s.label.clone())
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-            });
+        let line = s.points.iter().copied();
+        labelled_line(&mut chart, line, color.stroke_width(2), &s.label, path)?;
         if s.points.len() <= 40 {
             chart
                 .draw_series(s.points.iter().map(|&p| Circle::new(p, 3, color.filled())))

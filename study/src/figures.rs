@@ -9,7 +9,7 @@ use std::path::Path;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use crate::plot::{canvas, err, legend_and_present, PlotError};
+use crate::plot::{canvas, err, labelled_line, legend_and_present, PlotError};
 use crate::stats::{BoxStats, Interval};
 
 /// A chart with real coordinates on both axes, as every figure here draws.
@@ -298,16 +298,8 @@ pub fn banded_lines(
                 )
                 .map_err(|e| err(path, e))?;
         }
-        chart
-            .draw_series(LineSeries::new(
-                pts.iter().map(|p| (p.0, p.1)),
-                color.stroke_width(2),
-            ))
-            .map_err(|e| err(path, e))?
-            .label(band.label.clone())
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-            });
+        let line = pts.iter().map(|p| (p.0, p.1));
+        labelled_line(&mut chart, line, color.stroke_width(2), &band.label, path)?;
         if pts.len() <= 30 {
             chart
                 .draw_series(

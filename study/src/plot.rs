@@ -105,6 +105,27 @@ where
     root.present().map_err(|e| err(path, e))
 }
 
+/// Draws `points` on `chart` as a line in `style` and enters it in the
+/// legend as `label`, shown as a short stroke in the same style.
+pub fn labelled_line<'a, DB, CT>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    points: impl IntoIterator<Item = (f64, f64)>,
+    style: ShapeStyle,
+    label: impl Into<String>,
+    path: &Path,
+) -> Result<(), PlotError>
+where
+    DB: DrawingBackend + 'a,
+    CT: CoordTranslate<From = (f64, f64)>,
+{
+    chart
+        .draw_series(LineSeries::new(points, style))
+        .map_err(|e| err(path, e))?
+        .label(label)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
+    Ok(())
+}
+
 /// The value a figure shows for a trial: its score, else its last report.
 fn shown(t: &TrialRecord) -> Option<f64> {
     t.score
@@ -194,11 +215,7 @@ pub fn objective_vs_trial(path: &Path, state: &StudyState) -> Result<(), PlotErr
             (x, best)
         })
         .collect();
-    chart
-        .draw_series(LineSeries::new(line, BLACK.stroke_width(2)))
-        .map_err(|e| err(path, e))?
-        .label("best so far")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+    labelled_line(&mut chart, line, BLACK.stroke_width(2), "best so far", path)?;
     legend_and_present(
         &mut chart,
         &root,
