@@ -266,10 +266,7 @@ mod tests {
         order: &[u32],
         swap: bool,
     ) -> Vec<(usize, usize)> {
-        let grid = Grid::from_rows(rows).unwrap();
-        let cells =
-            |v: &[(usize, usize)]| v.iter().map(|&(r, c)| Cell::new(r, c)).collect::<Vec<_>>();
-        let setup = Setup::new(Problem::new(&grid, &cells(starts), &cells(goals))).unwrap();
+        let setup = setup_of(rows, starts, goals);
         let mut gen = Generator::new(&setup.topo, rules, 0);
         if swap {
             gen = gen.with_swap(&setup.dist, &setup.goals);
@@ -280,6 +277,15 @@ mod tests {
             .map(|&v| setup.topo.cell(v))
             .map(|c| (c.row, c.col))
             .collect()
+    }
+
+    /// The instance on the grid `rows` from `starts` to `goals`, as
+    /// `(row, column)` pairs.
+    fn setup_of(rows: &[&str], starts: &[(usize, usize)], goals: &[(usize, usize)]) -> Setup {
+        let grid = Grid::from_rows(rows).unwrap();
+        let cells =
+            |v: &[(usize, usize)]| v.iter().map(|&(r, c)| Cell::new(r, c)).collect::<Vec<_>>();
+        Setup::new(Problem::new(&grid, &cells(starts), &cells(goals))).unwrap()
     }
 
     /// A generator with the swap on and every agent of `setup` on its start,
@@ -296,15 +302,9 @@ mod tests {
 
     #[test]
     fn swap_required_and_possible_in_a_dead_end_aisle() {
-        let grid = Grid::from_rows(&AISLE).unwrap();
         let c = Cell::new;
         // Agent 0 at (1, 2) bound for the end (1, 4); agent 1 rests on (1, 3).
-        let setup = Setup::new(Problem::new(
-            &grid,
-            &[c(1, 2), c(1, 3)],
-            &[c(1, 4), c(1, 3)],
-        ))
-        .unwrap();
+        let setup = setup_of(&AISLE, &[(1, 2), (1, 3)], &[(1, 4), (1, 3)]);
         let gen = placed_swap_generator(&setup);
         let info = gen.swap.unwrap();
         let (a, b, junction) = (setup.starts[0], setup.starts[1], setup.topo.index(c(1, 0)));
@@ -330,13 +330,7 @@ mod tests {
             })
         );
         // Without a branching cell anywhere (a plain corridor) no swap.
-        let line = Grid::from_rows(&["....."]).unwrap();
-        let setup = Setup::new(Problem::new(
-            &line,
-            &[c(0, 2), c(0, 3)],
-            &[c(0, 4), c(0, 3)],
-        ))
-        .unwrap();
+        let setup = setup_of(&["....."], &[(0, 2), (0, 3)], &[(0, 4), (0, 3)]);
         let gen = placed_swap_generator(&setup);
         let info = gen.swap.unwrap();
         assert!(gen.swap_required(info, 0, 1, setup.starts[0], setup.starts[1]));
