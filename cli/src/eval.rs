@@ -141,7 +141,8 @@ pub fn planner_limits(time_limit: f64, memory_limit_mib: usize) -> Result<Limits
 }
 
 /// Resolves a controller's text ([`Controller`]) to a factory for
-/// episodes with `agents` agents under the thesis rules.
+/// episodes with `agents` agents under the thesis rules (other rule sets:
+/// [`buridan_eval::by_name::controller_factory`]).
 ///
 /// ```
 /// use buridan_cli::eval::controller_factory;
@@ -158,29 +159,13 @@ pub fn controller_factory(
     limits: Limits,
     act_mode: ActMode,
 ) -> Result<ControllerFactory> {
-    controller_factory_for_rules(name, agents, seed, limits, act_mode, Rules::Thesis)
-}
-
-/// [`controller_factory`] for an env under `rules`
-/// ([`buridan_eval::by_name::controller_factory`]).
-///
-/// ```
-/// use buridan_cli::eval::controller_factory_for_rules;
-/// use buridan_env::Rules;
-/// use buridan_policy::ActMode;
-/// let err = controller_factory_for_rules("od-astar", 4, 0, Default::default(), ActMode::Greedy, Rules::Pogema).err().unwrap();
-/// assert!(format!("{err:#}").contains("cannot plan under pogema rules"), "{err:#}");
-/// ```
-pub fn controller_factory_for_rules(
-    name: &str,
-    agents: usize,
-    seed: u64,
-    limits: Limits,
-    act_mode: ActMode,
-    rules: Rules,
-) -> Result<ControllerFactory> {
     Ok(buridan_eval::by_name::controller_factory(
-        name, agents, seed, limits, act_mode, rules,
+        name,
+        agents,
+        seed,
+        limits,
+        act_mode,
+        Rules::Thesis,
     )?)
 }
 

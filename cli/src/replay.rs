@@ -12,7 +12,7 @@ use buridan_eval::{EvalReport, EvalSpec};
 use buridan_policy::ActMode;
 use buridan_render::{write_gif, GifOptions};
 
-use crate::eval::{controller_factory_for_rules, planner_limits, ControllerFactory};
+use crate::eval::{planner_limits, ControllerFactory};
 
 /// Arguments of `learner replay`.
 #[derive(Debug, clap::Args)]
@@ -109,7 +109,7 @@ pub fn run(args: &ReplayArgs) -> Result<Trace> {
         ActMode::Greedy
     };
     let limits = planner_limits(args.time_limit, args.memory_limit)?;
-    let make = controller_factory_for_rules(
+    let make = buridan_eval::by_name::controller_factory(
         &args.controller,
         args.agents,
         args.seed,
