@@ -186,6 +186,20 @@ impl Row {
     pub fn label(&self) -> String {
         series_label(&self.method, self.actions.as_deref(), None, false)
     }
+
+    /// The row's series in the figures ([`series_label`]).
+    fn series(&self, several: bool) -> String {
+        let trained_on = self.trained_on.as_deref();
+        series_label(&self.method, self.actions.as_deref(), trained_on, several)
+    }
+}
+
+impl CellRecord {
+    /// The cell's series in the figures ([`series_label`]).
+    fn series(&self, several: bool) -> String {
+        let trained_on = self.trained_on.as_deref();
+        series_label(&self.method, self.actions.as_deref(), trained_on, several)
+    }
 }
 
 /// A figure's name for a series: `ppo-ctde sampled` or a planner's name,
@@ -483,14 +497,7 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>, ReportEr
 
     // Success per layout and method at each method's smallest agent count.
     let several = x.layouts.len() > 1;
-    let label = |r: &Row| {
-        series_label(
-            &r.method,
-            r.actions.as_deref(),
-            r.trained_on.as_deref(),
-            several,
-        )
-    };
+    let label = |r: &Row| r.series(several);
     let labels: Vec<String> = {
         let mut v: Vec<String> = Vec::new();
         for r in &rows {
@@ -536,14 +543,6 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>, ReportEr
     files.push(path);
 
     // Timesteps of solved episodes at each series' smallest agent count, pooled over seeds.
-    let record_label = |r: &CellRecord| {
-        series_label(
-            &r.method,
-            r.actions.as_deref(),
-            r.trained_on.as_deref(),
-            several,
-        )
-    };
     let mut boxes = Vec::new();
     for (g, layout) in x.eval_layouts().iter().enumerate() {
         for (s, name) in labels.iter().enumerate() {
@@ -557,7 +556,7 @@ pub fn write_report(x: &Experiment, out: &Path) -> Result<Vec<PathBuf>, ReportEr
             };
             let values: Vec<f64> = records
                 .iter()
-                .filter(|r| r.layout == *layout && r.agents == agents && record_label(r) == *name)
+                .filter(|r| r.layout == *layout && r.agents == agents && r.series(several) == *name)
                 .flat_map(|r| solved_timesteps(&r.eval_dir))
                 .collect();
             if let Some(stats) = BoxStats::of(&values) {
