@@ -91,20 +91,26 @@ pub fn balance(
 mod tests {
     use super::*;
 
+    /// The books of `last` at 4 steps a fragment and 2 fragments a batch,
+    /// and the failures they record.
+    fn books_of(last: Sample) -> (Books, Vec<String>) {
+        let mut failures = Vec::new();
+        let books = balance(&last, 4, 2, &mut failures);
+        (books, failures)
+    }
+
     #[test]
     fn balanced_books_fail_nothing_and_account_for_the_lost() {
         // 4 steps a fragment: 10 accepted, 8 taken (2 still queued), 6
         // consumed, 1 dropped as stale, 1 in the unfinished batch.
-        let last = Sample {
+        let (b, failures) = books_of(Sample {
             accepted: 10,
             env_steps: 32,
             consumed: 6,
             consumed_steps: 24,
             stale_at_learner: 1,
             ..Sample::default()
-        };
-        let mut failures = Vec::new();
-        let b = balance(&last, 4, 2, &mut failures);
+        });
         assert!(failures.is_empty(), "{failures:?}");
         assert_eq!(
             (b.dequeued, b.queued_at_end, b.partial_batch_at_end, b.lost),
@@ -116,15 +122,13 @@ mod tests {
     #[test]
     fn fragments_used_twice_or_in_part_unbalance_the_books() {
         // 5 taken, 6 consumed; 22 steps consumed where 6 whole are 24.
-        let last = Sample {
+        let (b, failures) = books_of(Sample {
             accepted: 5,
             env_steps: 20,
             consumed: 6,
             consumed_steps: 22,
             ..Sample::default()
-        };
-        let mut failures = Vec::new();
-        let b = balance(&last, 4, 2, &mut failures);
+        });
         assert_eq!((b.used_twice, b.consumed_in_part), (1, 1));
         assert_eq!(failures.len(), 2, "{failures:?}");
     }
