@@ -18,6 +18,7 @@
 //! - [`output`]: CSV, JSON and PNG files of a report; the agent-count sweep.
 //! - [`plot`]: heatmaps, box plots and line charts as PNG.
 //! - [`replay`]: one episode recorded step by step, for drawing.
+//! - [`text_serde`]: serde through a type's text ([`serde_as_text!`]).
 
 pub mod benchmark;
 pub mod by_name;
@@ -34,6 +35,7 @@ pub mod rescue;
 pub mod runner;
 pub mod shield;
 pub mod stats;
+pub mod text_serde;
 
 pub use controller::{Controller, GiveUp, PlanNotes, RandomController};
 pub use runner::{

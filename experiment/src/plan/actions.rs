@@ -4,7 +4,6 @@ use std::path::Path;
 
 use buridan_eval::by_name::{Controller, Labelled, Portfolio};
 use buridan_eval::shield::DEFAULT_PATIENCE;
-use serde::{Deserialize, Serialize};
 
 /// The named ways a study evaluates a policy, in the order reports list
 /// them: (name, controller over the run's checkpoint; `{K}` is
@@ -144,15 +143,4 @@ impl std::fmt::Display for Actions {
     }
 }
 
-impl Serialize for Actions {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.collect_str(self)
-    }
-}
-
-impl<'de> Deserialize<'de> for Actions {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let text = String::deserialize(d)?;
-        text.parse().map_err(serde::de::Error::custom)
-    }
-}
+buridan_eval::serde_as_text!(Actions);
