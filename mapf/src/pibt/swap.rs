@@ -247,26 +247,18 @@ mod tests {
         order: &[u32],
         swap: bool,
     ) -> Vec<(usize, usize)> {
-        step_with(
-            ConflictModel::ENV_EXECUTABLE,
-            rows,
-            starts,
-            goals,
-            order,
-            swap,
-        )
+        let setup = setup_of(rows, starts, goals);
+        step_with(ConflictModel::ENV_EXECUTABLE, &setup, order, swap)
     }
 
-    /// [`step`] under the conflict model `rules`.
+    /// One generator step on `setup` under the conflict model `rules`
+    /// (see [`step`]).
     fn step_with(
         rules: ConflictModel,
-        rows: &[&str],
-        starts: &[(usize, usize)],
-        goals: &[(usize, usize)],
+        setup: &Setup,
         order: &[u32],
         swap: bool,
     ) -> Vec<(usize, usize)> {
-        let setup = setup_of(rows, starts, goals);
         let mut gen = Generator::new(&setup.topo, rules, 0);
         if swap {
             gen = gen.with_swap(&setup.dist, &setup.goals);
@@ -387,20 +379,14 @@ mod tests {
         let sim = ConflictModel::SIMULTANEOUS;
         // Agent 0 rests on (1, 3), agent 1 at (1, 2) is bound for the end:
         // 1 backs out and pulls the lower-index 0 along at once.
-        let (s, g) = ([(1, 3), (1, 2)], [(1, 3), (1, 4)]);
-        assert_eq!(
-            step_with(sim, &AISLE, &s, &g, &[1, 0], true),
-            [(1, 2), (1, 1)]
-        );
+        let pair = setup_of(&AISLE, &[(1, 3), (1, 2)], &[(1, 3), (1, 4)]);
+        assert_eq!(step_with(sim, &pair, &[1, 0], true), [(1, 2), (1, 1)]);
         // Without swap 1 pushes 0 to the end of the aisle.
-        assert_eq!(
-            step_with(sim, &AISLE, &s, &g, &[1, 0], false),
-            [(1, 4), (1, 3)]
-        );
+        assert_eq!(step_with(sim, &pair, &[1, 0], false), [(1, 4), (1, 3)]);
         // A queue whose indices rise towards its head moves in one step by
         // plain pushes (following is legal): no waiting chain.
-        let (s, g) = ([(1, 3), (1, 2), (1, 4)], [(1, 3), (1, 2), (0, 0)]);
-        let next = step_with(sim, &AISLE, &s, &g, &[2, 0, 1], true);
+        let queue = setup_of(&AISLE, &[(1, 3), (1, 2), (1, 4)], &[(1, 3), (1, 2), (0, 0)]);
+        let next = step_with(sim, &queue, &[2, 0, 1], true);
         assert_eq!(next[2], (1, 3));
     }
 }
