@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use buridan_dashboard::{Board, Running, Status};
-use buridan_env::{Map, Starts};
+use buridan_env::{Map, Rules, Starts};
 use buridan_eval::replay::{record_episode, Warmup};
 use buridan_eval::{evaluate, EvalSpec};
 use buridan_learner::train::{ExchangeStatus, MetricsRow, Progress, Summary, TrainConfig};
@@ -22,8 +22,6 @@ use buridan_mapf::Limits;
 use buridan_policy::ActMode;
 use buridan_render::{gif_bytes, GifOptions};
 use serde_json::json;
-
-use crate::eval::controller_factory;
 
 /// The dashboard's options of `learner train` and `learner serve`.
 #[derive(Debug, Clone, Default, clap::Args)]
@@ -244,12 +242,13 @@ impl EvalJob {
     fn evaluate(&self, dir: &Path, board: &Board) -> Result<()> {
         const SEED: u64 = 42;
         let map = Arc::new(Map::load(&self.map)?);
-        let make = controller_factory(
+        let make = buridan_eval::by_name::controller_factory(
             &format!("checkpoint:{}", dir.display()),
             self.agents,
             SEED,
             Limits::default(),
             ActMode::Greedy,
+            Rules::Thesis,
         )?;
         let spec = EvalSpec {
             agents: self.agents,

@@ -140,35 +140,6 @@ pub fn planner_limits(time_limit: f64, memory_limit_mib: usize) -> Result<Limits
     })
 }
 
-/// Resolves a controller's text ([`Controller`]) to a factory for
-/// episodes with `agents` agents under the thesis rules (other rule sets:
-/// [`buridan_eval::by_name::controller_factory`]).
-///
-/// ```
-/// use buridan_cli::eval::controller_factory;
-/// use buridan_policy::ActMode;
-/// let rescued = controller_factory("rescue:random", 4, 42, Default::default(), ActMode::Greedy).unwrap();
-/// assert_eq!(rescued().name(), "random+rescue-lacam+od-astar");
-/// let err = controller_factory("shield:cbs", 4, 42, Default::default(), ActMode::Greedy).err().unwrap();
-/// assert!(err.to_string().contains("trained policies only"), "{err}");
-/// ```
-pub fn controller_factory(
-    name: &str,
-    agents: usize,
-    seed: u64,
-    limits: Limits,
-    act_mode: ActMode,
-) -> Result<ControllerFactory> {
-    Ok(buridan_eval::by_name::controller_factory(
-        name,
-        agents,
-        seed,
-        limits,
-        act_mode,
-        Rules::Thesis,
-    )?)
-}
-
 /// Runs `learner eval --plant`: `--episodes` seeded plant episodes of
 /// `--controller` ([`buridan_eval::plant`]), the files in `--out`.
 pub fn run_plant(args: &EvalArgs, plant: &str) -> Result<PlantEvalSummary> {
