@@ -45,7 +45,12 @@ proptest! {
         let mut rewards = [0.0; 6];
         for (t, step) in actions.chunks(6).enumerate() {
             let out = stepped.step(step, &mut rewards).unwrap();
-            reported.report(&stepped.positions(), &stepped.goals()).unwrap();
+            let mut reported_rewards = [0.0; 6];
+            reported.report(&stepped.positions(), &stepped.goals(), &mut reported_rewards).unwrap();
+            if !out.truncated {
+                // A session never ends, so it gives no truncation penalty.
+                prop_assert_eq!(reported_rewards, rewards, "step {}", t);
+            }
             prop_assert_eq!(reported.t(), stepped.t());
             prop_assert_eq!(observations(&reported), observations(&stepped), "step {}", t);
             for i in 0..6 {
@@ -100,7 +105,7 @@ fn bad_reports_are_refused_and_change_nothing() {
         (positions.clone(), with(2, wall, &goals), "agent 2: goal"),
     ];
     for (p, g, message) in cases {
-        let err = env.report(&p, &g).unwrap_err();
+        let err = env.report(&p, &g, &mut [0.0; 4]).unwrap_err();
         assert!(
             err.to_string().contains(message),
             "{err} (expected {message})"
@@ -115,7 +120,9 @@ fn bad_reports_are_refused_and_change_nothing() {
         .copied()
         .find(|&c| c.manhattan(positions[0]) >= 2 && !positions.contains(&c))
         .unwrap();
-    let err = env.report(&with(0, far, &positions), &goals).unwrap_err();
+    let err = env
+        .report(&with(0, far, &positions), &goals, &mut [0.0; 4])
+        .unwrap_err();
     assert!(matches!(err, EnvError::Jump { agent: 0, .. }), "{err}");
     assert_eq!(
         (env.t(), env.positions(), env.goals()),
@@ -130,7 +137,7 @@ fn goals_may_change_and_trade_places() {
     let mut env = GridEnv::with_episode(map, config(Rules::Thesis, false, 4), 5).unwrap();
     let (positions, goals) = (env.positions(), env.goals());
     let traded = vec![goals[1], goals[0], goals[2], goals[3]];
-    env.report(&positions, &traded).unwrap();
+    env.report(&positions, &traded, &mut [0.0; 4]).unwrap();
     assert_eq!(env.goals(), traded);
     let grid = &env.map().grid;
     assert_eq!(
@@ -146,7 +153,7 @@ fn goals_may_change_and_trade_places() {
         .find(|c| !traded.contains(c) && !positions.contains(c))
         .unwrap();
     let moved = vec![traded[0], traded[1], traded[2], free];
-    env.report(&positions, &moved).unwrap();
+    env.report(&positions, &moved, &mut [0.0; 4]).unwrap();
     assert_eq!(env.goal(3), free);
     assert_eq!(env.t(), 2);
 }

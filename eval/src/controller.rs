@@ -69,6 +69,14 @@ pub trait Controller: Send {
     fn obs_sensor_range(&self) -> usize {
         buridan_env::EnvConfig::default().sensor_range
     }
+    /// Whether this controller follows a plan made in `begin_episode` by
+    /// the clock (a planner), rather than choosing each step's actions
+    /// from the state (a policy, a shield). A closed-loop
+    /// [`crate::fleet::FleetSession`] replans such a controller when the
+    /// robots stop matching the plan or their goals change.
+    fn follows_plan(&self) -> bool {
+        false
+    }
 }
 
 /// Optional facts a planner reports about its plan.

@@ -23,6 +23,7 @@
 pub mod benchmark;
 pub mod by_name;
 pub mod controller;
+pub mod fleet;
 pub mod instances;
 pub mod output;
 pub mod planner;

@@ -105,4 +105,8 @@ impl Controller for PlannerController {
     fn episode_notes(&self) -> PlanNotes {
         self.notes
     }
+
+    fn follows_plan(&self) -> bool {
+        true
+    }
 }

@@ -3,7 +3,7 @@
 //! the agents were told to do.
 
 use super::board::NOBODY;
-use super::GridEnv;
+use super::{GridEnv, REWARD_ALL_AT_GOAL, REWARD_GOAL};
 use crate::error::EnvError;
 use crate::map::Cell;
 
@@ -20,11 +20,14 @@ impl GridEnv {
     ///
     /// The step is accounted as [`Self::step`] accounts one: time advances,
     /// arrivals and the steps each agent spends off its goal are kept, the
-    /// heatmap and the stall monitor see the new positions. An agent whose
-    /// goal changes while it stands on the old one has arrived, as in
-    /// lifelong mode. No rewards are given and the episode never ends:
-    /// reporting the positions and goals a stepped env reaches reproduces
-    /// its state, observations included (`env/tests/report.rs`).
+    /// heatmap and the stall monitor see the new positions, and `rewards`
+    /// gets each agent's reward for the step (the goal reward, the bonus
+    /// when all stand on their goals; unshaped), which a recurrent policy
+    /// reads back. An agent whose goal changes while it stands on the old
+    /// one has arrived, as in lifelong mode. The episode never ends (no
+    /// truncation at T_max): reporting the positions and goals a stepped
+    /// env reaches reproduces its state, observations and rewards included
+    /// (`env/tests/report.rs`).
     ///
     /// ```
     /// use buridan_env::{Cell, EnvConfig, GridEnv, Map, Starts};
@@ -33,16 +36,29 @@ impl GridEnv {
     /// let mut env = GridEnv::new(map, cfg).unwrap();
     /// let (start, goals) = (env.positions(), env.goals());
     /// // Agent 0 moved right; agent 1 lagged and stayed.
-    /// env.report(&[Cell::new(1, 2), start[1]], &goals).unwrap();
+    /// let mut rewards = [0.0; 2];
+    /// env.report(&[Cell::new(1, 2), start[1]], &goals, &mut rewards).unwrap();
     /// assert_eq!(env.position(0), Cell::new(1, 2));
     /// assert_eq!(env.t(), 1);
     /// // A jump of two cells is refused.
-    /// let err = env.report(&[Cell::new(1, 4), start[1]], &goals).unwrap_err();
+    /// let err = env.report(&[Cell::new(1, 4), start[1]], &goals, &mut rewards).unwrap_err();
     /// assert_eq!(err.to_string(), "agent 0 moved from (1, 2) to (1, 4): more than one cell in a step");
     /// ```
-    pub fn report(&mut self, positions: &[Cell], goals: &[Cell]) -> Result<(), EnvError> {
+    pub fn report(
+        &mut self,
+        positions: &[Cell],
+        goals: &[Cell],
+        rewards: &mut [f32],
+    ) -> Result<(), EnvError> {
         self.check_cells("positions", "position", positions)?;
         self.check_cells("goals", "goal", goals)?;
+        if rewards.len() != self.cfg.agents {
+            return Err(EnvError::WrongLength {
+                what: "rewards",
+                expected: self.cfg.agents,
+                got: rewards.len(),
+            });
+        }
         if let Some(agent) =
             (0..positions.len()).find(|&i| positions[i].manhattan(self.cells[i]) > 1)
         {
@@ -87,6 +103,8 @@ impl GridEnv {
         // Accounts, as `account` keeps them, without rewards or an end.
         self.t += 1;
         let t = self.t;
+        rewards.fill(0.0);
+        let mut all_home = !self.cfg.lifelong;
         for (i, &arrived) in arrived.iter().enumerate() {
             let home = arrived || self.pos[i] == self.goal[i];
             if home && (self.off_goal[i] != 0 || t == 1) {
@@ -96,6 +114,8 @@ impl GridEnv {
                 // Its new goal is already set; the stall watch knows.
                 self.off_goal[i] = 0;
                 self.goals_reached += 1;
+                rewards[i] += REWARD_GOAL;
+                all_home = false;
                 continue;
             }
             self.stall.set_at_goal(i, home);
@@ -103,8 +123,14 @@ impl GridEnv {
             if home && !self.reached[i] {
                 self.reached[i] = true;
                 self.goals_reached += 1;
+                rewards[i] += REWARD_GOAL;
             }
+            all_home &= home;
         }
+        if all_home {
+            rewards.iter_mut().for_each(|r| *r += REWARD_ALL_AT_GOAL);
+        }
+        self.episode_reward += rewards.iter().sum::<f32>();
         let (distance, width) = (&self.goal_distance, self.map.grid.width());
         self.visits.record(&self.cells);
         self.stall.observe(|i, (r, c)| distance[i][r * width + c]);

@@ -1,0 +1,177 @@
+//! Closed-loop control of a fleet: each control cycle, the robots report
+//! where they stand and where they head, and any controller answers with
+//! every robot's next move. The base of a fleet controller service.
+//!
+//! A [`FleetSession`] keeps a [`GridEnv`] as its picture of the fleet and
+//! never moves the robots itself: every step starts from the positions
+//! reported ([`GridEnv::report`]), whatever the robots were told before.
+//! A policy or a shield chooses from that state, as in training. A
+//! planner ([`Controller::follows_plan`]) plans once and follows its plan
+//! by the clock; the session plans again from the reported state when a
+//! robot is not where the plan put it (a robot lagged) or a goal changed.
+//!
+//! ```
+//! use std::sync::Arc;
+//! use buridan_env::{EnvConfig, GridEnv, Map, Rules};
+//! use buridan_eval::fleet::FleetSession;
+//! let map = Arc::new(Map::load("rm-2.1").unwrap());
+//! // The robots: an env whose moves fail one time in ten.
+//! let cfg = EnvConfig { agents: 4, delay: 0.1, ..EnvConfig::default() };
+//! let mut robots = GridEnv::with_episode(map.clone(), cfg, 3).unwrap();
+//! let controller = "lacam".parse().unwrap();
+//! let mut fleet = FleetSession::open(map, Rules::Thesis, &controller, &robots.positions(), &robots.goals(), 42).unwrap();
+//! let mut rewards = [0.0; 4];
+//! while !robots.is_over() {
+//!     let moves = fleet.step(&robots.positions(), &robots.goals()).unwrap().to_vec();
+//!     robots.step(&moves, &mut rewards).unwrap();
+//! }
+//! assert!(robots.stats().success);
+//! ```
+
+use std::sync::Arc;
+
+use buridan_env::{Cell, EnvConfig, EnvError, GridEnv, Map, Rules};
+use buridan_mapf::Limits;
+
+use crate::by_name::{Controller as ControllerSpec, ControllerNameError};
+use crate::controller::{Controller, GiveUp};
+
+/// Why a fleet session could not open or answer.
+#[derive(Debug, thiserror::Error)]
+pub enum FleetError {
+    /// The map, the robots' report or the controller's settings do not fit.
+    #[error(transparent)]
+    Env(#[from] EnvError),
+    /// The controller could not be built.
+    #[error(transparent)]
+    Controller(#[from] ControllerNameError),
+    /// A planner found no plan from the reported state: the robots wait
+    /// this step and the session plans again at the next.
+    #[error("the controller found no plan ({0}): every robot waits")]
+    GaveUp(GiveUp),
+}
+
+/// One fleet under closed-loop control (see the [module docs](self)).
+pub struct FleetSession {
+    env: GridEnv,
+    controller: Box<dyn Controller>,
+    moves: Vec<u8>,
+    /// The rewards of the last reported step (a recurrent policy reads them).
+    rewards: Vec<f32>,
+    /// Where the last moves put each robot if carried out.
+    expected: Vec<Cell>,
+    /// Plans made after the first.
+    replans: u64,
+    /// Whether the controller holds a plan to follow.
+    planned: bool,
+    /// No step yet: the state is the one the session opened with.
+    opened: bool,
+}
+
+impl FleetSession {
+    /// A session for the robots standing on `positions` and heading for
+    /// `goals` on `map` under `rules`, driven by `controller` (the
+    /// controller grammar; policies read the window and features of their
+    /// checkpoint). `seed` seeds the controller's draws (sampled actions,
+    /// shield ties). Planners get the planning limits' defaults.
+    pub fn open(
+        map: Arc<Map>,
+        rules: Rules,
+        controller: &ControllerSpec,
+        positions: &[Cell],
+        goals: &[Cell],
+        seed: u64,
+    ) -> Result<Self, FleetError> {
+        let agents = positions.len();
+        let controller = controller.factory(agents, seed, Limits::default(), rules)?();
+        let cfg = EnvConfig {
+            agents,
+            rules,
+            t_max: rules.default_t_max(),
+            seed,
+            sensor_range: controller.obs_sensor_range(),
+            features: controller.obs_features(),
+            ..EnvConfig::default()
+        };
+        let mut env = GridEnv::new(map, cfg)?;
+        env.reset_with(0, positions, goals)?;
+        let mut session = Self {
+            env,
+            controller,
+            moves: vec![0; agents],
+            rewards: vec![0.0; agents],
+            expected: positions.to_vec(),
+            replans: 0,
+            planned: false,
+            opened: true,
+        };
+        // A planner that finds no plan yet leaves the robots waiting; the
+        // first step tries again and says so.
+        if session.begin().is_err() {
+            session.planned = false;
+        }
+        Ok(session)
+    }
+
+    /// The next move of every robot (0 stay, 1 up, 2 right, 3 down, 4
+    /// left), for the robots on `positions` heading for `goals`. A report
+    /// that does not fit ([`GridEnv::report`]: a robot on a wall, off the
+    /// map, on another's cell or more than one cell from its last
+    /// position) is refused and changes nothing.
+    pub fn step(&mut self, positions: &[Cell], goals: &[Cell]) -> Result<&[u8], FleetError> {
+        let goals_changed = goals != self.env.goals().as_slice();
+        let lagged = positions != self.expected.as_slice();
+        // The first report of the state the session opened with is that
+        // state, not a step after it.
+        if !(std::mem::take(&mut self.opened) && !goals_changed && !lagged) {
+            self.env.report(positions, goals, &mut self.rewards)?;
+            self.controller.after_step(&self.rewards);
+        }
+        if self.controller.follows_plan() && (goals_changed || lagged || !self.planned) {
+            // Plan afresh from the reported state, on a clock of its own.
+            self.env
+                .reset_with(self.env.episode() + 1, positions, goals)?;
+            self.replans += 1;
+            if let Err(e) = self.begin() {
+                self.moves.fill(0);
+                self.expected = positions.to_vec();
+                return Err(e);
+            }
+        }
+        self.controller.act(&self.env, &mut self.moves);
+        let grid = &self.env.map().grid;
+        for (expected, (&cell, &action)) in self
+            .expected
+            .iter_mut()
+            .zip(positions.iter().zip(&self.moves))
+        {
+            *expected = grid.neighbour(cell, action).unwrap_or(cell);
+        }
+        Ok(&self.moves)
+    }
+
+    /// The controller's plan (or its state) for the env as it stands.
+    fn begin(&mut self) -> Result<(), FleetError> {
+        self.planned = false;
+        self.controller
+            .begin_episode(&self.env)
+            .map_err(FleetError::GaveUp)?;
+        self.planned = true;
+        Ok(())
+    }
+
+    /// The session's picture of the fleet after the last report.
+    pub fn env(&self) -> &GridEnv {
+        &self.env
+    }
+
+    /// How often a planner planned again after the first plan.
+    pub fn replans(&self) -> u64 {
+        self.replans
+    }
+
+    /// The controller's name, as reports give it.
+    pub fn controller_name(&self) -> String {
+        self.controller.name()
+    }
+}
