@@ -18,7 +18,7 @@ use std::sync::Arc;
 
 use buridan_env::{EnvConfig, GridEnv, Map, Rules};
 use buridan_eval::by_name::Controller;
-use buridan_eval::fleet::{FleetError, FleetSession};
+use buridan_eval::fleet::{play, FleetSession};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -55,15 +55,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     &robots.goals(),
                     42,
                 )?;
-                let mut rewards = vec![0.0; agents];
-                while !robots.is_over() {
-                    let moves = match fleet.step(&robots.positions(), &robots.goals()) {
-                        Ok(moves) => moves.to_vec(),
-                        Err(FleetError::GaveUp(_)) => vec![0; agents],
-                        Err(e) => return Err(e.into()),
-                    };
-                    robots.step(&moves, &mut rewards)?;
-                }
+                play(&mut robots, &mut fleet, |_| {})?;
                 replans += fleet.replans();
                 if robots.stats().success {
                     solved += 1;

@@ -175,3 +175,41 @@ impl FleetSession {
         self.controller.name()
     }
 }
+
+/// Plays `robots` (an env standing in for the fleet: its moves may fail,
+/// [`EnvConfig::delay`]) to the end of its episode through `fleet`: each
+/// step the fleet reports the robots' positions and goals and the robots
+/// carry out the moves the session answers. A step whose planner found no
+/// plan is a step of waits. `after` sees the robots after every step.
+///
+/// ```
+/// use std::sync::Arc;
+/// use buridan_env::{EnvConfig, GridEnv, Map, Rules};
+/// use buridan_eval::fleet::{play, FleetSession};
+/// let map = Arc::new(Map::load("rm-2.1").unwrap());
+/// let cfg = EnvConfig { agents: 4, delay: 0.2, ..EnvConfig::default() };
+/// let mut robots = GridEnv::with_episode(map.clone(), cfg, 0).unwrap();
+/// let spec = "pibt".parse().unwrap();
+/// let mut fleet = FleetSession::open(map, Rules::Thesis, &spec, &robots.positions(), &robots.goals(), 42).unwrap();
+/// let mut steps = 0;
+/// play(&mut robots, &mut fleet, |_| steps += 1).unwrap();
+/// assert_eq!(steps, robots.t());
+/// ```
+pub fn play(
+    robots: &mut GridEnv,
+    fleet: &mut FleetSession,
+    mut after: impl FnMut(&GridEnv),
+) -> Result<(), FleetError> {
+    let agents = robots.agents();
+    let (mut moves, mut rewards) = (vec![0u8; agents], vec![0.0f32; agents]);
+    while !robots.is_over() {
+        match fleet.step(&robots.positions(), &robots.goals()) {
+            Ok(answer) => moves.copy_from_slice(answer),
+            Err(FleetError::GaveUp(_)) => moves.fill(0),
+            Err(e) => return Err(e),
+        }
+        robots.step(&moves, &mut rewards)?;
+        after(robots);
+    }
+    Ok(())
+}

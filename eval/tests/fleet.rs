@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use buridan_env::{Cell, EnvConfig, GridEnv, Map, Rules};
 use buridan_eval::by_name::Controller as Spec;
-use buridan_eval::fleet::{FleetError, FleetSession};
+use buridan_eval::fleet::{play, FleetSession};
 use buridan_mapf::Limits;
 
 const SHIELDED_MODEL: &str = "shield-lanes=16:checkpoint:model:rm-2.1";
@@ -45,17 +45,8 @@ fn through_session(robots: &mut GridEnv, controller: &Spec) -> (Vec<Vec<Cell>>, 
         42,
     )
     .unwrap();
-    let mut rewards = [0.0; 4];
     let mut trail = Vec::new();
-    while !robots.is_over() {
-        let moves = match fleet.step(&robots.positions(), &robots.goals()) {
-            Ok(moves) => moves.to_vec(),
-            Err(FleetError::GaveUp(_)) => vec![0; 4],
-            Err(e) => panic!("{e}"),
-        };
-        robots.step(&moves, &mut rewards).unwrap();
-        trail.push(robots.positions());
-    }
+    play(robots, &mut fleet, |robots| trail.push(robots.positions())).unwrap();
     (trail, fleet)
 }
 
