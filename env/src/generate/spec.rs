@@ -209,6 +209,9 @@ pub enum SpecProblem {
     /// seeds ([`GeneratedMap::expand`]).
     #[error("the seed range {0} is not A..B with A < B and at most 10000 seeds")]
     SeedRange(String),
+    /// A seed range where one map is named.
+    #[error("seed={0} names several maps: a range belongs in a list of layouts (--maps), one map takes one seed")]
+    RangeForOneMap(String),
     /// A warehouse's settings leave no room for a shelf.
     #[error(
         "no shelf fits in {height}x{width} with shelf={shelf}, margin={margin} and edge={edge}"
@@ -320,6 +323,13 @@ fn parse(spec: &str) -> Result<GeneratedMap, SpecProblem> {
     let settings = Settings::new(rest)?;
     if !settings.pairs.iter().any(|(k, _)| *k == "seed") {
         return Err(SpecProblem::NoSeed);
+    }
+    if let Some(&(_, range)) = settings
+        .pairs
+        .iter()
+        .find(|(k, v)| *k == "seed" && v.contains(".."))
+    {
+        return Err(SpecProblem::RangeForOneMap(range.to_string()));
     }
     let seed = settings.get("seed", 0u64, |_| true, "a whole number from 0 to 2^64 - 1")?;
     let family = match *family {

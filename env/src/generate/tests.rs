@@ -172,6 +172,10 @@ fn bad_specs_name_their_problem() {
         SpecProblem::Repeated("seed".into())
     );
     assert_eq!(problem("maze/9x9"), SpecProblem::NoSeed);
+    assert_eq!(
+        problem("maze/9x9/seed=0..4"),
+        SpecProblem::RangeForOneMap("0..4".into())
+    );
     assert_eq!(problem("braid/9x9/loops=0.2"), SpecProblem::NoSeed);
     assert!(
         matches!(problem("maze/9x9/walls=0/seed=0"), SpecProblem::Value { key, .. } if key == "walls")
