@@ -5,7 +5,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use buridan_env::generate::GeneratedMap;
+use buridan_env::generate::{Family, GeneratedMap};
 use buridan_env::REFERENCE_MODELS;
 
 /// `learner maps` arguments.
@@ -22,24 +22,13 @@ pub struct MapsArgs {
     pub out: Option<PathBuf>,
 }
 
-/// The families and keys `learner maps` lists, one line each.
-const GENERATORS: &[(&str, &str)] = &[
-    (
-        "maze/HxW[/density=0.3][/walls=8][/straight=0.8]/seed=S",
-        "walls grown as mostly straight random walks, like POGEMA's mazes",
-    ),
-    (
-        "braid/HxW[/loops=0.5]/seed=S",
-        "a perfect maze with loops knocked through (odd H and W)",
-    ),
-    (
-        "random/HxW[/density=0.3]/seed=S",
-        "random obstacles, cut-off cells walled in",
-    ),
-    (
-        "warehouse/HxW[/shelf=10][/gap=1][/aisle=3][/margin=7][/edge=2][/missing=0]/seed=S",
-        "rows of shelves (warehouse/33x46/seed=0 is POGEMA's warehouse)",
-    ),
+/// What each generator family draws, in [`Family::defaults`]' order
+/// (`learner maps` lists each family's form beside it).
+const ABOUT: [&str; 4] = [
+    "walls grown as mostly straight random walks, like POGEMA's mazes",
+    "a perfect maze with loops knocked through (odd H and W)",
+    "random obstacles, cut-off cells walled in",
+    "rows of shelves (warehouse/33x46/seed=0 is POGEMA's warehouse)",
 ];
 
 /// Runs `learner maps`.
@@ -73,8 +62,8 @@ fn list() -> Result<()> {
         )?;
     }
     writeln!(out, "\ngenerated maps, named by their spec:")?;
-    for (form, what) in GENERATORS {
-        writeln!(out, "  {form}\n      {what}")?;
+    for (family, about) in Family::defaults().iter().zip(ABOUT) {
+        writeln!(out, "  {}\n      {about}", family.form())?;
     }
     Ok(())
 }

@@ -30,7 +30,83 @@ pub enum Family {
     Warehouse(Warehouse),
 }
 
+/// One setting's value, as a spec writes it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Setting {
+    /// A share or chance.
+    Share(f64),
+    /// A count of cells or walls.
+    Count(usize),
+}
+
+impl fmt::Display for Setting {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Setting::Share(v) => write!(f, "{v}"),
+            Setting::Count(v) => write!(f, "{v}"),
+        }
+    }
+}
+
 impl Family {
+    /// Each family at its defaults, in [`FAMILIES`]' order.
+    pub fn defaults() -> [Family; 4] {
+        [
+            Family::Maze(Maze::default()),
+            Family::Braid(Braid::default()),
+            Family::Random(RandomObstacles::default()),
+            Family::Warehouse(Warehouse::default()),
+        ]
+    }
+
+    /// This family at its defaults.
+    fn at_defaults(&self) -> Family {
+        let [maze, braid, random, warehouse] = Family::defaults();
+        match self {
+            Family::Maze(_) => maze,
+            Family::Braid(_) => braid,
+            Family::Random(_) => random,
+            Family::Warehouse(_) => warehouse,
+        }
+    }
+
+    /// The family's keys with their values here, in the order a spec
+    /// prints them.
+    fn settings(&self) -> Vec<(&'static str, Setting)> {
+        use Setting::{Count, Share};
+        match *self {
+            Family::Maze(m) => vec![
+                ("density", Share(m.density)),
+                ("walls", Count(m.walls)),
+                ("straight", Share(m.straight)),
+            ],
+            Family::Braid(b) => vec![("loops", Share(b.loops))],
+            Family::Random(r) => vec![("density", Share(r.density))],
+            Family::Warehouse(w) => vec![
+                ("shelf", Count(w.shelf)),
+                ("gap", Count(w.gap)),
+                ("aisle", Count(w.aisle)),
+                ("margin", Count(w.margin)),
+                ("edge", Count(w.edge)),
+                ("missing", Share(w.missing)),
+            ],
+        }
+    }
+
+    /// The spec's form for this family, with its keys at their defaults.
+    ///
+    /// ```
+    /// use buridan_env::generate::Family;
+    /// let [maze, ..] = Family::defaults();
+    /// assert_eq!(maze.form(), "maze/HxW[/density=0.3][/walls=8][/straight=0.8]/seed=S");
+    /// ```
+    pub fn form(&self) -> String {
+        let keys: String = (self.at_defaults().settings().iter())
+            .map(|(key, value)| format!("[/{key}={value}]"))
+            .collect();
+        format!("{}/HxW{keys}/seed=S", self.name())
+    }
+
     /// The family's name in a spec ([`FAMILIES`]).
     pub fn name(&self) -> &'static str {
         match self {
@@ -107,11 +183,8 @@ impl GeneratedMap {
     /// assert!(GeneratedMap::expand("maze/19x19/seed=6..6").is_err());
     /// ```
     pub fn expand(text: &str) -> Result<Vec<GeneratedMap>, SpecError> {
-        let range = text
-            .split('/')
-            .find_map(|part| part.strip_prefix("seed="))
-            .and_then(|seed| seed.split_once(".."));
-        let Some((from, to)) = range else {
+        let seed = text.split('/').find_map(|part| part.strip_prefix("seed="));
+        let Some((seed, (from, to))) = seed.and_then(|s| Some((s, s.split_once("..")?))) else {
             return Ok(vec![text.parse()?]);
         };
         let bad = || SpecError {
@@ -126,7 +199,7 @@ impl GeneratedMap {
             return Err(bad());
         }
         let first: GeneratedMap = text
-            .replace(&format!("seed={from}..{to}"), &format!("seed={from}"))
+            .replace(&format!("seed={seed}"), &format!("seed={from}"))
             .parse()?;
         Ok((from..to)
             .map(|seed| GeneratedMap { seed, ..first })
@@ -180,14 +253,12 @@ pub enum SpecProblem {
     #[error("'{0}' is not KEY=VALUE")]
     NotKeyValue(String),
     /// A key the family does not have.
-    #[error("{family} has no key '{key}' (its keys: {known})")]
+    #[error("{family} has no key '{key}' (its keys: {})", keys_of(family))]
     UnknownKey {
         /// The family.
         family: &'static str,
         /// The key given.
         key: String,
-        /// The family's keys, comma separated.
-        known: &'static str,
     },
     /// A key given twice.
     #[error("'{0}' is given twice")]
@@ -230,6 +301,13 @@ pub enum SpecProblem {
     },
 }
 
+/// The keys of the family named `family`, comma separated.
+fn keys_of(family: &str) -> String {
+    let family = Family::defaults().into_iter().find(|f| f.name() == family);
+    let keys = family.map(|f| f.settings().into_iter().map(|(k, _)| k).collect::<Vec<_>>());
+    keys.unwrap_or_default().join(", ")
+}
+
 impl FromStr for GeneratedMap {
     type Err = SpecError;
 
@@ -262,18 +340,17 @@ impl<'a> Settings<'a> {
         Ok(Self { pairs })
     }
 
-    /// Refuses a key outside `known` (seed aside).
-    fn check_keys(&self, family: &'static str, known: &'static str) -> Result<(), SpecProblem> {
-        let keys: Vec<&str> = known.split(", ").collect();
+    /// Refuses a key that `family` does not have (seed aside).
+    fn check_keys(&self, family: Family) -> Result<(), SpecProblem> {
+        let keys: Vec<&str> = family.settings().iter().map(|(k, _)| *k).collect();
         match self
             .pairs
             .iter()
             .find(|(k, _)| *k != "seed" && !keys.contains(k))
         {
             Some((key, _)) => Err(SpecProblem::UnknownKey {
-                family,
+                family: family.name(),
                 key: key.to_string(),
-                known,
             }),
             None => Ok(()),
         }
@@ -321,21 +398,17 @@ fn parse(spec: &str) -> Result<GeneratedMap, SpecProblem> {
     };
     let (height, width) = parse_size(size)?;
     let settings = Settings::new(rest)?;
-    if !settings.pairs.iter().any(|(k, _)| *k == "seed") {
+    let Some(&(_, seed)) = settings.pairs.iter().find(|(k, _)| *k == "seed") else {
         return Err(SpecProblem::NoSeed);
-    }
-    if let Some(&(_, range)) = settings
-        .pairs
-        .iter()
-        .find(|(k, v)| *k == "seed" && v.contains(".."))
-    {
-        return Err(SpecProblem::RangeForOneMap(range.to_string()));
+    };
+    if seed.contains("..") {
+        return Err(SpecProblem::RangeForOneMap(seed.to_string()));
     }
     let seed = settings.get("seed", 0u64, |_| true, "a whole number from 0 to 2^64 - 1")?;
     let family = match *family {
         "maze" => {
-            settings.check_keys("maze", "density, walls, straight")?;
             let d = Maze::default();
+            settings.check_keys(Family::Maze(d))?;
             Family::Maze(Maze {
                 density: settings.get("density", d.density, below_one, BELOW_ONE)?,
                 walls: settings.get(
@@ -348,7 +421,7 @@ fn parse(spec: &str) -> Result<GeneratedMap, SpecProblem> {
             })
         }
         "braid" => {
-            settings.check_keys("braid", "loops")?;
+            settings.check_keys(Family::Braid(Braid::default()))?;
             if height % 2 == 0 || width % 2 == 0 {
                 return Err(SpecProblem::EvenBraid(height, width));
             }
@@ -356,7 +429,7 @@ fn parse(spec: &str) -> Result<GeneratedMap, SpecProblem> {
             Family::Braid(Braid { loops })
         }
         "random" => {
-            settings.check_keys("random", "density")?;
+            settings.check_keys(Family::Random(RandomObstacles::default()))?;
             let density = settings.get(
                 "density",
                 RandomObstacles::default().density,
@@ -366,8 +439,8 @@ fn parse(spec: &str) -> Result<GeneratedMap, SpecProblem> {
             Family::Random(RandomObstacles { density })
         }
         "warehouse" => {
-            settings.check_keys("warehouse", "shelf, gap, aisle, margin, edge, missing")?;
             let d = Warehouse::default();
+            settings.check_keys(Family::Warehouse(d))?;
             let positive = |v: usize| (1..=MAX_SIDE).contains(&v);
             let small = |v: usize| v <= MAX_SIDE;
             const SMALL: &str = "a whole number from 0 to 1024";
@@ -415,37 +488,12 @@ fn parse_size(size: &str) -> Result<(usize, usize), SpecProblem> {
 
 impl fmt::Display for GeneratedMap {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        // Each setting away from its default, in the family's key order.
-        fn set<T: PartialEq + fmt::Display>(
-            f: &mut fmt::Formatter<'_>,
-            key: &str,
-            value: T,
-            default: T,
-        ) -> fmt::Result {
-            if value == default {
-                Ok(())
-            } else {
-                write!(f, "/{key}={value}")
-            }
-        }
         write!(f, "{}/{}x{}", self.family.name(), self.height, self.width)?;
-        match &self.family {
-            Family::Maze(m) => {
-                let d = Maze::default();
-                set(f, "density", m.density, d.density)?;
-                set(f, "walls", m.walls, d.walls)?;
-                set(f, "straight", m.straight, d.straight)?;
-            }
-            Family::Braid(b) => set(f, "loops", b.loops, Braid::default().loops)?,
-            Family::Random(r) => set(f, "density", r.density, RandomObstacles::default().density)?,
-            Family::Warehouse(w) => {
-                let d = Warehouse::default();
-                set(f, "shelf", w.shelf, d.shelf)?;
-                set(f, "gap", w.gap, d.gap)?;
-                set(f, "aisle", w.aisle, d.aisle)?;
-                set(f, "margin", w.margin, d.margin)?;
-                set(f, "edge", w.edge, d.edge)?;
-                set(f, "missing", w.missing, d.missing)?;
+        // Each setting away from its default, in the family's key order.
+        let defaults = self.family.at_defaults().settings();
+        for ((key, value), (_, default)) in self.family.settings().into_iter().zip(defaults) {
+            if value != default {
+                write!(f, "/{key}={value}")?;
             }
         }
         write!(f, "/seed={}", self.seed)

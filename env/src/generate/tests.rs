@@ -143,6 +143,16 @@ fn map_load_and_map_source_name_the_spec_canonically() {
 }
 
 #[test]
+fn a_seed_range_expands_as_written() {
+    let names: Vec<String> = GeneratedMap::expand("random/9x9/seed=07..09")
+        .unwrap()
+        .iter()
+        .map(|m| m.to_string())
+        .collect();
+    assert_eq!(names, ["random/9x9/seed=7", "random/9x9/seed=8"]);
+}
+
+#[test]
 fn bad_specs_name_their_problem() {
     let problem = |spec: &str| spec.parse::<GeneratedMap>().unwrap_err().problem;
     assert_eq!(problem("maze"), SpecProblem::Form);
