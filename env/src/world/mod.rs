@@ -311,24 +311,17 @@ impl GridEnv {
         which: &'static str,
         list: &[Cell],
     ) -> Result<(), EnvError> {
-        let n = self.cfg.agents;
-        if list.len() != n {
-            return Err(EnvError::WrongLength {
-                what,
-                expected: n,
-                got: list.len(),
-            });
-        }
+        EnvError::check_len(what, self.cfg.agents, list.len())?;
         let grid = &self.map.grid;
         for (i, &cell) in list.iter().enumerate() {
             let problem = if !grid.contains(cell) {
-                "outside the grid"
+                Some("outside the grid")
             } else if grid.is_wall(cell) {
-                "a wall"
+                Some("a wall")
             } else {
-                ""
+                None
             };
-            if !problem.is_empty() {
+            if let Some(problem) = problem {
                 return Err(EnvError::BadCell {
                     agent: i,
                     which,

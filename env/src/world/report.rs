@@ -52,13 +52,7 @@ impl GridEnv {
     ) -> Result<(), EnvError> {
         self.check_cells("positions", "position", positions)?;
         self.check_cells("goals", "goal", goals)?;
-        if rewards.len() != self.cfg.agents {
-            return Err(EnvError::WrongLength {
-                what: "rewards",
-                expected: self.cfg.agents,
-                got: rewards.len(),
-            });
-        }
+        EnvError::check_len("rewards", self.cfg.agents, rewards.len())?;
         if let Some(agent) =
             (0..positions.len()).find(|&i| positions[i].manhattan(self.cells[i]) > 1)
         {
@@ -72,8 +66,9 @@ impl GridEnv {
         // Goals: every changed goal leaves the board before any is put
         // back, so that goals may trade places.
         let changed: Vec<usize> = (0..n).filter(|&i| goals[i] != self.goal_cells[i]).collect();
+        // On its old goal as it changes: an arrival.
         let arrived: Vec<bool> = (0..n)
-            .map(|i| changed.contains(&i) && positions[i] == self.goal_cells[i])
+            .map(|i| goals[i] != self.goal_cells[i] && positions[i] == self.goal_cells[i])
             .collect();
         for &i in &changed {
             self.board.goal_owner[self.goal[i]] = NOBODY;
@@ -100,7 +95,7 @@ impl GridEnv {
             self.cells[i] = positions[i];
             self.stall.moved(i, positions[i]);
         }
-        // Accounts, as `account` keeps them, without rewards or an end.
+        // Accounts, as `account` keeps them (rewards included), without an end.
         self.t += 1;
         let t = self.t;
         rewards.fill(0.0);
