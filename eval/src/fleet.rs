@@ -105,11 +105,9 @@ impl FleetSession {
             planned: false,
             opened: true,
         };
-        // A planner that finds no plan yet leaves the robots waiting; the
+        // A planner that finds no plan yet leaves `planned` false: the
         // first step tries again and says so.
-        if session.begin().is_err() {
-            session.planned = false;
-        }
+        session.begin().ok();
         Ok(session)
     }
 
@@ -123,7 +121,8 @@ impl FleetSession {
         let lagged = positions != self.expected.as_slice();
         // The first report of the state the session opened with is that
         // state, not a step after it.
-        if !(std::mem::take(&mut self.opened) && !goals_changed && !lagged) {
+        let first = std::mem::take(&mut self.opened);
+        if !first || goals_changed || lagged {
             self.env.report(positions, goals, &mut self.rewards)?;
             self.controller.after_step(&self.rewards);
         }
@@ -168,11 +167,6 @@ impl FleetSession {
     /// How often a planner planned again after the first plan.
     pub fn replans(&self) -> u64 {
         self.replans
-    }
-
-    /// The controller's name, as reports give it.
-    pub fn controller_name(&self) -> String {
-        self.controller.name()
     }
 }
 
