@@ -138,7 +138,7 @@ pub fn critic_loss(
     targets: &Tensor,
     p: &PpoLossParams,
 ) -> Result<(Tensor, LossTerms)> {
-    let (lp_all, _) = bt.log_probs(logits)?;
+    let lp_all = dist::masked_log_probs(logits, &bt.mask_bias, bt.heads)?;
     let vf = clipped_value_error(values, targets, p.vf_clip)?.mean_all()?;
     let total = (&vf * p.vf_coeff as f64)?;
     let terms = LossTerms {
