@@ -12,10 +12,10 @@ use buridan_eval::benchmark::{
     write_table, LowerBounds, Row, DEFAULT_PUBLISHED,
 };
 use buridan_eval::by_name::{ControllerParseError, Labelled};
-use buridan_eval::instances::load_instance_set;
+use buridan_eval::instances::{load_instance_set, map_names};
 use buridan_eval::output::write_report;
 use buridan_eval::runner::soc_lower_bound;
-use buridan_eval::{evaluate_instances, EvalSpec};
+use buridan_eval::{evaluate_instances, EvalReport, EvalSpec};
 
 use crate::eval::{parse_agent_counts, planner_limits, summary_line, EpisodeProgress};
 
@@ -45,7 +45,10 @@ pub struct PogemaArgs {
     /// and the published results (`../shared/pogema`).
     #[arg(long)]
     pub instances: PathBuf,
-    /// The map's name in the file names.
+    /// The map's name in the file names; with `*` (any run of characters)
+    /// every `<name>.map` of the folder that matches, each map with its own
+    /// instances, pooled into one row per count: POGEMA's mazes are
+    /// `--map-name 'validation-mazes-seed-*' --seeds 0`.
     #[arg(long, default_value = "warehouse")]
     pub map_name: String,
     /// Agent counts: a list (`32,64`) or a range (`32..192:32`).
@@ -63,7 +66,7 @@ pub struct PogemaArgs {
     #[arg(long = "controller", value_parser = parse_labelled, default_values = ["lacam", "pibt", "lacam-star", "cbs"])]
     pub controllers: Vec<Labelled>,
     /// Published per-instance results (default: `<map>-published.csv` in
-    /// the instances folder).
+    /// the instances folder, or `published.csv` for a `*` pattern).
     #[arg(long)]
     pub published: Option<PathBuf>,
     /// Published methods to show beside ours (comma-separated, as named in
@@ -87,6 +90,11 @@ pub struct PogemaArgs {
     /// `success.png`, `soc_ratio.png`.
     #[arg(long)]
     pub out: PathBuf,
+}
+
+/// Whether a map name is a pattern (holds `*`).
+fn is_pattern(name: &str) -> bool {
+    name.contains('*')
 }
 
 /// Parses seeds: `0..127` (inclusive), `0..127:2` or `0,5,9`.
@@ -163,9 +171,14 @@ pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
             );
         }
     }
+    let maps = map_names(&args.instances, &args.map_name)?;
     let published_path = args.published.clone().unwrap_or_else(|| {
-        args.instances
-            .join(format!("{}-published.csv", args.map_name))
+        if is_pattern(&args.map_name) {
+            args.instances.join("published.csv")
+        } else {
+            args.instances
+                .join(format!("{}-published.csv", args.map_name))
+        }
     });
     // Read before hours of planning, so that a bad file fails at once.
     let published = read_published(&published_path)?;
@@ -175,34 +188,36 @@ pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
     let mut sets = Vec::with_capacity(counts.len());
     let mut bounds = LowerBounds::new();
     for &agents in &counts {
-        let files: Vec<PathBuf> = seeds
-            .iter()
-            .map(|seed| {
-                args.instances
-                    .join(format!("{}-{agents}-{seed}.scen", args.map_name))
-            })
-            .collect();
-        let set = load_instance_set(&files, None, Some(agents))
-            .with_context(|| format!("loading the {agents}-agent instances"))?;
-        for (instance, &seed) in set.instances.iter().zip(&seeds) {
-            let bound = soc_lower_bound(&set.map.grid, &instance.starts, &instance.goals);
-            bounds.insert((agents, seed), bound);
+        let mut per_map = Vec::with_capacity(maps.len());
+        for map in &maps {
+            let files: Vec<PathBuf> = seeds
+                .iter()
+                .map(|seed| args.instances.join(format!("{map}-{agents}-{seed}.scen")))
+                .collect();
+            let set = load_instance_set(&files, None, Some(agents))
+                .with_context(|| format!("loading the {agents}-agent instances of {map}"))?;
+            for (instance, &seed) in set.instances.iter().zip(&seeds) {
+                let bound = soc_lower_bound(&set.map.grid, &instance.starts, &instance.goals);
+                bounds.insert((agents, map.clone(), seed), bound);
+            }
+            per_map.push(set);
         }
-        sets.push((agents, set));
+        sets.push((agents, per_map));
     }
     let mut rows = Vec::new();
     for spec in specs {
-        for (agents, set) in &sets {
+        for (agents, per_map) in &sets {
+            let episodes: usize = per_map.iter().map(|set| set.instances.len()).sum();
             let dir = args.out.join(&spec.label).join(format!("agents-{agents}"));
             let summary_path = dir.join("summary.json");
             if summary_path.is_file() {
                 let kept = read_measured(&summary_path)?;
-                if kept.episodes != set.instances.len() {
+                if kept.episodes != episodes {
                     bail!(
                         "{} holds {} instances, not the {} asked for: move it away to run it again",
                         summary_path.display(),
                         kept.episodes,
-                        set.instances.len()
+                        episodes
                     );
                 }
                 tracing::info!(label = %spec.label, agents, "kept from an earlier run");
@@ -212,7 +227,7 @@ pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
             let make = spec.controller.factory(*agents, args.seed, limits, rules)?;
             let eval_spec = EvalSpec {
                 agents: *agents,
-                episodes: set.instances.len(),
+                episodes,
                 seed: args.seed,
                 t_max: rules.default_t_max(),
                 jobs: args.jobs.max(1),
@@ -220,15 +235,29 @@ pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
                 ..EvalSpec::default()
             };
             let progress = EpisodeProgress::new(
-                &format!("{} {} agents={agents}", spec.label, set.map.name),
-                set.instances.len(),
+                &format!("{} {} agents={agents}", spec.label, args.map_name),
+                episodes,
             );
-            let report = evaluate_instances(&set.map, &eval_spec, &set.instances, &*make, &|r| {
-                progress.record(r)
-            })
-            .with_context(|| format!("evaluating {} on {agents} agents", spec.label))?;
+            let mut reports = Vec::with_capacity(per_map.len());
+            for set in per_map {
+                let report =
+                    evaluate_instances(&set.map, &eval_spec, &set.instances, &*make, &|r| {
+                        progress.record(r)
+                    })
+                    .with_context(|| {
+                        format!(
+                            "evaluating {} on {} with {agents} agents",
+                            spec.label, set.map.name
+                        )
+                    })?;
+                reports.push(report);
+            }
             progress.finish();
-            write_report(&dir, &report, &set.map.grid)
+            let report = match reports.len() {
+                1 => reports.pop().expect("one report"),
+                _ => EvalReport::merge(&args.map_name, &eval_spec, reports),
+            };
+            write_report(&dir, &report, &per_map[0].map.grid)
                 .with_context(|| format!("writing results to {}", dir.display()))?;
             eprintln!("{} -> {}", summary_line(&report.summary), dir.display());
             // Read back, not taken from memory: serde_json's float parsing

@@ -241,3 +241,100 @@ fn controllers_with_a_patience_parse_as_controllers() {
         .collect();
     assert_eq!(labels, ["lacam", "pibt", "lacam-star", "cbs"]);
 }
+
+/// Two maps with one instance each (seed 0, as POGEMA's mazes), and one
+/// method's published results on both: the second map unsolved at 2 agents.
+fn maze_set(dir: &Path) -> PathBuf {
+    let set = dir.join("mazes");
+    std::fs::create_dir_all(&set).unwrap();
+    let mut csv = String::from("map,agents,seed,algorithm,success,makespan,soc,isr\n");
+    for (name, rows) in [
+        ("maze-a", ".....\n.@.@.\n....."),
+        ("maze-b", "..@..\n.....\n..@.."),
+    ] {
+        std::fs::write(
+            set.join(format!("{name}.map")),
+            format!("type octile\nheight 3\nwidth 5\nmap\n{rows}\n"),
+        )
+        .unwrap();
+        let lines = [(0, 0, 4, 2), (4, 0, 0, 2)];
+        for agents in [1, 2] {
+            let mut text = String::from("version 1\n");
+            for &(sx, sy, gx, gy) in &lines[..agents] {
+                text += &format!("0\t{name}.map\t5\t3\t{sx}\t{sy}\t{gx}\t{gy}\t0\n");
+            }
+            std::fs::write(set.join(format!("{name}-{agents}-0.scen")), text).unwrap();
+            let s = u8::from(!(name == "maze-b" && agents == 2));
+            csv += &format!("{name},{agents},0,Oracle,{s},8,{},1.0\n", 8 * agents);
+        }
+    }
+    // A map the pattern leaves out.
+    std::fs::write(
+        set.join("room.map"),
+        "type octile\nheight 1\nwidth 2\nmap\n..\n",
+    )
+    .unwrap();
+    std::fs::write(set.join("published.csv"), csv).unwrap();
+    set
+}
+
+#[test]
+fn a_map_pattern_pools_every_matching_map_into_one_row_per_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let set = maze_set(dir.path());
+    let out = dir.path().join("bench");
+    let flags = |pattern: &str| {
+        [
+            "--instances",
+            set.to_str().unwrap(),
+            "--map-name",
+            pattern,
+            "--agents",
+            "1,2",
+            "--seeds",
+            "0",
+            "--published-methods",
+            "Oracle",
+            "--controller",
+            "lacam",
+            "--out",
+            out.to_str().unwrap(),
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let rows = run_pogema(&bench_args(&flags("maze-*"))).unwrap();
+    assert_eq!(rows.len(), 4, "{rows:?}");
+    for row in &rows {
+        assert_eq!(row.instances, 2, "one instance per map and count: {row:?}");
+    }
+    let lacam: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.method == "lacam")
+        .map(|r| r.success_rate)
+        .collect();
+    assert_eq!(lacam, [1.0, 1.0]);
+    let oracle: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.method == "Oracle")
+        .map(|r| r.success_rate)
+        .collect();
+    assert_eq!(oracle, [1.0, 0.5], "each map's own published result counts");
+    let summary = std::fs::read_to_string(out.join("lacam/agents-2/summary.json")).unwrap();
+    assert!(summary.contains("\"map\": \"maze-*\""), "{summary}");
+    let episodes = std::fs::read_to_string(out.join("lacam/agents-2/episodes.csv")).unwrap();
+    assert!(
+        episodes.contains("maze-a-2-0.scen") && episodes.contains("maze-b-2-0.scen"),
+        "{episodes}"
+    );
+    assert!(
+        !out.join("lacam/agents-2/heatmap.png").exists(),
+        "no one grid to draw"
+    );
+
+    let err = run_pogema(&bench_args(&flags("hall-*"))).unwrap_err();
+    assert!(
+        format!("{err:#}").contains("no map matches 'hall-*'"),
+        "{err:#}"
+    );
+}

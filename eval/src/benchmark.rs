@@ -1,6 +1,7 @@
 //! The field's benchmark table: our controllers' results on an instance set
-//! (POGEMA's warehouse, 32–192 agents × 128 seeds) beside the published
-//! per-instance results of other methods on the same instances.
+//! (POGEMA's warehouse, 32–192 agents × 128 seeds; or its maze maps, one
+//! instance per map and count) beside the published per-instance results
+//! of other methods on the same instances.
 //!
 //! Each row is one method at one agent count: success rate, the median of
 //! the sum of costs over its single-agent lower bound, the mean makespan
@@ -18,7 +19,8 @@
 //!     success, makespan: 5, soc, isr: 1.0,
 //! };
 //! let published = [rec(0, 1, 10), rec(1, 0, 30)];
-//! let bounds = LowerBounds::from([((2, 0), Some(10)), ((2, 1), Some(20))]);
+//! let key = |seed| (2, "warehouse".to_string(), seed);
+//! let bounds = LowerBounds::from([(key(0), Some(10)), (key(1), Some(20))]);
 //! let rows = published_rows(&published, &["DCC".to_string()], &bounds).unwrap();
 //! assert_eq!((rows[0].success_rate, rows[0].soc_ratio_median), (0.5, Some(1.25)));
 //! ```
@@ -55,10 +57,10 @@ pub struct PublishedRecord {
     pub isr: f64,
 }
 
-/// The single-agent SoC lower bound of each instance, by (agents, seed)
-/// (`None`: some goal unreachable). The published rows average over
+/// The single-agent SoC lower bound of each instance, by (agents, map,
+/// seed) (`None`: some goal unreachable). The published rows average over
 /// exactly these instances.
-pub type LowerBounds = BTreeMap<(usize, u64), Option<u64>>;
+pub type LowerBounds = BTreeMap<(usize, String, u64), Option<u64>>;
 
 /// Where a row's numbers come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -173,10 +175,12 @@ pub enum BenchError {
         known: String,
     },
     /// A measured instance without a published result.
-    #[error("no published result of {method} for {agents} agents, seed {seed}")]
+    #[error("no published result of {method} on {map} for {agents} agents, seed {seed}")]
     MissingPublished {
         /// The method.
         method: String,
+        /// The instance's map.
+        map: String,
         /// Agents.
         agents: usize,
         /// Seed.
@@ -260,22 +264,24 @@ pub fn published_rows(
     bounds: &LowerBounds,
 ) -> Result<Vec<Row>, BenchError> {
     check_published_methods(records, methods)?;
-    let mut by_key: BTreeMap<(&str, usize, u64), &PublishedRecord> = BTreeMap::new();
+    let mut by_key: BTreeMap<(&str, &str, usize, u64), &PublishedRecord> = BTreeMap::new();
     for r in records {
-        by_key.insert((r.algorithm.as_str(), r.agents, r.seed), r);
+        by_key.insert((r.algorithm.as_str(), r.map.as_str(), r.agents, r.seed), r);
     }
-    let counts: BTreeSet<usize> = bounds.keys().map(|&(agents, _)| agents).collect();
+    let counts: BTreeSet<usize> = bounds.keys().map(|(agents, _, _)| *agents).collect();
     let mut rows = Vec::new();
     for method in methods {
         for &agents in &counts {
             let mut solved = 0usize;
             let (mut ratios, mut makespans) = (Vec::new(), Vec::new());
-            for (&(_, seed), &bound) in bounds.range((agents, 0)..=(agents, u64::MAX)) {
-                let Some(r) = by_key.get(&(method.as_str(), agents, seed)) else {
+            let instances = bounds.iter().filter(|((a, _, _), _)| *a == agents);
+            for ((_, map, seed), &bound) in instances {
+                let Some(r) = by_key.get(&(method.as_str(), map.as_str(), agents, *seed)) else {
                     return Err(BenchError::MissingPublished {
                         method: method.clone(),
+                        map: map.clone(),
                         agents,
-                        seed,
+                        seed: *seed,
                     });
                 };
                 solved += usize::from(r.success == 1);
@@ -558,6 +564,41 @@ mod tests {
         }
     }
 
+    fn key(agents: usize, seed: u64) -> (usize, String, u64) {
+        (agents, "warehouse".into(), seed)
+    }
+
+    #[test]
+    fn published_rows_tell_maps_apart() {
+        // Two maze maps, both with instance seed 0 (as POGEMA runs them).
+        let on = |map: &str, success| PublishedRecord {
+            map: map.into(),
+            ..rec("DCC", 8, 0, success, 50)
+        };
+        let records = [on("maze-a", 1), on("maze-b", 0)];
+        let bound = |map: &str| ((8, map.to_string(), 0), Some(25));
+        let rows = published_rows(
+            &records,
+            &["DCC".into()],
+            &LowerBounds::from([bound("maze-a"), bound("maze-b")]),
+        )
+        .unwrap();
+        assert_eq!(
+            (rows.len(), rows[0].instances, rows[0].success_rate),
+            (1, 2, 0.5)
+        );
+        let err = published_rows(
+            &records[..1],
+            &["DCC".into()],
+            &LowerBounds::from([bound("maze-a"), bound("maze-b")]),
+        )
+        .unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "no published result of DCC on maze-b for 8 agents, seed 0"
+        );
+    }
+
     #[test]
     fn published_rows_average_over_the_measured_seeds_only() {
         let records = [
@@ -568,9 +609,9 @@ mod tests {
         ];
         // Seeds 0 and 1 at 32 agents, seed 0 at 64: seed 2 is not measured.
         let bounds = LowerBounds::from([
-            ((32, 0), Some(100)),
-            ((32, 1), Some(100)),
-            ((64, 0), Some(200)),
+            (key(32, 0), Some(100)),
+            (key(32, 1), Some(100)),
+            (key(64, 0), Some(200)),
         ]);
         let rows = published_rows(&records, &["LaCAM".into()], &bounds).unwrap();
         assert_eq!(rows.len(), 2);
@@ -584,7 +625,7 @@ mod tests {
     #[test]
     fn unknown_and_missing_published_results_are_errors() {
         let records = [rec("LaCAM", 32, 0, 1, 110)];
-        let bounds = LowerBounds::from([((32, 0), Some(100)), ((32, 1), Some(100))]);
+        let bounds = LowerBounds::from([(key(32, 0), Some(100)), (key(32, 1), Some(100))]);
         let err = published_rows(&records, &["LACAM".into()], &bounds).unwrap_err();
         assert_eq!(
             err.to_string(),
@@ -593,14 +634,14 @@ mod tests {
         let err = published_rows(&records, &["LaCAM".into()], &bounds).unwrap_err();
         assert_eq!(
             err.to_string(),
-            "no published result of LaCAM for 32 agents, seed 1"
+            "no published result of LaCAM on warehouse for 32 agents, seed 1"
         );
     }
 
     #[test]
     fn instances_without_a_positive_bound_do_not_enter_the_ratio() {
         let records = [rec("DCC", 2, 0, 1, 10), rec("DCC", 2, 1, 0, 256)];
-        let bounds = LowerBounds::from([((2, 0), Some(0)), ((2, 1), None)]);
+        let bounds = LowerBounds::from([(key(2, 0), Some(0)), (key(2, 1), None)]);
         let rows = published_rows(&records, &["DCC".into()], &bounds).unwrap();
         assert_eq!(
             (rows[0].success_rate, rows[0].soc_ratio_median),

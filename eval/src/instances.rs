@@ -58,6 +58,14 @@ pub enum ScenError {
         /// The cause.
         source: std::io::Error,
     },
+    /// A map pattern that matches no `.map` file of its folder.
+    #[error("{dir}: no map matches '{pattern}'")]
+    NoMatchingMap {
+        /// The folder.
+        dir: PathBuf,
+        /// The pattern.
+        pattern: String,
+    },
     /// A directory without `.scen` files.
     #[error("{path}: no .scen files in this directory")]
     EmptyDirectory {
@@ -245,6 +253,68 @@ fn named_map(file: &str, text: &str) -> Result<(usize, String), ScenError> {
             line,
         }),
     }
+}
+
+/// Whether `name` matches `pattern`, in which `*` stands for any run of
+/// characters (none included) and every other character for itself.
+///
+/// ```
+/// use buridan_eval::instances::matches_pattern;
+/// assert!(matches_pattern("validation-mazes-seed-*", "validation-mazes-seed-001"));
+/// assert!(matches_pattern("*-0*", "maze-007"));
+/// assert!(!matches_pattern("maze-*", "warehouse"));
+/// assert!(matches_pattern("warehouse", "warehouse"));
+/// assert!(!matches_pattern("warehouse", "warehouse-2"));
+/// ```
+pub fn matches_pattern(pattern: &str, name: &str) -> bool {
+    let mut parts = pattern.split('*');
+    let first = parts.next().unwrap_or("");
+    let Some(mut rest) = name.strip_prefix(first) else {
+        return false;
+    };
+    let parts: Vec<&str> = parts.collect();
+    let Some((last, middle)) = parts.split_last() else {
+        return rest.is_empty();
+    };
+    for part in middle {
+        match rest.find(part) {
+            Some(at) => rest = &rest[at + part.len()..],
+            None => return false,
+        }
+    }
+    rest.len() >= last.len() && rest.ends_with(last)
+}
+
+/// The maps `name` stands for in `dir`: itself, or for a pattern (with
+/// `*`, [`matches_pattern`]) every `<map>.map` file there whose name
+/// matches, sorted.
+pub fn map_names(dir: &Path, name: &str) -> Result<Vec<String>, ScenError> {
+    if !name.contains('*') {
+        return Ok(vec![name.to_string()]);
+    }
+    let unreadable = |source| ScenError::Io {
+        path: dir.to_path_buf(),
+        source,
+    };
+    let mut maps = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(unreadable)? {
+        let path = entry.map_err(unreadable)?.path();
+        if path.extension().is_some_and(|e| e == "map") {
+            if let Some(stem) = path.file_stem().and_then(|s| s.to_str()) {
+                if matches_pattern(name, stem) {
+                    maps.push(stem.to_string());
+                }
+            }
+        }
+    }
+    if maps.is_empty() {
+        return Err(ScenError::NoMatchingMap {
+            dir: dir.to_path_buf(),
+            pattern: name.to_string(),
+        });
+    }
+    maps.sort();
+    Ok(maps)
 }
 
 /// Loads the instances of `paths` (see [`scen_files`]) on `map` (a

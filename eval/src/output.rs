@@ -66,13 +66,17 @@ pub fn write_report(
     let json_path = dir.join("summary.json");
     let json = serde_json::to_string_pretty(s).expect("summary serialises");
     std::fs::write(&json_path, json + "\n").map_err(io(&json_path))?;
-    let heat_path = dir.join("heatmap.png");
-    let title = format!(
-        "{} on {}: cell visits over {} episodes (seed {})",
-        s.controller, s.map, s.episodes, s.seed
-    );
-    plot::heatmap(&heat_path, &title, grid, &report.visits)?;
-    let mut paths = vec![csv_path, json_path, heat_path];
+    let mut paths = vec![csv_path, json_path];
+    // A report merged over several maps has no one grid to draw.
+    if !report.visits.is_empty() {
+        let heat_path = dir.join("heatmap.png");
+        let title = format!(
+            "{} on {}: cell visits over {} episodes (seed {})",
+            s.controller, s.map, s.episodes, s.seed
+        );
+        plot::heatmap(&heat_path, &title, grid, &report.visits)?;
+        paths.push(heat_path);
+    }
     if let Some(b) = s.timesteps_box {
         let box_path = dir.join("timesteps_boxplot.png");
         let title = format!(

@@ -220,8 +220,53 @@ pub struct EvalReport {
     pub records: Vec<EpisodeRecord>,
     /// The aggregate.
     pub summary: EvalSummary,
-    /// Visit counts per cell over all episodes (row-major).
+    /// Visit counts per cell over all episodes (row-major; empty for a
+    /// report [merged](Self::merge) over several maps).
     pub visits: Vec<u64>,
+}
+
+impl EvalReport {
+    /// One report of the evaluations of one controller with one `spec` on
+    /// several maps (an instance set spread over maps, as POGEMA's mazes
+    /// with one instance per map and count): every record, in the order
+    /// given, and the summary over all of them under the name `map`. The
+    /// maps' cells differ, so the report holds no visit counts.
+    ///
+    /// ```
+    /// use std::sync::Arc;
+    /// use buridan_eval::{evaluate, EvalReport, EvalSpec, RandomController};
+    /// let spec = EvalSpec { agents: 2, episodes: 2, ..EvalSpec::default() };
+    /// let run = |id| {
+    ///     let map = Arc::new(buridan_env::Map::load(id).unwrap());
+    ///     evaluate(&map, &spec, &|| Box::new(RandomController::new(1)), &|_| {}).unwrap()
+    /// };
+    /// let merged = EvalReport::merge("two maps", &spec, vec![run("rm-1.1"), run("rm-2.1")]);
+    /// assert_eq!((merged.records.len(), merged.summary.episodes), (4, 4));
+    /// assert_eq!(merged.summary.map, "two maps");
+    /// assert!(merged.visits.is_empty());
+    /// ```
+    pub fn merge(map: &str, spec: &EvalSpec, reports: Vec<EvalReport>) -> EvalReport {
+        let controller = reports
+            .first()
+            .map(|r| r.summary.controller.clone())
+            .unwrap_or_default();
+        let wall: f64 = reports.iter().map(|r| r.summary.wall_seconds).sum();
+        let instances = reports.iter().map(|r| r.summary.instances).sum();
+        let records: Vec<EpisodeRecord> = reports.into_iter().flat_map(|r| r.records).collect();
+        let mut summary = summarize(
+            &controller,
+            map,
+            spec,
+            &records,
+            Duration::from_secs_f64(wall),
+        );
+        summary.instances = instances;
+        EvalReport {
+            records,
+            summary,
+            visits: Vec::new(),
+        }
+    }
 }
 
 /// Evaluates controllers made by `make` on episodes `0..spec.episodes`.
