@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the release binaries and the FROM-scratch images
-#   buridan/learner:$TAG  and  buridan/actor:$TAG   (TAG defaults to "dev").
+#   buridan/learner:$TAG, buridan/actor:$TAG and buridan/fleet-control:$TAG
+#   (TAG defaults to "dev").
 #
 # No base image is pulled: the binaries and the shared libraries that `ldd`
 # lists for them (libc, libm, libgcc_s, the loader at its own path, ...) are
@@ -10,7 +11,7 @@
 #
 # Environment:
 #   TAG=dev              image tag
-#   IMAGE_PREFIX=buridan image names are $IMAGE_PREFIX/learner and $IMAGE_PREFIX/actor
+#   IMAGE_PREFIX=buridan image names are $IMAGE_PREFIX/learner, …/actor and …/fleet-control
 #   SKIP_CARGO=1         reuse the binaries already in the target directory
 #   CARGO_TARGET_DIR     where cargo puts them (default: <repo>/target)
 #   STRIP_DEBUG=0        keep the debug info in the image binaries (default: strip it)
@@ -22,7 +23,7 @@ STAGE="$DEPLOY/.build"
 TAG="${TAG:-dev}"
 IMAGE_PREFIX="${IMAGE_PREFIX:-buridan}"
 TARGET_DIR="${CARGO_TARGET_DIR:-$ROOT/target}"
-BINS=(learner actor)
+BINS=(learner actor fleet-control)
 
 say() { printf '==> %s\n' "$*" >&2; }
 die() { printf 'build-images: error: %s\n' "$*" >&2; exit 1; }
@@ -35,19 +36,21 @@ docker info >/dev/null 2>&1 || die "cannot reach the Docker daemon (is it runnin
 # 1. Release binaries.
 if [[ "${SKIP_CARGO:-0}" != 1 ]]; then
     command -v cargo >/dev/null || die "'cargo' not found on PATH (or set SKIP_CARGO=1)"
-    say "cargo build --release -p buridan-cli -p buridan-actor (several minutes on a cold tree)"
-    (cd "$ROOT" && cargo build --release -p buridan-cli -p buridan-actor)
+    say "cargo build --release -p buridan-cli -p buridan-actor -p buridan-control (several minutes on a cold tree)"
+    (cd "$ROOT" && cargo build --release -p buridan-cli -p buridan-actor -p buridan-control)
 fi
 for b in "${BINS[@]}"; do
     [[ -x "$TARGET_DIR/release/$b" ]] || die "$TARGET_DIR/release/$b is missing; build it (or unset SKIP_CARGO)"
 done
 
-# 2. Staging context: bin/, rootfs/, data/.
+# 2. Staging context: bin/, rootfs/, data/, models/.
 say "staging the root filesystem in ${STAGE#"$ROOT"/}"
 rm -rf "$STAGE"
 mkdir -p "$STAGE/bin" "$STAGE/rootfs/tmp" "$STAGE/rootfs/etc" "$STAGE/data"
 chmod 1777 "$STAGE/rootfs/tmp"
 chmod 0755 "$STAGE/data"
+# The pretrained models the fleet controller serves (checkpoint:model:NAME).
+cp -r "$ROOT/models" "$STAGE/models"
 # No /etc/passwd or /etc/group (the images run as a numeric uid). glibc reads
 # nsswitch.conf for name lookups; Docker/Kubernetes mount /etc/hosts and
 # /etc/resolv.conf at run time.
@@ -106,4 +109,4 @@ for b in "${BINS[@]}"; do
 done
 
 docker image ls "$IMAGE_PREFIX/*:$TAG" >&2
-say "done: $IMAGE_PREFIX/learner:$TAG and $IMAGE_PREFIX/actor:$TAG"
+say "done: $IMAGE_PREFIX/learner:$TAG, $IMAGE_PREFIX/actor:$TAG and $IMAGE_PREFIX/fleet-control:$TAG"

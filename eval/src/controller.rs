@@ -77,6 +77,13 @@ pub trait Controller: Send {
     fn follows_plan(&self) -> bool {
         false
     }
+    /// Per agent, whether the last [`Controller::act`] changed the
+    /// policy's own first choice (a policy through the shield,
+    /// [`crate::shield`]); `None` for a controller without such a choice
+    /// (a planner, a raw policy). A fleet service reports it per robot.
+    fn overridden(&self) -> Option<&[bool]> {
+        None
+    }
 }
 
 /// Optional facts a planner reports about its plan.

@@ -66,6 +66,8 @@ pub struct FleetSession {
     planned: bool,
     /// No step yet: the state is the one the session opened with.
     opened: bool,
+    /// The last step answered with the controller's moves.
+    answered: bool,
 }
 
 impl FleetSession {
@@ -82,8 +84,30 @@ impl FleetSession {
         goals: &[Cell],
         seed: u64,
     ) -> Result<Self, FleetError> {
+        Self::open_within(
+            map,
+            rules,
+            controller,
+            positions,
+            goals,
+            seed,
+            Limits::default(),
+        )
+    }
+
+    /// [`FleetSession::open`] whose planners plan within `limits` (time,
+    /// memory) each time they plan: a service bounds a step's latency so.
+    pub fn open_within(
+        map: Arc<Map>,
+        rules: Rules,
+        controller: &ControllerSpec,
+        positions: &[Cell],
+        goals: &[Cell],
+        seed: u64,
+        limits: Limits,
+    ) -> Result<Self, FleetError> {
         let agents = positions.len();
-        let controller = controller.factory(agents, seed, Limits::default(), rules)?();
+        let controller = controller.factory(agents, seed, limits, rules)?();
         let cfg = EnvConfig {
             agents,
             rules,
@@ -104,6 +128,7 @@ impl FleetSession {
             replans: 0,
             planned: false,
             opened: true,
+            answered: false,
         };
         // A planner that finds no plan yet leaves `planned` false: the
         // first step tries again and says so.
@@ -117,15 +142,16 @@ impl FleetSession {
     /// map, on another's cell or more than one cell from its last
     /// position) is refused and changes nothing.
     pub fn step(&mut self, positions: &[Cell], goals: &[Cell]) -> Result<&[u8], FleetError> {
+        self.answered = false;
         let goals_changed = goals != self.env.goals().as_slice();
         let lagged = positions != self.expected.as_slice();
         // The first report of the state the session opened with is that
-        // state, not a step after it.
-        let first = std::mem::take(&mut self.opened);
-        if !first || goals_changed || lagged {
+        // state, not a step after it (a refused report is no first report).
+        if !self.opened || goals_changed || lagged {
             self.env.report(positions, goals, &mut self.rewards)?;
             self.controller.after_step(&self.rewards);
         }
+        self.opened = false;
         if self.controller.follows_plan() && (goals_changed || lagged || !self.planned) {
             // Plan afresh from the reported state, on a clock of its own.
             self.env
@@ -138,6 +164,7 @@ impl FleetSession {
             }
         }
         self.controller.act(&self.env, &mut self.moves);
+        self.answered = true;
         let grid = &self.env.map().grid;
         for (expected, (&cell, &action)) in self
             .expected
@@ -162,6 +189,17 @@ impl FleetSession {
     /// The session's picture of the fleet after the last report.
     pub fn env(&self) -> &GridEnv {
         &self.env
+    }
+
+    /// Per robot, whether the last step's move is not the policy's own
+    /// first choice (the shield changed it); `None` for a controller
+    /// without a shield, or after a step that answered no moves.
+    pub fn overridden(&self) -> Option<&[bool]> {
+        if self.answered {
+            self.controller.overridden()
+        } else {
+            None
+        }
     }
 
     /// How often a planner planned again after the first plan.

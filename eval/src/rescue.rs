@@ -104,6 +104,8 @@ pub struct RescueController {
     /// Planner calls of this episode that found nothing.
     failures: u32,
     rescues: u32,
+    /// The inner controller chose the last step's actions (not the plan).
+    inner_acted: bool,
 }
 
 impl RescueController {
@@ -113,6 +115,7 @@ impl RescueController {
             inner,
             twin: None,
             hands_off: false,
+            inner_acted: false,
             planner,
             limits,
             plan: None,
@@ -320,7 +323,9 @@ impl Controller for RescueController {
     }
 
     fn act(&mut self, env: &GridEnv, actions: &mut [u8]) {
+        self.inner_acted = false;
         if self.hands_off {
+            self.inner_acted = true;
             return self.inner.act(env, actions);
         }
         if self.follow(env, actions) {
@@ -335,7 +340,18 @@ impl Controller for RescueController {
                 return;
             }
         }
+        self.inner_acted = true;
         self.inner.act(env, actions);
+    }
+
+    /// The inner controller's, on the steps it chose (none while a plan
+    /// drives).
+    fn overridden(&self) -> Option<&[bool]> {
+        if self.inner_acted {
+            self.inner.overridden()
+        } else {
+            None
+        }
     }
 
     fn after_step(&mut self, rewards: &[f32]) {

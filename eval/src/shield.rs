@@ -87,6 +87,9 @@ pub struct ShieldController {
     /// Agent-steps of this episode whose action was not the policy's
     /// first choice.
     overridden: u32,
+    /// Per agent, whether the last step's action was not the policy's
+    /// first choice.
+    last_overridden: Vec<bool>,
 }
 
 impl ShieldController {
@@ -117,6 +120,7 @@ impl ShieldController {
             shield: None,
             prefs: Vec::with_capacity(agents),
             overridden: 0,
+            last_overridden: Vec::with_capacity(agents),
         })
     }
 
@@ -232,17 +236,23 @@ impl Controller for ShieldController {
             // The env's own state is always valid; stay rather than panic.
             actions.fill(0);
         }
-        self.overridden += self
-            .prefs
-            .iter()
-            .zip(actions.iter())
-            .filter(|(order, &a)| order[0] != a)
-            .count() as u32;
+        self.last_overridden.clear();
+        self.last_overridden.extend(
+            self.prefs
+                .iter()
+                .zip(actions.iter())
+                .map(|(order, &a)| order[0] != a),
+        );
+        self.overridden += self.last_overridden.iter().filter(|&&o| o).count() as u32;
         self.policy.record_taken(actions);
     }
 
     fn after_step(&mut self, rewards: &[f32]) {
         self.policy.after_step(rewards);
+    }
+
+    fn overridden(&self) -> Option<&[bool]> {
+        Some(&self.last_overridden)
     }
 
     fn episode_notes(&self) -> crate::PlanNotes {

@@ -159,3 +159,89 @@ fn a_bad_report_is_refused_and_the_session_goes_on() {
     starts[0] = wall;
     assert!(FleetSession::open(map, Rules::Thesis, &spec, &starts, &robots.goals(), 42).is_err());
 }
+
+#[test]
+fn a_shielded_session_says_which_moves_the_shield_changed() {
+    let map = Arc::new(Map::load("rm-2.1").unwrap());
+    let spec: Spec = SHIELDED_MODEL.parse().unwrap();
+    let mut robots = robots(&map, &spec, 0, 0.0, false);
+    let mut fleet = FleetSession::open(
+        map.clone(),
+        Rules::Thesis,
+        &spec,
+        &robots.positions(),
+        &robots.goals(),
+        42,
+    )
+    .unwrap();
+    assert!(fleet.overridden().is_none(), "no step yet");
+    let (mut rewards, mut changed) = ([0.0; 4], 0);
+    while !robots.is_over() {
+        let moves = fleet
+            .step(&robots.positions(), &robots.goals())
+            .unwrap()
+            .to_vec();
+        let flags = fleet.overridden().expect("a shield reports its changes");
+        assert_eq!(flags.len(), 4);
+        changed += flags.iter().filter(|&&o| o).count() as u32;
+        robots.step(&moves, &mut rewards).unwrap();
+    }
+    // The per-robot flags add up to the episode's count in the harness's
+    // own loop (robots that obey play the same episode).
+    let mut direct = self::robots(&map, &spec, 0, 0.0, false);
+    let mut controller = spec
+        .factory(4, 42, Limits::default(), Rules::Thesis)
+        .unwrap()();
+    controller.begin_episode(&direct).unwrap();
+    let mut moves = vec![0u8; 4];
+    while !direct.is_over() {
+        controller.act(&direct, &mut moves);
+        direct.step(&moves, &mut rewards).unwrap();
+        controller.after_step(&rewards);
+    }
+    assert_eq!(controller.episode_notes().overridden, Some(changed));
+    // A planner has no shield to report.
+    let pibt: Spec = "pibt".parse().unwrap();
+    let mut fleet = FleetSession::open(
+        map,
+        Rules::Thesis,
+        &pibt,
+        &robots.positions(),
+        &robots.goals(),
+        42,
+    )
+    .unwrap();
+    fleet.step(&robots.positions(), &robots.goals()).unwrap();
+    assert!(fleet.overridden().is_none());
+}
+
+#[test]
+fn a_refused_first_report_leaves_a_planner_on_its_plan() {
+    // The first report is refused: the next one, of the opening state, is
+    // still the first (a planner's clock does not run on without a step).
+    let map = Arc::new(Map::load("rm-2.1").unwrap());
+    let spec: Spec = "lacam".parse().unwrap();
+    let mut robots = robots(&map, &spec, 1, 0.0, false);
+    let mut fleet = FleetSession::open(
+        map,
+        Rules::Thesis,
+        &spec,
+        &robots.positions(),
+        &robots.goals(),
+        42,
+    )
+    .unwrap();
+    let mut wrong = robots.positions();
+    wrong[1] = wrong[0];
+    assert!(fleet.step(&wrong, &robots.goals()).is_err());
+    let mut rewards = [0.0; 4];
+    while !robots.is_over() {
+        let moves = fleet
+            .step(&robots.positions(), &robots.goals())
+            .unwrap()
+            .to_vec();
+        robots.step(&moves, &mut rewards).unwrap();
+    }
+    assert!(robots.stats().success, "{:?}", robots.stats());
+    assert_eq!(fleet.replans(), 0);
+}

@@ -30,7 +30,7 @@ pub const UNDECODABLE_METADATA: &str = "buridan-undecodable";
 
 /// A message type of the API: its protobuf name and who sends it.
 pub trait WireMessage {
-    /// The message's name in `learner.proto` or `env.proto`.
+    /// The message's name in `learner.proto`, `env.proto` or `control.proto`.
     const NAME: &'static str;
     /// Whether clients send it (a request) rather than the server.
     const FROM_CLIENT: bool;
@@ -58,6 +58,12 @@ wire_messages! {
     ResetReply: false,
     StepRequest: true,
     StepReply: false,
+    FleetOpenRequest: true,
+    FleetOpenReply: false,
+    FleetStepRequest: true,
+    FleetStepReply: false,
+    FleetCloseRequest: true,
+    FleetCloseReply: false,
 }
 
 /// The status of a request that does not decode: `INVALID_ARGUMENT`, its

@@ -1,7 +1,8 @@
-//! The actor–learner gRPC API (`proto/buridan/v1/learner.proto`) and the
-//! environment API external simulators serve (`proto/buridan/v1/env.proto`),
-//! generated at build time, and conversions between their messages and the
-//! crate types ([`convert`], [`env_convert`]).
+//! The actor–learner gRPC API (`proto/buridan/v1/learner.proto`), the
+//! environment API external simulators serve (`proto/buridan/v1/env.proto`)
+//! and the fleet control API (`proto/buridan/v1/control.proto`), generated
+//! at build time, and conversions between their messages and the crate
+//! types ([`convert`], [`env_convert`], [`control_convert`]).
 //!
 //! ```
 //! use buridan_proto::v1;
@@ -33,13 +34,15 @@ macro_rules! with_episode_fields {
 }
 
 pub mod codec;
+pub mod control_convert;
 pub mod convert;
 pub mod env_convert;
 pub mod obs_codes;
 pub mod obs_encoding;
 
-/// Generated messages, the `Learner` client and server, and the
-/// `Environment` client and server.
+/// Generated messages, the `Learner` client and server, the
+/// `Environment` client and server, and the `FleetControl` client and
+/// server.
 pub mod v1 {
     tonic::include_proto!("buridan.v1");
 }
