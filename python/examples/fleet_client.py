@@ -85,6 +85,7 @@ def execute(positions, moves, delay, rng):
             m = 0
         dr, dc = MOVES[m]
         target.append((r + dr, c + dc))
+    standing = {p: i for i, p in enumerate(positions)}
     changed = True
     while changed:
         changed = False
@@ -95,7 +96,8 @@ def execute(positions, moves, delay, rng):
         for i, t in enumerate(target):
             if t == positions[i]:
                 continue
-            swap = any(target[j] == positions[i] and positions[j] == t for j in range(len(target)))
+            j = standing.get(t)
+            swap = j is not None and target[j] == positions[i]
             if t in staying or len(claimed[t]) > 1 or swap:
                 target[i] = positions[i]
                 changed = True
@@ -155,11 +157,12 @@ def main():
         latencies.append(time.perf_counter() - t0)
         overridden += sum(reply.overridden)
         after = execute(positions, list(reply.moves), args.delay, rng)
-        if len(set(after)) < len(after) or any(
-            after[i] == positions[j] and after[j] == positions[i] and i != j and positions[i] != positions[j]
-            for i in range(len(after))
-            for j in range(len(after))
-        ):
+        standing = {p: i for i, p in enumerate(positions)}
+        swapped = any(
+            (j := standing.get(now)) is not None and j != i and after[j] == positions[i]
+            for i, now in enumerate(after)
+        )
+        if len(set(after)) < len(after) or swapped:
             collisions += 1
         for i, (before, now) in enumerate(zip(positions, after)):
             waits[i] = waits[i] + 1 if now == before and now != goals[i] else 0
