@@ -4,6 +4,7 @@
 //!
 //! - [`controller`]: the [`Controller`] trait and [`RandomController`].
 //! - [`planner`]: planners of `buridan-mapf` as controllers.
+//! - [`lifelong`]: PIBT one step at a time (`lifelong-pibt`), no plan.
 //! - [`policy`]: a trained policy (a checkpoint) as a controller.
 //! - [`plant`]: evaluation on the AGV plant (`buridan-plant`): baselines
 //!   and plant-trained policies over seeded episodes, KPIs per episode.
@@ -25,6 +26,7 @@ pub mod by_name;
 pub mod controller;
 pub mod fleet;
 pub mod instances;
+pub mod lifelong;
 pub mod output;
 pub mod planner;
 pub mod plant;

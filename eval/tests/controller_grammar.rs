@@ -48,6 +48,7 @@ fn controller() -> impl Strategy<Value = Controller> {
     let leaf = prop_oneof![
         planner().prop_map(Controller::Planner),
         Just(Controller::Random),
+        Just(Controller::LifelongPibt),
         policy().prop_map(Controller::Policy),
         shield().prop_map(Controller::Shield),
     ];
@@ -118,6 +119,7 @@ fn todays_names_keep_their_meaning() {
             ),
         ),
         ("random", Controller::Random),
+        ("lifelong-pibt", Controller::LifelongPibt),
         (
             "checkpoint:runs/a",
             Controller::Policy(ckpt("runs/a", Act::Greedy)),

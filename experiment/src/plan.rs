@@ -558,9 +558,12 @@ impl Experiment {
         }
         for p in &x.planners {
             let planner = p.parse::<Controller>();
-            if !matches!(planner, Ok(Controller::Planner(_) | Controller::Random)) {
+            if !matches!(
+                planner,
+                Ok(Controller::Planner(_) | Controller::Random | Controller::LifelongPibt)
+            ) {
                 return Err(bad(format!(
-                    "planner '{p}' is unknown: expected ma-astar, cbs, pibt, lacam, lacam-star or random"
+                    "planner '{p}' is unknown: expected ma-astar, cbs, pibt, lacam, lacam-star, random or lifelong-pibt"
                 )));
             }
         }

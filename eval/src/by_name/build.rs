@@ -10,6 +10,7 @@ use super::{
     ControllerFactory, ControllerNameError, CROWD_RESCUE_PLANNER, DEFAULT_RESCUE_PLANNER,
     RESCUE_OD_ASTAR_MAX_AGENTS,
 };
+use crate::lifelong::LifelongPibtController;
 use crate::planner::PlannerController;
 use crate::policy::{PolicyController, PolicyLoadError};
 use crate::rescue::RescueController;
@@ -122,6 +123,9 @@ impl Controller {
                 }))
             }
             Controller::Random => Ok(Box::new(move || Box::new(RandomController::new(seed)))),
+            Controller::LifelongPibt => Ok(Box::new(move || {
+                Box::new(LifelongPibtController::new(seed))
+            })),
             Controller::Planner(p) => {
                 let planner: Arc<dyn Planner> = planner_of(p, rules)
                     .map_err(|source| ControllerNameError::Rules {

@@ -267,6 +267,7 @@ pub struct Net {
 /// |---|---|
 /// | `PLANNER`, `P1+P2+…` | a planner (`ma-astar`, `od-astar`, `od-astar-soc`, `cbs`, `pibt`, `lacam`, `lacam-star`, `lacam-star-makespan`, `pp`); several joined by `+` are tried in turn |
 /// | `random` | uniformly random legal actions |
+/// | `lifelong-pibt` | one PIBT step at a time from the current positions and goals, no plan ([`crate::lifelong`]) |
 /// | `checkpoint:DIR` | a trained policy (a run or checkpoint directory), greedy |
 /// | `sampled:CONTROLLER` | every policy inside samples its actions instead |
 /// | `shield:checkpoint:DIR` | the policy through the PIBT collision shield |
@@ -300,6 +301,8 @@ pub enum Controller {
     Planner(Portfolio),
     /// Random legal actions.
     Random,
+    /// PIBT one step at a time, no plan.
+    LifelongPibt,
     /// A trained policy.
     Policy(Policy),
     /// A trained policy through the collision shield.
@@ -340,7 +343,7 @@ impl Controller {
     /// The policies inside, outermost first.
     pub fn policies(&self) -> Vec<&Policy> {
         match self {
-            Controller::Planner(_) | Controller::Random => Vec::new(),
+            Controller::Planner(_) | Controller::Random | Controller::LifelongPibt => Vec::new(),
             Controller::Policy(p) => vec![p],
             Controller::Shield(s) => vec![&s.policy],
             Controller::Net(net) => net.inner.policies(),
@@ -355,7 +358,7 @@ impl Controller {
 
     fn visit_policies(&mut self, f: &mut dyn FnMut(&mut Policy)) {
         match self {
-            Controller::Planner(_) | Controller::Random => {}
+            Controller::Planner(_) | Controller::Random | Controller::LifelongPibt => {}
             Controller::Policy(p) => f(p),
             Controller::Shield(s) => f(&mut s.policy),
             Controller::Net(net) => net.inner.visit_policies(f),
@@ -375,6 +378,7 @@ impl fmt::Display for Controller {
         match self {
             Controller::Planner(p) => write!(f, "{p}"),
             Controller::Random => f.write_str("random"),
+            Controller::LifelongPibt => f.write_str("lifelong-pibt"),
             Controller::Policy(p) => {
                 fmt_policy(p, f)?;
                 write!(f, "checkpoint:{}", p.checkpoint.display())
@@ -422,7 +426,7 @@ impl fmt::Display for Controller {
 }
 
 /// The forms of the grammar, as the error lists them.
-pub const FORMS: &str = "PLANNER (ma-astar, od-astar, od-astar-soc, cbs, pibt, lacam, lacam-star, lacam-star-makespan, pp, or several joined by '+'), random, checkpoint:DIR, shield:checkpoint:DIR, shield[OPTION,...]:checkpoint:DIR (options env, patience=K, settle, ordered, lanes), shield=K:, shield-env[=K]:, shield-ordered[=K]:, shield-lanes[=K]:, shield-settle=K:, sampled:CONTROLLER, rescue[=PLANNER]:CONTROLLER, lookahead[=PLANNER]:CONTROLLER, backstop[=PLANNER]:CONTROLLER or pace[=PLANNER]:CONTROLLER";
+pub const FORMS: &str = "PLANNER (ma-astar, od-astar, od-astar-soc, cbs, pibt, lacam, lacam-star, lacam-star-makespan, pp, or several joined by '+'), random, lifelong-pibt, checkpoint:DIR, shield:checkpoint:DIR, shield[OPTION,...]:checkpoint:DIR (options env, patience=K, settle, ordered, lanes), shield=K:, shield-env[=K]:, shield-ordered[=K]:, shield-lanes[=K]:, shield-settle=K:, sampled:CONTROLLER, rescue[=PLANNER]:CONTROLLER, lookahead[=PLANNER]:CONTROLLER, backstop[=PLANNER]:CONTROLLER or pace[=PLANNER]:CONTROLLER";
 
 /// What is wrong with a controller's text.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -592,6 +596,9 @@ fn parse(text: &str) -> Result<Controller, Problem> {
     }
     if text == "random" {
         return Ok(Controller::Random);
+    }
+    if text == "lifelong-pibt" {
+        return Ok(Controller::LifelongPibt);
     }
     Portfolio::parse(text)
         .map(Controller::Planner)

@@ -1,0 +1,72 @@
+//! Lifelong PIBT as a controller: one PIBT step from wherever the agents
+//! stand, towards whatever their goals are now ([`buridan_mapf::lifelong`]).
+//!
+//! A planner (`pibt`, `lacam`) solves the episode from its start and is
+//! followed step by step; it fails when no plan brings every agent home
+//! within the step limit, and it must plan again whenever a goal changes
+//! or a robot lags. `lifelong-pibt` plans nothing: each step is computed
+//! from the current positions and goals, with priorities that grow while
+//! an agent is away from its goal, so it serves fleets whose goals keep
+//! changing and whose robots do not always move (a fleet session,
+//! [`crate::fleet`]), and one-shot episodes alike.
+//!
+//! ```
+//! use std::sync::Arc;
+//! use buridan_env::{EnvConfig, Map};
+//! use buridan_eval::lifelong::LifelongPibtController;
+//! use buridan_eval::{evaluate, EvalSpec};
+//! let map = Arc::new(Map::load("rm-2.1").unwrap());
+//! let spec = EvalSpec { agents: 4, episodes: 5, ..EvalSpec::default() };
+//! let report = evaluate(&map, &spec, &|| Box::new(LifelongPibtController::new(0)), &|_| {}).unwrap();
+//! assert_eq!(report.summary.controller, "lifelong-pibt");
+//! assert!(report.summary.success_rate >= 0.6);
+//! ```
+
+use buridan_env::GridEnv;
+use buridan_mapf::lifelong::LifelongPibt;
+use buridan_mapf::ConflictModel;
+
+use crate::controller::{Controller, GiveUp};
+
+/// PIBT one step at a time (see the [module docs](self)).
+pub struct LifelongPibtController {
+    seed: u64,
+    pibt: Option<LifelongPibt>,
+}
+
+impl LifelongPibtController {
+    /// A controller whose tie-breaking in episode `e` depends only on
+    /// `(seed, e)`.
+    pub fn new(seed: u64) -> Self {
+        Self { seed, pibt: None }
+    }
+}
+
+impl Controller for LifelongPibtController {
+    fn name(&self) -> String {
+        "lifelong-pibt".into()
+    }
+
+    fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
+        let rules = ConflictModel::from(env.config().rules);
+        let seed = self.seed ^ env.episode().wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        self.pibt = Some(LifelongPibt::new(&env.map().grid, rules, seed));
+        Ok(())
+    }
+
+    fn act(&mut self, env: &GridEnv, actions: &mut [u8]) {
+        let pibt = self.pibt.get_or_insert_with(|| {
+            LifelongPibt::new(
+                &env.map().grid,
+                ConflictModel::from(env.config().rules),
+                self.seed,
+            )
+        });
+        match pibt.actions(&env.positions(), &env.goals()) {
+            Ok(moves) => actions.copy_from_slice(&moves),
+            // Positions or goals PIBT cannot take (two agents sharing a
+            // goal): every agent waits this step.
+            Err(_) => actions.fill(0),
+        }
+    }
+}
