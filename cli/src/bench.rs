@@ -12,7 +12,7 @@ use buridan_eval::benchmark::{
     write_table, LowerBounds, Row, DEFAULT_PUBLISHED,
 };
 use buridan_eval::by_name::{ControllerParseError, Labelled};
-use buridan_eval::instances::{load_instance_set, map_names};
+use buridan_eval::instances::{is_pattern, load_instance_set, map_names};
 use buridan_eval::output::write_report;
 use buridan_eval::runner::soc_lower_bound;
 use buridan_eval::{evaluate_instances, EvalReport, EvalSpec};
@@ -90,11 +90,6 @@ pub struct PogemaArgs {
     /// `success.png`, `soc_ratio.png`.
     #[arg(long)]
     pub out: PathBuf,
-}
-
-/// Whether a map name is a pattern (holds `*`).
-fn is_pattern(name: &str) -> bool {
-    name.contains('*')
 }
 
 /// Parses seeds: `0..127` (inclusive), `0..127:2` or `0,5,9`.

@@ -285,11 +285,16 @@ pub fn matches_pattern(pattern: &str, name: &str) -> bool {
     rest.len() >= last.len() && rest.ends_with(last)
 }
 
+/// Whether a map name is a pattern (holds `*`, see [`matches_pattern`]).
+pub fn is_pattern(name: &str) -> bool {
+    name.contains('*')
+}
+
 /// The maps `name` stands for in `dir`: itself, or for a pattern (with
 /// `*`, [`matches_pattern`]) every `<map>.map` file there whose name
 /// matches, sorted.
 pub fn map_names(dir: &Path, name: &str) -> Result<Vec<String>, ScenError> {
-    if !name.contains('*') {
+    if !is_pattern(name) {
         return Ok(vec![name.to_string()]);
     }
     let unreadable = |source| ScenError::Io {

@@ -40,6 +40,19 @@ impl LifelongPibtController {
     pub fn new(seed: u64) -> Self {
         Self { seed, pibt: None }
     }
+
+    /// The seed PIBT gets in episode `episode` of a controller seeded
+    /// `seed`.
+    pub fn episode_seed(seed: u64, episode: u64) -> u64 {
+        seed ^ episode.wrapping_mul(0x9e37_79b9_7f4a_7c15)
+    }
+
+    /// A fresh PIBT for `env`'s map, rules and episode.
+    fn pibt_for(&self, env: &GridEnv) -> LifelongPibt {
+        let rules = ConflictModel::from(env.config().rules);
+        let seed = Self::episode_seed(self.seed, env.episode());
+        LifelongPibt::new(&env.map().grid, rules, seed)
+    }
 }
 
 impl Controller for LifelongPibtController {
@@ -48,20 +61,19 @@ impl Controller for LifelongPibtController {
     }
 
     fn begin_episode(&mut self, env: &GridEnv) -> Result<(), GiveUp> {
-        let rules = ConflictModel::from(env.config().rules);
-        let seed = self.seed ^ env.episode().wrapping_mul(0x9e37_79b9_7f4a_7c15);
-        self.pibt = Some(LifelongPibt::new(&env.map().grid, rules, seed));
+        self.pibt = Some(self.pibt_for(env));
         Ok(())
     }
 
     fn act(&mut self, env: &GridEnv, actions: &mut [u8]) {
-        let pibt = self.pibt.get_or_insert_with(|| {
-            LifelongPibt::new(
-                &env.map().grid,
-                ConflictModel::from(env.config().rules),
-                self.seed,
-            )
-        });
+        // Every caller begins an episode first; a controller asked to act
+        // before that starts one on the spot.
+        if self.pibt.is_none() {
+            self.pibt = Some(self.pibt_for(env));
+        }
+        let Some(pibt) = self.pibt.as_mut() else {
+            return actions.fill(0);
+        };
         match pibt.actions(&env.positions(), &env.goals()) {
             Ok(moves) => actions.copy_from_slice(&moves),
             // Positions or goals PIBT cannot take (two agents sharing a

@@ -5,13 +5,9 @@ use std::sync::Arc;
 use buridan_env::{EnvConfig, GridEnv, Map, Rules};
 use buridan_eval::by_name::Controller as Spec;
 use buridan_eval::fleet::{play, FleetSession};
+use buridan_eval::lifelong::LifelongPibtController;
 use buridan_mapf::lifelong::{run_episode, LifelongPibt};
 use buridan_mapf::{ConflictModel, Limits};
-
-/// The seed `LifelongPibtController` gives PIBT in episode `e`.
-fn episode_seed(seed: u64, e: u64) -> u64 {
-    seed ^ e.wrapping_mul(0x9e37_79b9_7f4a_7c15)
-}
 
 #[test]
 fn the_controller_steps_as_lifelong_pibt_does() {
@@ -30,7 +26,7 @@ fn the_controller_steps_as_lifelong_pibt_does() {
             let mut pibt = LifelongPibt::new(
                 &map.grid,
                 ConflictModel::from(rules),
-                episode_seed(7, episode),
+                LifelongPibtController::episode_seed(7, episode),
             );
             let expected = run_episode(&map, &cfg, episode, &mut pibt).unwrap();
 
