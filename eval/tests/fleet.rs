@@ -32,19 +32,25 @@ fn robots(map: &Arc<Map>, controller: &Spec, seed: u64, delay: f32, lifelong: bo
     GridEnv::with_episode(map.clone(), cfg, 0).unwrap()
 }
 
-/// Plays `robots` to its end through a fleet session; the positions after
-/// every step.
-fn through_session(robots: &mut GridEnv, controller: &Spec) -> (Vec<Vec<Cell>>, FleetSession) {
-    let map = robots.map().clone();
-    let mut fleet = FleetSession::open(
-        map,
+/// A session on `map` under thesis rules for `robots` as they stand now,
+/// driven by `controller`, seed 42.
+fn open(map: &Arc<Map>, controller: &Spec, robots: &GridEnv) -> FleetSession {
+    FleetSession::open(
+        map.clone(),
         Rules::Thesis,
         controller,
         &robots.positions(),
         &robots.goals(),
         42,
     )
-    .unwrap();
+    .unwrap()
+}
+
+/// Plays `robots` to its end through a fleet session; the positions after
+/// every step.
+fn through_session(robots: &mut GridEnv, controller: &Spec) -> (Vec<Vec<Cell>>, FleetSession) {
+    let map = robots.map().clone();
+    let mut fleet = open(&map, controller, robots);
     let mut trail = Vec::new();
     play(robots, &mut fleet, |robots| trail.push(robots.positions())).unwrap();
     (trail, fleet)
@@ -120,15 +126,7 @@ fn a_bad_report_is_refused_and_the_session_goes_on() {
     let map = Arc::new(Map::load("rm-2.1").unwrap());
     let spec: Spec = SHIELDED_MODEL.parse().unwrap();
     let mut robots = robots(&map, &spec, 2, 0.0, false);
-    let mut fleet = FleetSession::open(
-        map.clone(),
-        Rules::Thesis,
-        &spec,
-        &robots.positions(),
-        &robots.goals(),
-        42,
-    )
-    .unwrap();
+    let mut fleet = open(&map, &spec, &robots);
     let mut wrong = robots.positions();
     wrong[1] = wrong[0];
     let err = fleet.step(&wrong, &robots.goals()).unwrap_err();
@@ -165,15 +163,7 @@ fn a_shielded_session_says_which_moves_the_shield_changed() {
     let map = Arc::new(Map::load("rm-2.1").unwrap());
     let spec: Spec = SHIELDED_MODEL.parse().unwrap();
     let mut robots = robots(&map, &spec, 0, 0.0, false);
-    let mut fleet = FleetSession::open(
-        map.clone(),
-        Rules::Thesis,
-        &spec,
-        &robots.positions(),
-        &robots.goals(),
-        42,
-    )
-    .unwrap();
+    let mut fleet = open(&map, &spec, &robots);
     assert!(fleet.overridden().is_none(), "no step yet");
     let (mut rewards, mut changed) = ([0.0; 4], 0);
     while !robots.is_over() {
@@ -202,15 +192,7 @@ fn a_shielded_session_says_which_moves_the_shield_changed() {
     assert_eq!(controller.episode_notes().overridden, Some(changed));
     // A planner has no shield to report.
     let pibt: Spec = "pibt".parse().unwrap();
-    let mut fleet = FleetSession::open(
-        map,
-        Rules::Thesis,
-        &pibt,
-        &robots.positions(),
-        &robots.goals(),
-        42,
-    )
-    .unwrap();
+    let mut fleet = open(&map, &pibt, &robots);
     fleet.step(&robots.positions(), &robots.goals()).unwrap();
     assert!(fleet.overridden().is_none());
 }
@@ -222,15 +204,7 @@ fn a_refused_first_report_leaves_a_planner_on_its_plan() {
     let map = Arc::new(Map::load("rm-2.1").unwrap());
     let spec: Spec = "lacam".parse().unwrap();
     let mut robots = robots(&map, &spec, 1, 0.0, false);
-    let mut fleet = FleetSession::open(
-        map,
-        Rules::Thesis,
-        &spec,
-        &robots.positions(),
-        &robots.goals(),
-        42,
-    )
-    .unwrap();
+    let mut fleet = open(&map, &spec, &robots);
     let mut wrong = robots.positions();
     wrong[1] = wrong[0];
     assert!(fleet.step(&wrong, &robots.goals()).is_err());
