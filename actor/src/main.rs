@@ -73,14 +73,7 @@ fn parse_obs_encoding(name: &str) -> Result<ObsEncoding, String> {
 }
 
 fn main() -> Result<()> {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
-        )
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .init();
+    buridan_serving::logging::init("info");
     let args = Args::parse();
     // Before any thread exists, so that every thread inherits it.
     if args.nice > 0 {

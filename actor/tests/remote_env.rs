@@ -168,7 +168,7 @@ fn a_stopped_server_is_a_retryable_error_and_a_restarted_one_serves_new_sessions
     let url = server.url();
     let mut env = RemoteEnv::connect(&url, 9, &opts(None)).unwrap();
     env.step(&[1, 1, 1, 1]).unwrap();
-    server.stop();
+    server.stop().unwrap();
     let err = env.step(&[1, 1, 1, 1]).unwrap_err();
     match &err {
         EnvError::Remote {

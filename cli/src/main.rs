@@ -55,21 +55,12 @@ fn main() -> Result<()> {
         Command::Serve(_) => "info",
         _ => "warn",
     };
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
-                // Progress lines stand in for the bars off a terminal;
-                // imitation's rounds (minutes each with crowds) have no bar.
-                format!(
-                    "{default_level},{}=info,buridan_imitate=info",
-                    cli::heartbeat::TARGET
-                )
-                .into()
-            }),
-        )
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .init();
+    // Progress lines stand in for the bars off a terminal; imitation's
+    // rounds (minutes each with crowds) have no bar.
+    buridan_serving::logging::init(&format!(
+        "{default_level},{}=info,buridan_imitate=info",
+        cli::heartbeat::TARGET
+    ));
     match cli.command {
         Command::Train(args) => cli::train::run(&args).map(|_| ()),
         Command::Serve(args) => cli::serve::run(&args).map(|_| ()),

@@ -33,37 +33,16 @@ pub fn watch_signals(flag: Arc<AtomicBool>) {
             return;
         };
         rt.block_on(async {
-            next_signal().await;
+            buridan_serving::shutdown_signal().await;
             tracing::warn!(
                 "stopping: checkpointing after the current update (again to stop at once)"
             );
             flag.store(true, Ordering::SeqCst);
-            next_signal().await;
+            buridan_serving::shutdown_signal().await;
             tracing::warn!("stopped at once: no checkpoint of the current update");
             std::process::exit(FORCED_EXIT);
         });
     });
-}
-
-/// Waits for Ctrl-C or (on Unix) SIGTERM.
-async fn next_signal() {
-    #[cfg(unix)]
-    {
-        use tokio::signal::unix::{signal, SignalKind};
-        match signal(SignalKind::terminate()) {
-            Ok(mut term) => {
-                tokio::select! {
-                    _ = tokio::signal::ctrl_c() => {}
-                    _ = term.recv() => {}
-                }
-            }
-            Err(_) => {
-                let _ = tokio::signal::ctrl_c().await;
-            }
-        }
-    }
-    #[cfg(not(unix))]
-    let _ = tokio::signal::ctrl_c().await;
 }
 
 /// Sets `flag` when stdin reaches its end: a parent process that spawned

@@ -34,7 +34,6 @@
 
 #![warn(missing_docs)]
 
-use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -67,33 +66,10 @@ pub enum ServeError {
     /// A setting is out of range.
     #[error("invalid setting: {0}")]
     Config(String),
-    /// The async runtime could not start.
-    #[error("cannot start the server's runtime")]
-    Runtime(#[source] std::io::Error),
-    /// The address cannot be listened on.
-    #[error("cannot listen on {addr}")]
-    Bind {
-        /// The address.
-        addr: SocketAddr,
-        /// The OS error.
-        source: std::io::Error,
-    },
-    /// A TLS file cannot be read.
-    #[error("cannot read the TLS {what} {}", path.display())]
-    TlsFile {
-        /// "certificate" or "key".
-        what: &'static str,
-        /// The file.
-        path: PathBuf,
-        /// The OS error.
-        source: std::io::Error,
-    },
-    /// The TLS certificate or key is not usable.
-    #[error("cannot serve TLS with that certificate and key")]
-    Tls(#[source] tonic::transport::Error),
-    /// The gRPC server failed.
-    #[error("the gRPC server failed")]
-    Transport(#[source] tonic::transport::Error),
+    /// The server could not start or failed (runtime, address, TLS,
+    /// transport).
+    #[error(transparent)]
+    Server(#[from] buridan_serving::ServerError),
 }
 
 /// What the service allows and how it is reached.

@@ -29,7 +29,7 @@
 //! let cfg = ServeConfig::load("dissertation", 2, 8, None).unwrap();
 //! let server = EnvServer::start(cfg, "127.0.0.1:50061".parse().unwrap()).unwrap();
 //! println!("serving on {}", server.url());
-//! server.stop();
+//! server.stop().unwrap();
 //! ```
 
 #![warn(missing_docs)]
@@ -45,6 +45,7 @@ use buridan_proto::env_convert::{
 };
 use buridan_proto::v1;
 use buridan_proto::v1::environment_server::{Environment, EnvironmentServer};
+use buridan_serving::{serve_with_grace, ServerError, ServerThread};
 use tonic::{Request, Response, Status};
 
 /// Sessions kept by default.
@@ -64,20 +65,10 @@ pub enum ServeError {
     /// plant's starts, no envs, a batch too large to serve).
     #[error("cannot serve the plant as configured")]
     Env(#[source] EnvError),
-    /// The async runtime could not start.
-    #[error("cannot start the server's runtime")]
-    Runtime(#[source] std::io::Error),
-    /// The address cannot be listened on.
-    #[error("cannot listen on {addr}")]
-    Bind {
-        /// The address.
-        addr: SocketAddr,
-        /// The OS error.
-        source: std::io::Error,
-    },
-    /// The gRPC server failed.
-    #[error("the gRPC server failed")]
-    Transport(#[source] tonic::transport::Error),
+    /// The server could not start or failed (runtime, address,
+    /// transport).
+    #[error(transparent)]
+    Server(#[from] ServerError),
 }
 
 /// What the server serves: a plant, the batch's shape, the session limit.
@@ -335,111 +326,49 @@ pub async fn serve(
     listener: tokio::net::TcpListener,
     shutdown: impl std::future::Future<Output = ()> + Send,
 ) -> Result<(), ServeError> {
-    // Every step is a small request answered at once: without TCP_NODELAY
-    // each reply would wait for Nagle's algorithm.
-    let incoming = tokio_stream::StreamExt::map(
-        tokio_stream::wrappers::TcpListenerStream::new(listener),
-        |conn| conn.and_then(|s| s.set_nodelay(true).map(|()| s)),
+    let router = tonic::transport::Server::builder().add_service(
+        EnvironmentServer::new(service)
+            .max_decoding_message_size(MAX_MESSAGE_BYTES)
+            .max_encoding_message_size(MAX_MESSAGE_BYTES),
     );
-    let svc = EnvironmentServer::new(service)
-        .max_decoding_message_size(MAX_MESSAGE_BYTES)
-        .max_encoding_message_size(MAX_MESSAGE_BYTES);
-    let (stop_tx, mut stop_rx) = tokio::sync::watch::channel(false);
-    let mut graceful = stop_rx.clone();
-    let server = tonic::transport::Server::builder()
-        .add_service(svc)
-        .serve_with_incoming_shutdown(incoming, async move {
-            let _ = graceful.wait_for(|&stop| stop).await;
-        });
-    let signal = async move {
-        shutdown.await;
-        let _ = stop_tx.send(true);
-        // Keep the sender alive while the server winds down.
-        std::future::pending::<()>().await;
-    };
-    let cut = async move {
-        let _ = stop_rx.wait_for(|&stop| stop).await;
-        tokio::time::sleep(SHUTDOWN_GRACE).await;
-    };
-    tokio::select! {
-        result = server => result.map_err(ServeError::Transport),
-        _ = signal => Ok(()),
-        _ = cut => {
-            tracing::info!("connections still open after the grace period were cut");
-            Ok(())
-        }
-    }
+    // Every step is a small request answered at once: no Nagle delay.
+    let incoming = buridan_serving::nodelay(listener);
+    serve_with_grace(
+        |stopping| router.serve_with_incoming_shutdown(incoming, stopping.wait()),
+        shutdown,
+        SHUTDOWN_GRACE,
+    )
+    .await
+    .map_err(|e| ServerError::Transport(e).into())
 }
 
 /// A server running on its own thread (one tokio worker), stopped by
 /// [`EnvServer::stop`] or when dropped.
-pub struct EnvServer {
-    addr: SocketAddr,
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
-    thread: Option<std::thread::JoinHandle<Result<(), ServeError>>>,
-}
+pub struct EnvServer(ServerThread<ServeError>);
 
 impl EnvServer {
     /// Binds `addr` (port 0: any free port) and serves `cfg` on a thread.
     pub fn start(cfg: ServeConfig, addr: SocketAddr) -> Result<Self, ServeError> {
         let service = PlantEnvService::new(cfg)?;
-        let runtime = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-            .map_err(ServeError::Runtime)?;
-        let bind_failed = |source| ServeError::Bind { addr, source };
-        let listener = runtime
-            .block_on(tokio::net::TcpListener::bind(addr))
-            .map_err(bind_failed)?;
-        let bound = listener.local_addr().map_err(bind_failed)?;
-        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-        let thread = std::thread::Builder::new()
-            .name("plant-server".into())
-            .spawn(move || {
-                runtime.block_on(serve(service, listener, async {
-                    let _ = stopped.await;
-                }))
-            })
-            .map_err(ServeError::Runtime)?;
-        tracing::info!(%bound, "plant env server listening");
-        Ok(Self {
-            addr: bound,
-            stop: Some(stop),
-            thread: Some(thread),
+        ServerThread::spawn("plant env server", addr, |listener, stop| {
+            serve(service, listener, stop)
         })
+        .map(Self)
     }
 
     /// The bound address.
     pub fn addr(&self) -> SocketAddr {
-        self.addr
+        self.0.addr()
     }
 
     /// `http://ADDR`, what `actor --env` takes.
     pub fn url(&self) -> String {
-        format!("http://{}", self.addr)
+        self.0.url()
     }
 
-    /// Stops serving (open connections are closed) and waits for the thread.
-    pub fn stop(mut self) {
-        self.shut_down();
-    }
-
-    fn shut_down(&mut self) {
-        if let Some(stop) = self.stop.take() {
-            let _ = stop.send(());
-        }
-        if let Some(thread) = self.thread.take() {
-            match thread.join() {
-                Ok(Err(e)) => tracing::warn!("the plant env server ended with an error: {e}"),
-                Err(_) => tracing::error!("the plant env server thread panicked"),
-                Ok(Ok(())) => {}
-            }
-        }
-    }
-}
-
-impl Drop for EnvServer {
-    fn drop(&mut self) {
-        self.shut_down();
+    /// Stops serving (open connections are closed) and waits for the
+    /// thread; the server's own error, if it failed.
+    pub fn stop(self) -> Result<(), ServeError> {
+        self.0.stop()
     }
 }

@@ -42,14 +42,7 @@ struct Args {
 }
 
 fn main() -> Result<()> {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
-        )
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .init();
+    buridan_serving::logging::init("info");
     let args = Args::parse();
     let mut cfg = ServeConfig::load(&args.plant, args.agents, args.envs, args.t_max)
         .with_context(|| format!("cannot load plant '{}'", args.plant))?;
@@ -79,34 +72,10 @@ fn main() -> Result<()> {
             t_max = spec.t_max,
             "plant env server listening"
         );
-        serve(service, listener, shutdown_signal())
+        serve(service, listener, buridan_serving::shutdown_signal())
             .await
             .context("the env server failed")
     })?;
     tracing::info!("stopped");
     Ok(())
-}
-
-/// Completes on Ctrl-C or SIGTERM.
-async fn shutdown_signal() {
-    let ctrl_c = tokio::signal::ctrl_c();
-    #[cfg(unix)]
-    {
-        let mut term =
-            match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-                Ok(s) => s,
-                Err(_) => {
-                    let _ = ctrl_c.await;
-                    return;
-                }
-            };
-        tokio::select! {
-            _ = ctrl_c => {}
-            _ = term.recv() => {}
-        }
-    }
-    #[cfg(not(unix))]
-    {
-        let _ = ctrl_c.await;
-    }
 }

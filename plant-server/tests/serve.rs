@@ -124,7 +124,7 @@ fn a_session_steps_exactly_like_a_local_plant_vec_env() {
             finished += stats.len();
         }
         assert_eq!(finished, 2 * envs);
-        server.stop();
+        server.stop().unwrap();
     }
 }
 

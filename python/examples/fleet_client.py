@@ -116,6 +116,7 @@ def main():
     ap.add_argument("--delay", type=float, default=0.1, help="probability that a robot fails to carry out its move")
     ap.add_argument("--lifelong", action="store_true", help="a new goal on arrival")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seconds", type=float, help="stop after this much wall time even if --steps are not done (soak runs)")
     args = ap.parse_args()
 
     import grpc
@@ -148,7 +149,11 @@ def main():
     waits = [0] * args.robots
     collisions = 0
     steps = 0
+    deadline = None if args.seconds is None else time.monotonic() + args.seconds
     for steps in range(1, args.steps + 1):
+        if deadline is not None and time.monotonic() >= deadline:
+            steps -= 1
+            break
         t0 = time.perf_counter()
         reply = stub.Step(
             pb.FleetStepRequest(session=opened.session, positions=[cell(p) for p in positions], goals=[cell(g) for g in goals]),
@@ -179,9 +184,9 @@ def main():
             break
     stub.Close(pb.FleetCloseRequest(session=opened.session), metadata=metadata)
     latencies.sort()
-    p = lambda q: 1000 * latencies[min(len(latencies) - 1, int(q * len(latencies)))]  # noqa: E731
+    p = lambda q: 1000 * latencies[min(len(latencies) - 1, int(q * len(latencies)))] if latencies else 0.0  # noqa: E731
     print(
-        f"{steps} steps: {reached} goals reached ({reached / steps:.3f} per step), "
+        f"{steps} steps: {reached} goals reached ({reached / max(steps, 1):.3f} per step), "
         f"{overridden} moves changed by the shield, longest wait {longest} steps, "
         f"step latency p50 {p(0.5):.2f} ms, p99 {p(0.99):.2f} ms (client side)"
     )

@@ -167,7 +167,7 @@ fn the_actor_reconnects_when_the_env_server_restarts_mid_run() {
     let rt = runtime();
     let actor = rt.spawn(run(net.connector(), actor_opts("remote", Some(url))));
     while updates.recv().unwrap() < 3 {}
-    server.stop();
+    server.stop().unwrap();
     std::thread::sleep(Duration::from_millis(300));
     let server = plant_server(2, 4, &addr);
     let summary = learner.join().unwrap().unwrap();

@@ -60,13 +60,13 @@ use buridan_proto::convert::{
 };
 use buridan_proto::v1;
 use buridan_proto::v1::learner_server::LearnerServer;
+use buridan_serving::{with_tls, BearerToken, ServerError};
 use rand::Rng;
 use tokio::io::DuplexStream;
 use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::service::interceptor::InterceptedService;
-use tonic::transport::{Identity, Server, ServerTlsConfig};
-use tonic::{Request, Status};
+use tonic::transport::Server;
 
 use crate::train::{env_config, Progress, Run, Summary, TrainConfig, TrainError};
 pub use hub::{Hub, RemoteExchange, RunInfo};
@@ -89,30 +89,9 @@ pub enum ServeError {
     /// own small).
     #[error(transparent)]
     Train(Box<TrainError>),
-    /// The async runtime could not start.
-    #[error("cannot start the gRPC runtime")]
-    Runtime(#[source] std::io::Error),
-    /// The address cannot be listened on.
-    #[error("cannot listen on {addr}")]
-    Bind {
-        /// The address.
-        addr: SocketAddr,
-        /// The OS error.
-        source: std::io::Error,
-    },
-    /// A TLS certificate or key cannot be read.
-    #[error("cannot read TLS {what} {}", path.display())]
-    TlsFile {
-        /// "certificate" or "key".
-        what: &'static str,
-        /// The file.
-        path: PathBuf,
-        /// The I/O error.
-        source: std::io::Error,
-    },
-    /// The TLS certificate and key do not form a valid configuration.
-    #[error("invalid TLS configuration")]
-    Tls(#[source] tonic::transport::Error),
+    /// The gRPC server could not start (runtime, address, TLS).
+    #[error(transparent)]
+    Server(#[from] ServerError),
     /// An empty token would accept everyone.
     #[error("an empty --token would accept everyone; leave it out instead")]
     EmptyToken,
@@ -220,11 +199,11 @@ pub fn serve(
         .thread_name("grpc")
         .enable_all()
         .build()
-        .map_err(ServeError::Runtime)?;
+        .map_err(ServerError::Runtime)?;
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
     let server = match listener {
         Listener::Tcp(addr) => {
-            let bind_failed = |source| ServeError::Bind { addr, source };
+            let bind_failed = |source| ServerError::Bind { addr, source };
             let tcp = runtime
                 .block_on(tokio::net::TcpListener::bind(addr))
                 .map_err(bind_failed)?;
@@ -234,10 +213,7 @@ pub fn serve(
                 let _ = r.send(Some(bound));
             }
             // Replies are small: without TCP_NODELAY they wait for Nagle.
-            let incoming = tokio_stream::StreamExt::map(
-                tokio_stream::wrappers::TcpListenerStream::new(tcp),
-                |conn| conn.and_then(|s| s.set_nodelay(true).map(|()| s)),
-            );
+            let incoming = buridan_serving::nodelay(tcp);
             spawn_server(&runtime, hub.clone(), opts, incoming, stop_rx)?
         }
         Listener::InMemory(rx) => {
@@ -404,22 +380,10 @@ where
     IE: Into<Box<dyn std::error::Error + Send + Sync>> + Send + 'static,
 {
     // Fragments are megabytes: windows sized for them save round trips.
-    let mut builder = Server::builder()
+    let builder = Server::builder()
         .initial_stream_window_size(Some(FLOW_WINDOW))
         .initial_connection_window_size(Some(2 * FLOW_WINDOW));
-    if let Some((cert, key)) = &opts.tls {
-        let read = |what, path: &PathBuf| {
-            std::fs::read(path).map_err(|source| ServeError::TlsFile {
-                what,
-                path: path.clone(),
-                source,
-            })
-        };
-        let (cert, key) = (read("certificate", cert)?, read("key", key)?);
-        builder = builder
-            .tls_config(ServerTlsConfig::new().identity(Identity::from_pem(cert, key)))
-            .map_err(ServeError::Tls)?;
-    }
+    let builder = with_tls(builder, opts.tls.as_ref()).map_err(ServerError::Tls)?;
     let service =
         LearnerServer::new(LearnerService::new(hub).max_decoded_bytes(opts.max_message_bytes))
             .max_decoding_message_size(opts.max_message_bytes)
@@ -427,19 +391,10 @@ where
     if opts.token.as_deref() == Some("") {
         return Err(ServeError::EmptyToken);
     }
-    let expected = opts.token.as_ref().map(|t| format!("Bearer {t}"));
-    let check = move |req: Request<()>| -> Result<Request<()>, Status> {
-        match &expected {
-            None => Ok(req),
-            Some(e) => match req.metadata().get("authorization") {
-                Some(v) if v.as_bytes() == e.as_bytes() => Ok(req),
-                Some(_) => Err(Status::unauthenticated("wrong token")),
-                None => Err(Status::unauthenticated(
-                    "this learner needs a token: pass --token (authorization: Bearer …)",
-                )),
-            },
-        }
-    };
+    let check = BearerToken::new(
+        opts.token.as_deref(),
+        "this learner needs a token: pass --token (authorization: Bearer …)",
+    );
     let (health_reporter, health) = tonic_health::server::health_reporter();
     runtime.block_on(health_reporter.set_serving::<LearnerServer<LearnerService>>());
     let layer: fn(http::Response<tonic::body::Body>) -> http::Response<tonic::body::Body> =
