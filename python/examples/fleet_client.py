@@ -7,6 +7,10 @@ each step it reports every robot's actual cell and goal, gets every robot's
 next move, and carries the moves out — each robot independently fails to
 move with probability --delay (it stalls and reports the cell it is still
 on). With --lifelong a robot that reaches its goal gets a new one (seeded).
+With --goals FILE (a `lifelong-goals v1` file, as
+scripts/pogema/export_lifelong.py writes POGEMA's) the robots start where
+the file says and take their goals from it in order, so that the run can
+be compared with `learner bench pogema --lifelong` on the same goals.
 
 Needs grpcio and grpcio-tools (pip install grpcio grpcio-tools); the stubs
 are generated from the repository's protos at start, into a temporary
@@ -75,6 +79,30 @@ def read_map(path):
     return text, free
 
 
+def read_goal_file(path, robots):
+    """Starts and goal sequences of the first `robots` agents of a
+    `lifelong-goals v1` file: a header `lifelong-goals v1 map M agents N
+    steps T`, then per agent `row,col` of its start and of its goals."""
+    lines = [ln.strip() for ln in Path(path).read_text().splitlines()]
+    body = [(i + 1, ln) for i, ln in enumerate(lines) if ln and not ln.startswith("#")]
+    if not body or not body[0][1].startswith("lifelong-goals v1 "):
+        raise SystemExit(f"{path}: no 'lifelong-goals v1' header")
+    agents = body[1:]
+    if len(agents) < robots:
+        raise SystemExit(f"{path}: {len(agents)} agents, fewer than --robots {robots}")
+    starts, sequences = [], []
+    for number, line in agents[:robots]:
+        try:
+            cells = [tuple(int(v) for v in cell.split(",")) for cell in line.split()]
+        except ValueError:
+            raise SystemExit(f"{path}:{number}: cells must read row,col")
+        if len(cells) < 2 or any(len(c) != 2 for c in cells):
+            raise SystemExit(f"{path}:{number}: a start and at least one goal, each row,col")
+        starts.append(cells[0])
+        sequences.append(cells[1:])
+    return starts, sequences
+
+
 def execute(positions, moves, delay, rng):
     """Carries the moves out: each robot stalls with probability `delay`;
     a robot whose target is held by one that stays, or claimed by another,
@@ -116,6 +144,7 @@ def main():
     ap.add_argument("--delay", type=float, default=0.1, help="probability that a robot fails to carry out its move")
     ap.add_argument("--lifelong", action="store_true", help="a new goal on arrival")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--goals", help="a lifelong-goals v1 file: starts and goal sequences (lifelong, no draws)")
     ap.add_argument("--seconds", type=float, help="stop after this much wall time even if --steps are not done (soak runs)")
     args = ap.parse_args()
 
@@ -124,8 +153,13 @@ def main():
     pb, learner_pb, grpc_pb = generate_stubs()
     rng = random.Random(args.seed)
     text, free = read_map(args.map_file)
-    cells = rng.sample(free, 2 * args.robots)
-    positions, goals = cells[: args.robots], cells[args.robots :]
+    if args.goals:
+        positions, sequences = read_goal_file(args.goals, args.robots)
+        goals = [seq[0] for seq in sequences]
+        taken_goals = [1] * args.robots
+    else:
+        cells = rng.sample(free, 2 * args.robots)
+        positions, goals = cells[: args.robots], cells[args.robots :]
 
     channel = grpc.insecure_channel(args.server)
     stub = grpc_pb.FleetControlStub(channel)
@@ -175,11 +209,18 @@ def main():
         positions = after
         for i in range(args.robots):
             if positions[i] == goals[i]:
-                if args.lifelong:
+                if args.goals:
+                    reached += 1
+                    if taken_goals[i] == len(sequences[i]):
+                        print(f"robot {i} has used all {taken_goals[i]} goals of its sequence", file=sys.stderr)
+                        return 1
+                    goals[i] = sequences[i][taken_goals[i]]
+                    taken_goals[i] += 1
+                elif args.lifelong:
                     reached += 1
                     taken = set(goals)
                     goals[i] = rng.choice([c for c in free if c not in taken])
-        if not args.lifelong and positions == goals:
+        if not (args.lifelong or args.goals) and positions == goals:
             reached = args.robots
             break
     stub.Close(pb.FleetCloseRequest(session=opened.session), metadata=metadata)
@@ -193,7 +234,7 @@ def main():
     if collisions:
         print(f"{collisions} steps with robots on one cell or swapping", file=sys.stderr)
         return 1
-    if not args.lifelong and positions != goals:
+    if not (args.lifelong or args.goals) and positions != goals:
         print("not every robot reached its goal", file=sys.stderr)
         return 1
     return 0
