@@ -54,6 +54,8 @@
 //!                                                   # no config: the default recipe (`learner train` without --config)
 //! configs = { "rm-2.2" = "../configs/ppo-ctde-rm-2.2.toml" }  # per-layout configs
 //! set = ["ppo.lr=5e-4"]             # `learner train --set` overrides
+//! stop = false                      # train the whole step budget, no stop rule
+//!                                   #   (`learner train --no-stop`; default true)
 //! ```
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -194,6 +196,12 @@ struct MethodToml {
     configs: BTreeMap<String, String>,
     #[serde(default)]
     set: Vec<String>,
+    #[serde(default = "yes")]
+    stop: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// The evaluation protocol of an experiment.
@@ -259,6 +267,10 @@ pub struct TrainCell {
     pub steps: Option<u64>,
     /// `--set` overrides.
     pub set: Vec<String>,
+    /// Whether the run trains its whole step budget, its configuration's
+    /// stop rules off (`learner train --no-stop`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub no_stop: bool,
     /// Agents it trains with.
     pub agents: usize,
 }
@@ -635,6 +647,7 @@ impl Experiment {
                         config: config.clone(),
                         steps: x.steps,
                         set: m.set.clone(),
+                        no_stop: !m.stop,
                         agents: 0,
                     };
                     let cfg = cell.config_in(Path::new(".")).map_err(|err| {

@@ -114,6 +114,7 @@ impl TrainCell {
             seed: Some(self.seed),
             resume: Some(PathBuf::from("auto")),
             overrides: self.set.clone(),
+            no_stop: self.no_stop,
             out: out.join(&self.run_dir),
             ..RunArgs::default()
         }
@@ -146,6 +147,9 @@ impl TrainCell {
         }
         for s in &self.set {
             args.extend(["--set".into(), s.clone()]);
+        }
+        if self.no_stop {
+            args.push("--no-stop".into());
         }
         args.extend([
             "--resume".into(),

@@ -55,6 +55,43 @@ fn cells_cover_layouts_methods_seeds_actions_and_agents() {
 }
 
 #[test]
+fn a_method_with_stop_false_trains_its_whole_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let x = Experiment::from_str(
+        r#"
+        [experiment]
+        name = "s"
+        layouts = ["rm-2.1"]
+        seeds = 1
+        steps = 50_000
+        [[method]]
+        name = "recipe"
+        [[method]]
+        name = "whole"
+        stop = false
+        "#,
+        &dir.path().join("s.toml"),
+    )
+    .unwrap();
+    let (recipe, whole) = (&x.train[0], &x.train[1]);
+    assert!(!recipe.no_stop && whole.no_stop);
+    let out = Path::new("out");
+    assert!(recipe.config_in(out).unwrap().run.stop.is_some());
+    assert_eq!(whole.config_in(out).unwrap().run.stop, None);
+    let cmd = whole.command(out);
+    assert!(
+        cmd.contains("--steps 50000 --no-stop --resume auto"),
+        "{cmd}"
+    );
+    assert!(!recipe.command(out).contains("--no-stop"));
+    // A plan written before the key existed reads as stopping.
+    let old = serde_json::to_value(recipe).unwrap();
+    assert!(old.get("no_stop").is_none(), "{old}");
+    let back: TrainCell = serde_json::from_value(old).unwrap();
+    assert!(!back.no_stop);
+}
+
+#[test]
 fn a_method_without_a_config_trains_the_default_recipe() {
     let dir = tempfile::tempdir().unwrap();
     write_config(dir.path());
