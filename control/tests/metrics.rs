@@ -44,6 +44,7 @@ async fn the_named_series_are_rendered() {
             positions: robots.positions(),
             goals: robots.goals(),
             seed: 42,
+            shared_goals: false,
         }))
         .await
         .unwrap()

@@ -47,6 +47,7 @@ fn open_request(robots: &GridEnv, controller: &str) -> v1::FleetOpenRequest {
         positions: robots.positions(),
         goals: robots.goals(),
         seed: 42,
+        shared_goals: false,
     })
 }
 

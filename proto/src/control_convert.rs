@@ -18,6 +18,7 @@
 //!     positions: vec![Cell::new(1, 1), Cell::new(1, 2)],
 //!     goals: vec![Cell::new(8, 1), Cell::new(8, 2)],
 //!     seed: 7,
+//!     shared_goals: false,
 //! };
 //! assert_eq!(open_from_message(open_to_message(&open)).unwrap(), open);
 //! let msg = open_to_message(&open);
@@ -56,6 +57,8 @@ pub struct FleetOpen {
     pub goals: Vec<Cell>,
     /// Seeds the controller's draws.
     pub seed: u64,
+    /// Whether robots may share a goal cell.
+    pub shared_goals: bool,
 }
 
 /// A Step's answer, checked: one move per robot, each in `0..5`;
@@ -114,6 +117,7 @@ pub fn open_to_message(o: &FleetOpen) -> v1::FleetOpenRequest {
         positions: o.positions.iter().map(|&c| cell_to_message(c)).collect(),
         goals: o.goals.iter().map(|&c| cell_to_message(c)).collect(),
         seed: o.seed,
+        shared_goals: o.shared_goals,
     }
 }
 
@@ -173,6 +177,7 @@ pub fn open_from_message(m: v1::FleetOpenRequest) -> Result<FleetOpen, ConvertEr
         positions,
         goals,
         seed: m.seed,
+        shared_goals: m.shared_goals,
     })
 }
 
@@ -275,6 +280,7 @@ mod tests {
             positions: vec![Cell::new(0, 0)],
             goals: vec![Cell::new(0, 2)],
             seed: 1,
+            shared_goals: true,
         }
     }
 

@@ -174,6 +174,8 @@ def main():
             positions=[cell(p) for p in positions],
             goals=[cell(g) for g in goals],
             seed=args.seed,
+            # POGEMA's goal sequences may send two robots to one cell.
+            shared_goals=bool(args.goals),
         ),
         metadata=metadata,
     )
