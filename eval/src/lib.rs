@@ -25,8 +25,10 @@ pub mod benchmark;
 pub mod by_name;
 pub mod controller;
 pub mod fleet;
+pub mod goal_sequences;
 pub mod instances;
 pub mod lifelong;
+pub mod lifelong_bench;
 pub mod output;
 pub mod planner;
 pub mod plant;
@@ -39,6 +41,7 @@ pub mod runner;
 pub mod shield;
 pub mod stats;
 pub mod text_serde;
+pub mod throughput;
 
 pub use controller::{Controller, GiveUp, PlanNotes, RandomController};
 pub use runner::{
