@@ -50,7 +50,8 @@ then from g_{j-1}, to g_j): within T steps the agent reaches at most k - 1
 of them and heads for at most g_k. No controller can run out; the env
 refuses to continue (a typed error) if one ever did.
 
-Output (``lifelong-goals v1``, read by ``buridan_eval::goal_sequences`` and
+Output: ``warehouse.map`` (the map, as ``export_instances.py`` writes it)
+and (``lifelong-goals v1``, read by ``buridan_eval::goal_sequences`` and
 ``python/examples/fleet_client.py``): ``warehouse-lifelong-<seed>.goals``,
 a header ``lifelong-goals v1 map warehouse agents 192 steps 256``, ``#``
 comment lines, then one line per agent in pogema's order: ``row,col`` of
@@ -76,7 +77,7 @@ from pogema import GridConfig, pogema_v0
 from pogema.generator import generate_from_possible_targets
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from export_instances import WFI_WAREHOUSE, distances  # noqa: E402
+from export_instances import WFI_WAREHOUSE, distances, map_text  # noqa: E402
 
 AGENTS = [32, 64, 96, 128, 160, 192]
 SEEDS = range(128)
@@ -245,6 +246,8 @@ def main():
         check(fields, obstacles, seeds, [32, 192])
     else:
         args.out.mkdir(parents=True, exist_ok=True)
+        # The map beside the goal files (the one-shot instances' warehouse.map).
+        (args.out / f"{MAP}.map").write_text(map_text(obstacles))
         lengths = []
         for seed, text in regenerate(fields, range(args.seeds)):
             (args.out / f"warehouse-lifelong-{seed}.goals").write_text(text)
