@@ -102,7 +102,8 @@ pub struct PogemaArgs {
     /// the file).
     #[arg(long, value_delimiter = ',', default_values_t = DEFAULT_PUBLISHED.map(String::from))]
     pub published_methods: Vec<String>,
-    /// Per-instance planning time limit in seconds.
+    /// Per-instance planning time limit in seconds (with `--lifelong`: of
+    /// each plan).
     #[arg(long, default_value_t = 10.0)]
     pub time_limit: f64,
     /// Per-instance memory cap of a planner's search, in MiB.
@@ -111,7 +112,8 @@ pub struct PogemaArgs {
     /// Instances run in parallel (1 keeps compute times comparable).
     #[arg(long, default_value_t = 1)]
     pub jobs: usize,
-    /// Seed of trained policies' sampling.
+    /// Seed of trained policies' sampling (with `--lifelong`, also of the
+    /// delays).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Output directory: `<label>/agents-<N>/` per evaluation (kept and
@@ -185,6 +187,20 @@ fn run_soak(args: &buridan_soak::SoakArgs) -> Result<()> {
     Ok(())
 }
 
+impl PogemaArgs {
+    /// The controllers to run: those asked for, else the defaults (lacam,
+    /// pibt, lacam-star and cbs; with `--lifelong`, lifelong-pibt). Two
+    /// with one label are refused.
+    pub fn chosen_controllers(&self) -> Result<Vec<Labelled>> {
+        let defaults: &[&str] = if self.lifelong {
+            &["lifelong-pibt"]
+        } else {
+            &["lacam", "pibt", "lacam-star", "cbs"]
+        };
+        controllers(self, defaults)
+    }
+}
+
 /// The controllers asked for, or `defaults` if none; two with one label
 /// are refused.
 fn controllers(args: &PogemaArgs, defaults: &[&str]) -> Result<Vec<Labelled>> {
@@ -221,7 +237,7 @@ pub fn run_lifelong(args: &PogemaArgs) -> Result<Vec<ThroughputRow>> {
     }
     let plan = BenchPlan {
         goals_dir: goals.clone(),
-        controllers: controllers(args, &["lifelong-pibt"])?,
+        controllers: args.chosen_controllers()?,
         counts: parse_agent_counts(&args.agents)?,
         seeds: parse_seeds(&args.seeds)?,
         spec: LifelongSpec {
@@ -267,7 +283,7 @@ pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
     };
     let counts = parse_agent_counts(&args.agents)?;
     let seeds = parse_seeds(&args.seeds)?;
-    let specs = &controllers(args, &["lacam", "pibt", "lacam-star", "cbs"])?;
+    let specs = &args.chosen_controllers()?;
     let maps = map_names(instances, &args.map_name)?;
     let published_path = args.published.clone().unwrap_or_else(|| {
         if is_pattern(&args.map_name) {

@@ -70,15 +70,16 @@ pub enum LifelongBenchError {
         /// The I/O error.
         source: std::io::Error,
     },
-    /// A kept cell's runs are not the seeds asked for.
-    #[error("{}: holds seeds {kept:?}, not the {wanted:?} asked for: move it away to run it again", path.display())]
-    KeptSeeds {
+    /// A kept cell's runs are not those asked for (other seeds, steps or
+    /// delay).
+    #[error("{}: holds {kept}, not the {wanted} asked for: move it away to run it again", path.display())]
+    Kept {
         /// The kept file.
         path: PathBuf,
-        /// Its seeds.
-        kept: Vec<u64>,
-        /// The seeds asked for.
-        wanted: Vec<u64>,
+        /// What it holds.
+        kept: String,
+        /// What was asked for.
+        wanted: String,
     },
     /// A CSV file could not be read or written.
     #[error("{}: {source}", path.display())]
@@ -107,6 +108,10 @@ pub struct InstanceRow {
     pub agents: usize,
     /// The goal file's seed.
     pub seed: u64,
+    /// Steps run.
+    pub steps: u32,
+    /// The delay (probability that a move fails).
+    pub delay: f32,
     /// Goals reached.
     pub goals_reached: u32,
     /// Goals per step.
@@ -211,7 +216,7 @@ pub fn run_bench(
                     .join(format!("agents-{agents}.csv"))
             });
             if let Some(path) = kept.as_ref().filter(|p| p.is_file()) {
-                rows.extend(read_kept(path, &plan.seeds)?);
+                rows.extend(read_kept(path, &plan.seeds, &plan.spec)?);
                 continue;
             }
             let cell = run_cell(plan, labelled, agents, &files, progress)?;
@@ -255,7 +260,7 @@ fn run_cell(
             ..plan.spec.clone()
         };
         let result = run_goal_file(map, &file, name, &labelled.controller, &spec)
-            .map(|run| instance_row(&labelled.label, *seed, &run));
+            .map(|run| instance_row(&labelled.label, *seed, spec.delay, &run));
         if let Ok(row) = &result {
             progress(row);
         }
@@ -284,8 +289,13 @@ fn run_cell(
         .collect()
 }
 
-/// The runs of a kept cell, checked to be those of `seeds`.
-fn read_kept(path: &Path, seeds: &[u64]) -> Result<Vec<InstanceRow>, LifelongBenchError> {
+/// The runs of a kept cell, checked to be those of `seeds` under `spec`
+/// (its steps and delay).
+fn read_kept(
+    path: &Path,
+    seeds: &[u64],
+    spec: &LifelongSpec,
+) -> Result<Vec<InstanceRow>, LifelongBenchError> {
     let csv_err = |source| LifelongBenchError::Csv {
         path: path.to_path_buf(),
         source,
@@ -296,21 +306,33 @@ fn read_kept(path: &Path, seeds: &[u64]) -> Result<Vec<InstanceRow>, LifelongBen
         .collect::<Result<_, _>>()
         .map_err(csv_err)?;
     let kept: Vec<u64> = rows.iter().map(|r| r.seed).collect();
+    let mismatch = |kept: String, wanted: String| LifelongBenchError::Kept {
+        path: path.to_path_buf(),
+        kept,
+        wanted,
+    };
     if kept != seeds {
-        return Err(LifelongBenchError::KeptSeeds {
-            path: path.to_path_buf(),
-            kept,
-            wanted: seeds.to_vec(),
-        });
+        return Err(mismatch(format!("seeds {kept:?}"), format!("{seeds:?}")));
+    }
+    if let Some(r) = rows
+        .iter()
+        .find(|r| r.steps != spec.steps || r.delay != spec.delay)
+    {
+        return Err(mismatch(
+            format!("runs of {} steps at delay {}", r.steps, r.delay),
+            format!("{} steps at delay {}", spec.steps, spec.delay),
+        ));
     }
     Ok(rows)
 }
 
-fn instance_row(label: &str, seed: u64, run: &LifelongRun) -> InstanceRow {
+fn instance_row(label: &str, seed: u64, delay: f32, run: &LifelongRun) -> InstanceRow {
     InstanceRow {
         controller: label.to_string(),
         agents: run.agents,
         seed,
+        steps: run.steps,
+        delay,
         goals_reached: run.goals_reached,
         throughput: run.throughput,
         gave_up_steps: run.gave_up_steps,
@@ -327,7 +349,8 @@ fn instance_row(label: &str, seed: u64, run: &LifelongRun) -> InstanceRow {
 /// ```
 /// use buridan_eval::lifelong_bench::{pool, InstanceRow};
 /// let run = |seed, throughput| InstanceRow {
-///     controller: "lifelong-pibt".into(), agents: 32, seed, goals_reached: 0, throughput,
+///     controller: "lifelong-pibt".into(), agents: 32, seed, steps: 256, delay: 0.0,
+///     goals_reached: 0, throughput,
 ///     gave_up_steps: 0, replans: 0, delayed_moves: 0, most_goals_given: 1, wall_s: 1.0,
 /// };
 /// let rows = pool(&[run(0, 1.0), run(1, 2.0)]);

@@ -224,6 +224,19 @@ fn the_benchmark_pools_seeds_and_writes_its_table() {
             .contains("holds seeds [0], not the [0, 0] asked for"),
         "{err}"
     );
+    let delayed = BenchPlan {
+        spec: LifelongSpec {
+            delay: 0.1,
+            ..plan.spec.clone()
+        },
+        ..plan.clone()
+    };
+    let err = run_bench(&delayed, &count).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("holds runs of 32 steps at delay 0, not the 32 steps at delay 0.1 asked for"),
+        "{err}"
+    );
     let rows = pool(&runs);
     // Two measured rows, then Follower and RHCR at 32 and 64.
     assert_eq!(rows.len(), 2 + 2 * PUBLISHED.len());
