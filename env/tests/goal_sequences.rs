@@ -27,6 +27,9 @@ fn lifelong(agents: usize, rules: Rules) -> EnvConfig {
     }
 }
 
+/// Per agent, its goals in order.
+type Sequences = Vec<Vec<Cell>>;
+
 const STAY: u8 = 0;
 const UP: u8 = 1;
 const RIGHT: u8 = 2;
@@ -114,7 +117,7 @@ fn bad_sequences_are_refused_with_agent_cell_and_problem() {
     let starts = [Cell::new(0, 0), Cell::new(0, 4)];
     let ok = vec![Cell::new(2, 2)];
     let before = (env.positions(), env.goals());
-    let cases: Vec<(Vec<Cell>, Vec<Vec<Cell>>, &str)> = vec![
+    let cases: Vec<(Vec<Cell>, Sequences, &str)> = vec![
         (
             starts.to_vec(),
             vec![ok.clone(), vec![Cell::new(2, 1), Cell::new(1, 2)]],

@@ -47,7 +47,7 @@ pub enum LifelongBenchError {
         /// The map file tried.
         map: PathBuf,
         /// The loader's complaint.
-        source: buridan_env::MapError,
+        source: Box<buridan_env::MapError>,
     },
     /// A goal file has fewer agents than a count asks for.
     #[error("{file}: {has} agents, fewer than the {wanted} asked for")]
@@ -61,7 +61,7 @@ pub enum LifelongBenchError {
     },
     /// A run failed.
     #[error(transparent)]
-    Run(#[from] ThroughputError),
+    Run(Box<ThroughputError>),
     /// A result file could not be written.
     #[error("writing {}: {source}", path.display())]
     Io {
@@ -92,6 +92,12 @@ pub enum LifelongBenchError {
     /// The chart could not be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),
+}
+
+impl From<ThroughputError> for LifelongBenchError {
+    fn from(e: ThroughputError) -> Self {
+        LifelongBenchError::Run(Box::new(e))
+    }
 }
 
 /// The goal file of `seed` in `dir`.
@@ -199,7 +205,7 @@ pub fn run_bench(
                 let map = Map::from_file(&map_path).map_err(|source| LifelongBenchError::Map {
                     file: name.clone(),
                     map: map_path,
-                    source,
+                    source: Box::new(source),
                 })?;
                 let map = Arc::new(map);
                 maps.push(map.clone());

@@ -117,7 +117,7 @@ pub enum ThroughputError {
         /// The goal file.
         file: String,
         /// The session's complaint.
-        source: FleetError,
+        source: Box<FleetError>,
     },
     /// The file's map is not the map given.
     #[error("{file}: made for map '{file_map}', run on '{map}'")]
@@ -161,7 +161,7 @@ pub fn run_goal_file(
     };
     let fleet_err = |source| ThroughputError::Fleet {
         file: name.to_string(),
-        source,
+        source: Box::new(source),
     };
     if file.map != map.name {
         return Err(ThroughputError::WrongMap {
