@@ -1,7 +1,9 @@
 //! `learner bench pogema`: the field's benchmark in one command. Our
 //! controllers on POGEMA's warehouse instances under POGEMA's rules, one
 //! evaluation per controller and agent count (resumable), then the table
-//! and charts beside the published results of the same instances.
+//! and charts beside the published results of the same instances. With
+//! `--lifelong`: POGEMA's lifelong warehouse, throughput on the goal files
+//! of `--goals` ([`buridan_eval::lifelong_bench`]).
 
 use std::path::PathBuf;
 
@@ -13,8 +15,10 @@ use buridan_eval::benchmark::{
 };
 use buridan_eval::by_name::{ControllerParseError, Labelled};
 use buridan_eval::instances::{is_pattern, load_instance_set, map_names};
+use buridan_eval::lifelong_bench::{self, BenchPlan, ThroughputRow};
 use buridan_eval::output::write_report;
 use buridan_eval::runner::soc_lower_bound;
+use buridan_eval::throughput::LifelongSpec;
 use buridan_eval::{evaluate_instances, EvalReport, EvalSpec};
 
 use crate::eval::{parse_agent_counts, planner_limits, summary_line, EpisodeProgress};
@@ -24,7 +28,9 @@ use crate::eval::{parse_agent_counts, planner_limits, summary_line, EpisodeProgr
 pub enum BenchCommand {
     /// POGEMA's warehouse (32–192 agents × 128 seeds, pogema rules, T_max
     /// 128): our controllers beside the published LaCAM, MAPF-GPT, SCRIMP,
-    /// DCC, … on the same instances.
+    /// DCC, … on the same instances. With `--lifelong`, POGEMA's lifelong
+    /// warehouse: throughput (goals per step) on given goal sequences beside
+    /// the published Follower and RHCR.
     Pogema(PogemaArgs),
     /// Training throughput of configuration variants side by side (e.g.
     /// PPO's update on one thread against every core): env steps/s, their
@@ -43,8 +49,28 @@ pub enum BenchCommand {
 pub struct PogemaArgs {
     /// The benchmark's folder: `<map>.map`, `<map>-<agents>-<seed>.scen`
     /// and the published results (`../shared/pogema`).
-    #[arg(long)]
-    pub instances: PathBuf,
+    #[arg(long, required_unless_present = "lifelong")]
+    pub instances: Option<PathBuf>,
+    /// Lifelong MAPF (POGEMA's `on_target: restart`): a robot that reaches
+    /// its goal gets the next of its sequence; the table is throughput,
+    /// goals reached per step, per agent count (mean over seeds, 95 %
+    /// bootstrap interval). Needs `--goals`.
+    #[arg(long, requires = "goals", conflicts_with = "instances")]
+    pub lifelong: bool,
+    /// With `--lifelong`: the folder of goal files,
+    /// `warehouse-lifelong-<seed>.goals` (`lifelong-goals v1`: starts and
+    /// goal sequences, the N-agent tasks the first N agents) and the map
+    /// they name (`warehouse.map`), as `scripts/pogema/export_lifelong.py`
+    /// writes them.
+    #[arg(long, requires = "lifelong")]
+    pub goals: Option<PathBuf>,
+    /// With `--lifelong`: steps per run.
+    #[arg(long, default_value_t = 256, requires = "lifelong")]
+    pub steps: u32,
+    /// With `--lifelong`: the probability that a robot's move fails and
+    /// becomes a wait (seeded per instance).
+    #[arg(long, default_value_t = 0.0, requires = "lifelong")]
+    pub delay: f32,
     /// The map's name in the file names; with `*` (any run of characters)
     /// every `<name>.map` of the folder that matches, each map with its own
     /// instances, pooled into one row per count: POGEMA's mazes are
@@ -63,7 +89,10 @@ pub struct PogemaArgs {
     /// (`learned@sampled:shield:checkpoint:DIR`; without one, the text).
     /// Labels `NAME#K` (one per training seed K) are pooled into one row
     /// `NAME`: mean success over seeds with its 95 % bootstrap interval.
-    #[arg(long = "controller", value_parser = parse_labelled, default_values = ["lacam", "pibt", "lacam-star", "cbs"])]
+    /// Default: lacam, pibt, lacam-star and cbs; with `--lifelong`,
+    /// lifelong-pibt (a planner such as lacam plans again whenever a goal
+    /// changes or a robot lags).
+    #[arg(long = "controller", value_parser = parse_labelled)]
     pub controllers: Vec<Labelled>,
     /// Published per-instance results (default: `<map>-published.csv` in
     /// the instances folder, or `published.csv` for a `*` pattern).
@@ -73,7 +102,8 @@ pub struct PogemaArgs {
     /// the file).
     #[arg(long, value_delimiter = ',', default_values_t = DEFAULT_PUBLISHED.map(String::from))]
     pub published_methods: Vec<String>,
-    /// Per-instance planning time limit in seconds.
+    /// Per-instance planning time limit in seconds (with `--lifelong`: of
+    /// each plan).
     #[arg(long, default_value_t = 10.0)]
     pub time_limit: f64,
     /// Per-instance memory cap of a planner's search, in MiB.
@@ -82,12 +112,15 @@ pub struct PogemaArgs {
     /// Instances run in parallel (1 keeps compute times comparable).
     #[arg(long, default_value_t = 1)]
     pub jobs: usize,
-    /// Seed of trained policies' sampling.
+    /// Seed of trained policies' sampling (with `--lifelong`, also of the
+    /// delays).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Output directory: `<label>/agents-<N>/` per evaluation (kept and
     /// reused when the command runs again), `table.csv`, `table.md`,
-    /// `success.png`, `soc_ratio.png`.
+    /// `success.png`, `soc_ratio.png`; with `--lifelong`,
+    /// `<label>/agents-<N>.csv` per cell (kept and reused),
+    /// `instances.csv`, `table.csv`, `table.md`, `throughput.png`.
     #[arg(long)]
     pub out: PathBuf,
 }
@@ -135,6 +168,7 @@ pub fn parse_labelled(text: &str) -> Result<Labelled, ControllerParseError> {
 /// Runs `learner bench`.
 pub fn run(command: &BenchCommand) -> Result<()> {
     match command {
+        BenchCommand::Pogema(args) if args.lifelong => run_lifelong(args).map(|_| ()),
         BenchCommand::Pogema(args) => run_pogema(args).map(|_| ()),
         BenchCommand::Train(args) => crate::bench_train::run(args).map(|_| ()),
         #[cfg(feature = "soak")]
@@ -153,11 +187,31 @@ fn run_soak(args: &buridan_soak::SoakArgs) -> Result<()> {
     Ok(())
 }
 
-/// Runs `learner bench pogema`; returns the table's rows.
-pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
-    let counts = parse_agent_counts(&args.agents)?;
-    let seeds = parse_seeds(&args.seeds)?;
-    let specs = &args.controllers;
+impl PogemaArgs {
+    /// The controllers to run: those asked for, else the defaults (lacam,
+    /// pibt, lacam-star and cbs; with `--lifelong`, lifelong-pibt). Two
+    /// with one label are refused.
+    pub fn chosen_controllers(&self) -> Result<Vec<Labelled>> {
+        let defaults: &[&str] = if self.lifelong {
+            &["lifelong-pibt"]
+        } else {
+            &["lacam", "pibt", "lacam-star", "cbs"]
+        };
+        controllers(self, defaults)
+    }
+}
+
+/// The controllers asked for, or `defaults` if none; two with one label
+/// are refused.
+fn controllers(args: &PogemaArgs, defaults: &[&str]) -> Result<Vec<Labelled>> {
+    let specs = if args.controllers.is_empty() {
+        defaults
+            .iter()
+            .map(|d| parse_labelled(d))
+            .collect::<Result<Vec<_>, _>>()?
+    } else {
+        args.controllers.clone()
+    };
     for (k, spec) in specs.iter().enumerate() {
         if specs[..k].iter().any(|s| s.label == spec.label) {
             bail!(
@@ -166,13 +220,76 @@ pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
             );
         }
     }
-    let maps = map_names(&args.instances, &args.map_name)?;
+    Ok(specs)
+}
+
+/// Runs `learner bench pogema --lifelong`; returns the table's rows
+/// (measured, then published).
+pub fn run_lifelong(args: &PogemaArgs) -> Result<Vec<ThroughputRow>> {
+    let Some(goals) = &args.goals else {
+        bail!("--lifelong needs --goals DIR");
+    };
+    if !(0.0..1.0).contains(&args.delay) {
+        bail!("--delay must lie in [0, 1), got {}", args.delay);
+    }
+    if args.steps == 0 {
+        bail!("--steps must be at least 1");
+    }
+    let plan = BenchPlan {
+        goals_dir: goals.clone(),
+        controllers: args.chosen_controllers()?,
+        counts: parse_agent_counts(&args.agents)?,
+        seeds: parse_seeds(&args.seeds)?,
+        spec: LifelongSpec {
+            steps: args.steps,
+            delay: args.delay,
+            seed: args.seed,
+            episode: 0,
+            limits: planner_limits(args.time_limit, args.memory_limit)?,
+        },
+        jobs: args.jobs.max(1),
+        keep: Some(args.out.clone()),
+    };
+    let total = plan.controllers.len() * plan.counts.len() * plan.seeds.len();
+    let bar = indicatif::ProgressBar::new(total as u64);
+    let runs = lifelong_bench::run_bench(&plan, &|row| {
+        bar.inc(1);
+        bar.set_message(format!(
+            "{} agents={} seed={}: {:.3} goals/step",
+            row.controller, row.agents, row.seed, row.throughput
+        ));
+    })
+    .with_context(|| format!("the lifelong benchmark on {}", goals.display()))?;
+    bar.finish_and_clear();
+    let rows = lifelong_bench::pool(&runs);
+    let title = format!(
+        "lifelong warehouse, {} steps, delay {}",
+        args.steps, args.delay
+    );
+    let files = lifelong_bench::write_results(&args.out, &runs, &rows, &title)
+        .with_context(|| format!("writing the table to {}", args.out.display()))?;
+    tracing::info!(files = ?files, "lifelong benchmark table written");
+    println!("{}", lifelong_bench::markdown(&rows));
+    Ok(rows)
+}
+
+/// Runs `learner bench pogema`; returns the table's rows.
+pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
+    if args.lifelong {
+        bail!("--lifelong: call run_lifelong");
+    }
+    let Some(instances) = &args.instances else {
+        bail!("--instances DIR is required (or --lifelong --goals DIR)");
+    };
+    let counts = parse_agent_counts(&args.agents)?;
+    let seeds = parse_seeds(&args.seeds)?;
+    let specs = &args.chosen_controllers()?;
+    let maps = map_names(instances, &args.map_name)?;
     let published_path = args.published.clone().unwrap_or_else(|| {
         if is_pattern(&args.map_name) {
-            args.instances.join("published.csv")
+            instances.join("published.csv")
         } else {
-            args.instances
-                .join(format!("{}-published.csv", args.map_name))
+            instances.join(format!("{}-published.csv", args.map_name))
         }
     });
     // Read before hours of planning, so that a bad file fails at once.
@@ -187,7 +304,7 @@ pub fn run_pogema(args: &PogemaArgs) -> Result<Vec<Row>> {
         for map in &maps {
             let files: Vec<PathBuf> = seeds
                 .iter()
-                .map(|seed| args.instances.join(format!("{map}-{agents}-{seed}.scen")))
+                .map(|seed| instances.join(format!("{map}-{agents}-{seed}.scen")))
                 .collect();
             let set = load_instance_set(&files, None, Some(agents))
                 .with_context(|| format!("loading the {agents}-agent instances of {map}"))?;

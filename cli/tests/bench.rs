@@ -234,12 +234,17 @@ fn controllers_with_a_patience_parse_as_controllers() {
     let BenchCommand::Pogema(defaults) = bench_args(&["--instances", "set", "--out", "out"]) else {
         panic!("not the pogema benchmark")
     };
-    let labels: Vec<_> = defaults
-        .controllers
-        .iter()
-        .map(|c| c.label.as_str())
-        .collect();
+    let chosen = defaults.chosen_controllers().unwrap();
+    let labels: Vec<_> = chosen.iter().map(|c| c.label.as_str()).collect();
     assert_eq!(labels, ["lacam", "pibt", "lacam-star", "cbs"]);
+    let BenchCommand::Pogema(lifelong) =
+        bench_args(&["--lifelong", "--goals", "g", "--out", "out"])
+    else {
+        panic!("not the pogema benchmark")
+    };
+    let chosen = lifelong.chosen_controllers().unwrap();
+    let labels: Vec<_> = chosen.iter().map(|c| c.label.as_str()).collect();
+    assert_eq!(labels, ["lifelong-pibt"]);
 }
 
 /// Two maps with one instance each (seed 0, as POGEMA's mazes), and one
@@ -337,4 +342,117 @@ fn a_map_pattern_pools_every_matching_map_into_one_row_per_count() {
         format!("{err:#}").contains("no map matches 'hall-*'"),
         "{err:#}"
     );
+}
+
+/// `learner bench pogema --lifelong`: throughput on a folder of goal files
+/// (POGEMA's seed-0 warehouse tasks, served as seeds 0 and 1), kept cells
+/// reused, flags that do not fit refused.
+#[test]
+fn the_lifelong_benchmark_measures_throughput_on_goal_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let goals = dir.path().join("goals");
+    std::fs::create_dir_all(&goals).unwrap();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../eval/tests/data/lifelong");
+    std::fs::copy(data.join("warehouse.map"), goals.join("warehouse.map")).unwrap();
+    for seed in [0, 1] {
+        std::fs::copy(
+            data.join("warehouse-lifelong-0.goals"),
+            goals.join(format!("warehouse-lifelong-{seed}.goals")),
+        )
+        .unwrap();
+    }
+    let out = dir.path().join("out");
+    let flags = |extra: &[&str]| {
+        let mut f: Vec<String> = [
+            "--lifelong",
+            "--goals",
+            goals.to_str().unwrap(),
+            "--agents",
+            "32,64",
+            "--seeds",
+            "0..1",
+            "--steps",
+            "24",
+            "--jobs",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ]
+        .map(String::from)
+        .to_vec();
+        f.extend(extra.iter().map(|s| s.to_string()));
+        f
+    };
+    let run = |f: &[String]| match bench_args(f) {
+        BenchCommand::Pogema(args) => bench::run_lifelong(&args),
+        other => panic!("not the pogema benchmark: {other:?}"),
+    };
+    let both = flags(&[
+        "--delay",
+        "0.1",
+        "--controller",
+        "lifelong-pibt",
+        "--controller",
+        "lacam",
+    ]);
+    let rows = run(&both).unwrap();
+    // Two controllers and two published methods at two counts.
+    assert_eq!(rows.len(), 8);
+    let measured: Vec<_> = rows.iter().filter(|r| r.source == "measured").collect();
+    assert_eq!(measured.len(), 4);
+    for r in &measured {
+        assert_eq!(r.instances, 2, "{r:?}");
+        // The same tasks under seeded delays: both seeds' files are one.
+        assert!(r.throughput > 0.0, "{r:?}");
+    }
+    for file in ["instances.csv", "table.csv", "table.md", "throughput.png"] {
+        assert!(out.join(file).is_file(), "missing {file}");
+    }
+    let md = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(
+        md.contains("| agents | lifelong-pibt | lacam | Follower (published) | RHCR (published) |"),
+        "{md}"
+    );
+    // Run again: kept cells are read back.
+    let kept = out.join("lacam/agents-32.csv");
+    assert!(kept.is_file());
+    assert_eq!(run(&both).unwrap(), rows);
+    // The kept cells were run at delay 0.1: a run at delay 0 (and, without
+    // --controller, of lifelong-pibt) does not take them.
+    let err = format!("{:#}", run(&flags(&[])).unwrap_err());
+    assert!(
+        err.contains("lifelong-pibt/agents-32.csv: holds runs of 24 steps at delay 0.1"),
+        "{err}"
+    );
+    // Flags that do not fit.
+    let err = format!("{:#}", run(&flags(&["--delay", "1.5"])).unwrap_err());
+    assert!(err.contains("--delay must lie in [0, 1)"), "{err}");
+    let mut missing = flags(&[]);
+    let at = missing.iter().position(|f| f == "0..1").unwrap();
+    missing[at] = "0..2".into();
+    let err = format!("{:#}", run(&missing).unwrap_err());
+    assert!(err.contains("warehouse-lifelong-2.goals"), "{err}");
+    #[derive(Parser)]
+    struct Bench {
+        #[command(subcommand)]
+        command: BenchCommand,
+    }
+    for bad in [
+        vec!["bench", "pogema", "--lifelong", "--out", "x"],
+        vec!["bench", "pogema", "--goals", "g", "--out", "x"],
+        vec![
+            "bench",
+            "pogema",
+            "--lifelong",
+            "--goals",
+            "g",
+            "--instances",
+            "i",
+            "--out",
+            "x",
+        ],
+        vec!["bench", "pogema", "--out", "x"],
+    ] {
+        assert!(Bench::try_parse_from(&bad).is_err(), "{bad:?}");
+    }
 }

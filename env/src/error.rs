@@ -112,6 +112,30 @@ pub enum EnvError {
         /// Column of the shared cell.
         col: usize,
     },
+    /// A goal of an agent's sequence ([`crate::GridEnv::reset_with_sequences`])
+    /// lies on a wall or outside the grid.
+    #[error("agent {agent}: goal {index} of its sequence ({row}, {col}) is {problem}")]
+    BadSequenceGoal {
+        /// Agent index.
+        agent: usize,
+        /// 0-based index of the goal in the agent's sequence.
+        index: usize,
+        /// Row of the cell.
+        row: usize,
+        /// Column of the cell.
+        col: usize,
+        /// "a wall" or "outside the grid".
+        problem: &'static str,
+    },
+    /// An agent's goal sequence is empty.
+    #[error("agent {agent}: its goal sequence is empty (it needs at least one goal)")]
+    EmptySequence {
+        /// Agent index.
+        agent: usize,
+    },
+    /// Goal sequences were given to an env that is not in lifelong mode.
+    #[error("goal sequences need lifelong mode (lifelong = true): without it an agent keeps its first goal")]
+    SequencesNeedLifelong,
     /// A reported position more than one cell from the agent's last one
     /// ([`crate::GridEnv::report`]).
     #[error("agent {agent} moved from {from} to {to}: more than one cell in a step")]

@@ -509,11 +509,9 @@ impl GridEnv {
         let r = self.config().sensor_range;
         let side = 2 * r + 1;
         let centre = r * side + r;
-        let me = agent as u16 + 1;
-        let owner = raw.goal_owner[raw.pos[agent]];
-        let centre_code = if owner == me {
+        let centre_code = if raw.pos[agent] == raw.goal_pos[agent] {
             code::OWN_GOAL
-        } else if owner != 0 {
+        } else if raw.goals_here[raw.pos[agent]] != 0 {
             code::GOAL
         } else {
             code::EMPTY

@@ -10,6 +10,16 @@
 //! by the clock; the session plans again from the reported state when a
 //! robot is not where the plan put it (a robot lagged) or a goal changed.
 //!
+//! Goals are exclusive unless the session opens with
+//! [`FleetSession::open_with_shared_goals`] (POGEMA's lifelong tasks, where
+//! several robots may head for one cell). A one-shot planner cannot plan
+//! for two agents ending on one cell, so there each replan gives it
+//! distinct stand-in goals ([`planning_goals`]): of the robots sharing a
+//! goal the nearest keeps it, the others head for the nearest cells that
+//! are nobody's goal; when the first arrives and gets its next goal, the
+//! goals change and the session plans again with the others' real goals.
+//! The robots' own goals are never changed: arrivals are counted on them.
+//!
 //! ```
 //! use std::sync::Arc;
 //! use buridan_env::{EnvConfig, GridEnv, Map, Rules};
@@ -30,7 +40,8 @@
 
 use std::sync::Arc;
 
-use buridan_env::{Cell, EnvConfig, EnvError, GridEnv, Map, Rules};
+use buridan_env::map::UNREACHABLE;
+use buridan_env::{Cell, EnvConfig, EnvError, Grid, GridEnv, Map, Rules};
 use buridan_mapf::Limits;
 
 use crate::by_name::{Controller as ControllerSpec, ControllerNameError};
@@ -68,6 +79,10 @@ pub struct FleetSession {
     opened: bool,
     /// The last step answered with the controller's moves.
     answered: bool,
+    /// The goals of the last report (a planner's env may hold stand-ins).
+    goals: Vec<Cell>,
+    /// Whether robots may share goals ([`FleetSession::open_with_shared_goals`]).
+    shared_goals: bool,
 }
 
 impl FleetSession {
@@ -106,6 +121,50 @@ impl FleetSession {
         seed: u64,
         limits: Limits,
     ) -> Result<Self, FleetError> {
+        Self::open_inner(
+            map,
+            rules,
+            controller,
+            (positions, goals),
+            seed,
+            limits,
+            false,
+        )
+    }
+
+    /// [`FleetSession::open_within`] for robots whose goals may be shared
+    /// (several robots heading for one cell, as in POGEMA's lifelong
+    /// tasks): reports may name shared goals, and a planner plans for
+    /// distinct stand-ins (see the [module docs](self)).
+    pub fn open_with_shared_goals(
+        map: Arc<Map>,
+        rules: Rules,
+        controller: &ControllerSpec,
+        positions: &[Cell],
+        goals: &[Cell],
+        seed: u64,
+        limits: Limits,
+    ) -> Result<Self, FleetError> {
+        Self::open_inner(
+            map,
+            rules,
+            controller,
+            (positions, goals),
+            seed,
+            limits,
+            true,
+        )
+    }
+
+    fn open_inner(
+        map: Arc<Map>,
+        rules: Rules,
+        controller: &ControllerSpec,
+        (positions, goals): (&[Cell], &[Cell]),
+        seed: u64,
+        limits: Limits,
+        shared_goals: bool,
+    ) -> Result<Self, FleetError> {
         let agents = positions.len();
         let controller = controller.factory(agents, seed, limits, rules)?();
         let cfg = EnvConfig {
@@ -117,8 +176,7 @@ impl FleetSession {
             features: controller.obs_features(),
             ..EnvConfig::default()
         };
-        let mut env = GridEnv::new(map, cfg)?;
-        env.reset_with(0, positions, goals)?;
+        let env = GridEnv::new(map, cfg)?;
         let mut session = Self {
             env,
             controller,
@@ -129,7 +187,10 @@ impl FleetSession {
             planned: false,
             opened: true,
             answered: false,
+            goals: goals.to_vec(),
+            shared_goals,
         };
+        session.reset_env(0, positions, goals)?;
         // A planner that finds no plan yet leaves `planned` false: the
         // first step tries again and says so.
         session.begin().ok();
@@ -143,19 +204,20 @@ impl FleetSession {
     /// position) is refused and changes nothing.
     pub fn step(&mut self, positions: &[Cell], goals: &[Cell]) -> Result<&[u8], FleetError> {
         self.answered = false;
-        let goals_changed = goals != self.env.goals().as_slice();
+        let goals_changed = goals != self.goals.as_slice();
         let lagged = positions != self.expected.as_slice();
         // The first report of the state the session opened with is that
         // state, not a step after it (a refused report is no first report).
         if !self.opened || goals_changed || lagged {
             self.env.report(positions, goals, &mut self.rewards)?;
             self.controller.after_step(&self.rewards);
+            self.goals.clear();
+            self.goals.extend_from_slice(goals);
         }
         self.opened = false;
         if self.controller.follows_plan() && (goals_changed || lagged || !self.planned) {
             // Plan afresh from the reported state, on a clock of its own.
-            self.env
-                .reset_with(self.env.episode() + 1, positions, goals)?;
+            self.reset_env(self.env.episode() + 1, positions, goals)?;
             self.replans += 1;
             if let Err(e) = self.begin() {
                 self.moves.fill(0);
@@ -174,6 +236,27 @@ impl FleetSession {
             *expected = grid.neighbour(cell, action).unwrap_or(cell);
         }
         Ok(&self.moves)
+    }
+
+    /// Puts the session's env in the state of `positions` and `goals`
+    /// (episode `episode`): with shared goals allowed, a planner's env gets
+    /// distinct stand-ins ([`planning_goals`]).
+    fn reset_env(
+        &mut self,
+        episode: u64,
+        positions: &[Cell],
+        goals: &[Cell],
+    ) -> Result<(), EnvError> {
+        if !self.shared_goals {
+            return self.env.reset_with(episode, positions, goals);
+        }
+        if self.controller.follows_plan() {
+            let stand_ins = planning_goals(&self.env.map().grid, positions, goals);
+            self.env
+                .reset_with_shared_goals(episode, positions, &stand_ins)
+        } else {
+            self.env.reset_with_shared_goals(episode, positions, goals)
+        }
     }
 
     /// The controller's plan (or its state) for the env as it stands.
@@ -206,6 +289,50 @@ impl FleetSession {
     pub fn replans(&self) -> u64 {
         self.replans
     }
+}
+
+/// Distinct goals for a one-shot planner from goals robots may share: of
+/// the robots heading for one cell the nearest (by shortest path on the
+/// static grid; ties to the lower index) keeps it, every other one heads
+/// for the cell nearest that goal that is nobody's goal yet (ties to the
+/// lower cell index). Goals nobody shares are kept as they are.
+///
+/// ```
+/// use buridan_env::{Cell, Grid};
+/// use buridan_eval::fleet::planning_goals;
+/// let grid = Grid::from_rows(&["....."]).unwrap();
+/// let (pos, shared) = ([Cell::new(0, 0), Cell::new(0, 3)], Cell::new(0, 2));
+/// // Robot 1 is nearer: it keeps the goal; robot 0 stops next to it.
+/// assert_eq!(planning_goals(&grid, &pos, &[shared, shared]), [Cell::new(0, 1), shared]);
+/// ```
+pub fn planning_goals(grid: &Grid, positions: &[Cell], goals: &[Cell]) -> Vec<Cell> {
+    let mut out = goals.to_vec();
+    let mut taken: std::collections::HashSet<Cell> = goals.iter().copied().collect();
+    for (i, &goal) in goals.iter().enumerate() {
+        let sharing: Vec<usize> = (0..goals.len()).filter(|&j| goals[j] == goal).collect();
+        if sharing.len() < 2 {
+            continue;
+        }
+        let dist = grid.distances_to(goal);
+        let nearest = sharing
+            .iter()
+            .copied()
+            .min_by_key(|&j| (dist[grid.index(positions[j])], j));
+        if nearest == Some(i) {
+            continue;
+        }
+        let stand_in = grid
+            .free_cells()
+            .iter()
+            .copied()
+            .filter(|c| !taken.contains(c) && dist[grid.index(*c)] != UNREACHABLE)
+            .min_by_key(|&c| (dist[grid.index(c)], grid.index(c)));
+        if let Some(cell) = stand_in {
+            out[i] = cell;
+            taken.insert(cell);
+        }
+    }
+    out
 }
 
 /// Plays `robots` (an env standing in for the fleet: its moves may fail,

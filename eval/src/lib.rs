@@ -15,6 +15,13 @@
 //! - [`instances`]: instance sets, MovingAI `.scen` files as episodes.
 //! - [`benchmark`]: measured rows beside published ones on an instance
 //!   set (POGEMA's warehouse): the table and its charts.
+//! - [`fleet`]: closed-loop fleet sessions: any controller answers each
+//!   report of positions and goals; planners replan.
+//! - [`goal_sequences`]: goal files (`lifelong-goals v1`): starts and goal
+//!   sequences of a lifelong instance.
+//! - [`throughput`]: lifelong throughput of a controller on one goal file.
+//! - [`lifelong_bench`]: POGEMA's lifelong warehouse benchmark over a folder
+//!   of goal files, pooled per agent count beside published figures.
 //! - [`stats`]: quantiles and box-plot statistics.
 //! - [`output`]: CSV, JSON and PNG files of a report; the agent-count sweep.
 //! - [`plot`]: heatmaps, box plots and line charts as PNG.
@@ -25,8 +32,10 @@ pub mod benchmark;
 pub mod by_name;
 pub mod controller;
 pub mod fleet;
+pub mod goal_sequences;
 pub mod instances;
 pub mod lifelong;
+pub mod lifelong_bench;
 pub mod output;
 pub mod planner;
 pub mod plant;
@@ -39,6 +48,7 @@ pub mod runner;
 pub mod shield;
 pub mod stats;
 pub mod text_serde;
+pub mod throughput;
 
 pub use controller::{Controller, GiveUp, PlanNotes, RandomController};
 pub use runner::{

@@ -76,8 +76,8 @@ impl Controller for LifelongPibtController {
         };
         match pibt.actions(&env.positions(), &env.goals()) {
             Ok(moves) => actions.copy_from_slice(&moves),
-            // Positions or goals PIBT cannot take (two agents sharing a
-            // goal): every agent waits this step.
+            // Positions PIBT cannot take (two agents on one cell, an
+            // agent on a wall): every agent waits this step.
             Err(_) => actions.fill(0),
         }
     }

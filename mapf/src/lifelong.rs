@@ -32,7 +32,7 @@ use std::sync::Arc;
 use buridan_env::{Cell, EnvConfig, EnvError, EpisodeStats, Grid, GridEnv, Map};
 
 use crate::graph::{distance_table, Topology};
-use crate::limits::{check_instance, InstanceError};
+use crate::limits::{check_online, InstanceError};
 use crate::pibt::{online_step, Generator};
 use crate::replay::action_between;
 use crate::rules::ConflictModel;
@@ -81,8 +81,15 @@ impl LifelongPibt {
     /// Every agent's next cell. Agents whose goal changed get a fresh
     /// distance table and priority; the number of agents may not change
     /// between calls without a new goal for everyone.
+    ///
+    /// Positions must be pairwise distinct; goals may be shared (POGEMA's
+    /// lifelong tasks are not exclusive). Of two agents heading for one
+    /// cell, the first there stands on it until its own goal changes; the
+    /// other's priority grows while it waits, so it outranks the one on the
+    /// cell and pushes it off (priority inheritance) rather than waiting
+    /// forever, also when the one on the cell has nowhere to go.
     pub fn step(&mut self, positions: &[Cell], goals: &[Cell]) -> Result<Vec<Cell>, InstanceError> {
-        check_instance(&self.grid, positions, goals)?;
+        check_online(&self.grid, positions, goals)?;
         let n = positions.len();
         if self.goals.len() != n {
             self.goals = vec![u32::MAX; n];

@@ -181,6 +181,29 @@ pub(crate) fn check_instance(
     starts: &[Cell],
     goals: &[Cell],
 ) -> Result<(), InstanceError> {
+    check_cells(grid, starts, goals, true)
+}
+
+/// [`check_instance`] for the online solvers (lifelong PIBT, the shield),
+/// whose goals may be shared: in lifelong MAPF as POGEMA poses it, goals
+/// are not exclusive, and these solvers only steer by each agent's
+/// distances to its own goal. Positions stay pairwise distinct.
+pub(crate) fn check_online(
+    grid: &Grid,
+    positions: &[Cell],
+    goals: &[Cell],
+) -> Result<(), InstanceError> {
+    check_cells(grid, positions, goals, false)
+}
+
+/// Same lengths, no cell on a wall, starts pairwise distinct and goals
+/// too if `distinct_goals`.
+fn check_cells(
+    grid: &Grid,
+    starts: &[Cell],
+    goals: &[Cell],
+    distinct_goals: bool,
+) -> Result<(), InstanceError> {
     if starts.len() != goals.len() {
         return Err(InstanceError::LengthMismatch {
             starts: starts.len(),
@@ -195,6 +218,9 @@ pub(crate) fn check_instance(
         for (agent, &cell) in list.iter().enumerate() {
             if grid.is_wall(cell) {
                 return Err(InstanceError::BadCell { agent, which, cell });
+            }
+            if which == "goal" && !distinct_goals {
+                continue;
             }
             if let Some(first) = list[..agent].iter().position(|&c| c == cell) {
                 return Err(InstanceError::SharedCell {

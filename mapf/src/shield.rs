@@ -60,7 +60,7 @@ pub use preference::{preference_order, preference_orders, ActionOrder};
 use crate::dead_ends::DeadEnds;
 use crate::graph::{Topology, NONE};
 use crate::lanes::Lanes;
-use crate::limits::{check_instance, InstanceError};
+use crate::limits::{check_online, InstanceError};
 use crate::pibt::{online_step, Generator};
 use crate::rules::ConflictModel;
 
@@ -355,7 +355,7 @@ impl Shield {
         preferences: &[ActionOrder],
         actions: &mut [u8],
     ) -> Result<(), ShieldError> {
-        check_instance(&self.grid, positions, goals)?;
+        check_online(&self.grid, positions, goals)?;
         let n = positions.len();
         for (what, got) in [
             ("preferences", preferences.len()),

@@ -26,13 +26,14 @@ pub(super) struct Board {
     pub(super) blocked: Vec<u8>,
     /// Per padded cell: agent index + 1, or 0.
     pub(super) occupant: Vec<u16>,
-    /// Per padded cell: index + 1 of the agent whose goal it is, or 0.
-    pub(super) goal_owner: Vec<u16>,
+    /// Per padded cell: how many agents have it as their goal (more than
+    /// one only where goals may be shared, [`super::GridEnv::reset_with_sequences`]).
+    pub(super) goals_here: Vec<u16>,
     /// Per padded cell, the local code as any agent *not* involved sees it:
     /// 1 wall or outside, 2 agent, 4 goal, 0 empty (agent over goal). An
     /// observer's window is these codes with two fix-ups: its own cell and
     /// its own goal (see `obs.rs`). Kept in step with `occupant` and
-    /// `goal_owner` by the methods below.
+    /// `goals_here` by the methods below.
     pub(super) shared_code: Vec<u8>,
     /// Padded index offset of each action's move.
     pub(super) step_offsets: [isize; NUM_ACTIONS],
@@ -59,7 +60,7 @@ impl Board {
             shared_code: blocked.clone(),
             blocked,
             occupant: vec![NOBODY; cells],
-            goal_owner: vec![NOBODY; cells],
+            goals_here: vec![0; cells],
             step_offsets: [0, -pw, 1, pw, -1],
         }
     }
@@ -86,7 +87,7 @@ impl Board {
     #[inline(always)]
     pub(super) fn leave(&mut self, p: usize) {
         self.occupant[p] = NOBODY;
-        self.shared_code[p] = if self.goal_owner[p] != NOBODY {
+        self.shared_code[p] = if self.goals_here[p] != 0 {
             code::GOAL
         } else {
             code::EMPTY
@@ -105,7 +106,7 @@ impl Board {
     pub(super) fn move_agent(&mut self, agent: usize, from: usize, to: usize) {
         self.occupant[from] = NOBODY;
         self.occupant[to] = agent as u16 + 1;
-        self.shared_code[from] = if self.goal_owner[from] != NOBODY {
+        self.shared_code[from] = if self.goals_here[from] != 0 {
             code::GOAL
         } else {
             code::EMPTY
@@ -113,20 +114,20 @@ impl Board {
         self.shared_code[to] = code::AGENT;
     }
 
-    /// Takes agent `agent`'s goal off padded cell `old` and puts it on `new`
-    /// (nobody's goal until now).
-    pub(super) fn move_goal(&mut self, agent: usize, old: usize, new: usize) {
-        self.goal_owner[old] = NOBODY;
+    /// Takes one agent's goal off padded cell `old` and puts it on `new`.
+    pub(super) fn move_goal(&mut self, old: usize, new: usize) {
+        self.goals_here[old] = self.goals_here[old].saturating_sub(1);
         self.refresh_code(old);
-        self.goal_owner[new] = agent as u16 + 1;
+        self.goals_here[new] += 1;
         self.refresh_code(new);
     }
 
     /// Takes an agent standing on padded cell `pos` with its goal on `goal`
-    /// off the board, leaving the codes of both cells to be refreshed.
+    /// off the board, leaving the codes of both cells to be refreshed. A
+    /// reset takes every agent off, so `goal` is nobody's goal afterwards.
     pub(super) fn remove_agent(&mut self, pos: usize, goal: usize) {
         self.occupant[pos] = NOBODY;
-        self.goal_owner[goal] = NOBODY;
+        self.goals_here[goal] = 0;
         self.shared_code[pos] = self.blocked[pos];
         self.shared_code[goal] = self.blocked[goal];
     }
@@ -136,7 +137,7 @@ impl Board {
     /// placed).
     pub(super) fn place_agent(&mut self, agent: usize, pos: usize, goal: usize) {
         self.occupant[pos] = agent as u16 + 1;
-        self.goal_owner[goal] = agent as u16 + 1;
+        self.goals_here[goal] += 1;
     }
 
     /// Recomputes the shared code of padded cell `p` from the cell arrays.
@@ -145,7 +146,7 @@ impl Board {
             code::WALL
         } else if self.occupant[p] != NOBODY {
             code::AGENT
-        } else if self.goal_owner[p] != NOBODY {
+        } else if self.goals_here[p] != 0 {
             code::GOAL
         } else {
             code::EMPTY
@@ -211,8 +212,8 @@ mod tests {
         assert_eq!(b.shared_code[g], code::GOAL);
         b.enter(0, p);
         // The goal moves; the old cell is plain floor again.
-        b.move_goal(0, g, q);
-        assert_eq!((b.goal_owner[g], b.goal_owner[q]), (NOBODY, 1));
+        b.move_goal(g, q);
+        assert_eq!((b.goals_here[g], b.goals_here[q]), (0, 1));
         assert_eq!(
             (b.shared_code[g], b.shared_code[q]),
             (code::EMPTY, code::GOAL)
@@ -227,7 +228,7 @@ mod tests {
         b.move_agent(0, g, p);
         assert_eq!(b.shared_code[g], code::EMPTY);
         b.remove_agent(p, q);
-        assert_eq!((b.occupant[p], b.goal_owner[q]), (NOBODY, NOBODY));
+        assert_eq!((b.occupant[p], b.goals_here[q]), (NOBODY, 0));
         assert_eq!(
             (b.shared_code[p], b.shared_code[q]),
             (b.blocked[p], b.blocked[q])

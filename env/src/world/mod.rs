@@ -14,7 +14,9 @@
 //!
 //! In lifelong mode an agent that reaches its goal earns +0.5 and at once gets
 //! a new goal (drawn from the episode RNG, distinct from the other agents'
-//! goals); there is no termination bonus and no truncation penalty, and
+//! goals; or, after [`GridEnv::reset_with_sequences`], the next goal of its
+//! own sequence, which other agents' goals may share, as in POGEMA); there
+//! is no termination bonus and no truncation penalty, and
 //! throughput = goals reached per step.
 //!
 //! A step ([`GridEnv::step`]) validates its input, moves the agents, keeps
@@ -36,13 +38,14 @@ use crate::error::EnvError;
 use crate::map::{Cell, Map};
 use crate::rules::{resolve_simultaneous, Rules, SimultaneousScratch};
 
-use board::{Board, NOBODY};
+use board::Board;
 use shaping::ShapingObserver;
 use stall::StallWatch;
 use visits::VisitCounts;
 
 mod board;
 mod report;
+mod sequences;
 mod shaping;
 mod stall;
 mod view;
@@ -148,6 +151,15 @@ pub struct GridEnv {
     delayed_moves: u32,
     /// Whether each agent has stood on its goal in this episode.
     reached: Vec<bool>,
+    /// Whether goals may be shared (set by the resets that allow it).
+    shared_goals: bool,
+    /// Per agent, its goal sequence ([`GridEnv::reset_with_sequences`]);
+    /// empty when lifelong goals are drawn.
+    sequences: Vec<Vec<Cell>>,
+    /// Per agent, the index in its sequence of the goal it heads for.
+    sequence_index: Vec<usize>,
+    /// Per agent, whether it reached the last goal of its sequence.
+    exhausted: Vec<bool>,
     /// Steps each agent has been off its goal since it last stood on it
     /// (PIBT's priority, for the priority feature).
     off_goal: Vec<u32>,
@@ -197,6 +209,10 @@ impl GridEnv {
             executed: Vec::new(),
             delayed_moves: 0,
             reached: vec![false; n],
+            shared_goals: false,
+            sequences: Vec::new(),
+            sequence_index: vec![0; n],
+            exhausted: vec![false; n],
             off_goal: vec![0; n],
             arrival: vec![0; n],
             episode_reward: 0.0,
@@ -238,7 +254,15 @@ impl GridEnv {
         starts: &[Cell],
         goals: &[Cell],
     ) -> Result<(), EnvError> {
-        self.validate_instance(starts, goals)?;
+        self.validate_instance(starts, goals, false)?;
+        self.place(episode, starts, goals);
+        Ok(())
+    }
+
+    /// Puts the agents of a checked instance on the board and starts
+    /// episode `episode` (goals drawn in lifelong mode, not shared; the
+    /// resets that allow shared goals or take sequences set that after).
+    fn place(&mut self, episode: u64, starts: &[Cell], goals: &[Cell]) {
         let n = self.cfg.agents;
         for i in 0..n {
             self.board.remove_agent(self.pos[i], self.goal[i]);
@@ -258,6 +282,10 @@ impl GridEnv {
             self.board.refresh_code(self.goal[i]);
         }
         self.reached.fill(false);
+        self.shared_goals = false;
+        self.sequences.clear();
+        self.sequence_index.fill(0);
+        self.exhausted.fill(false);
         self.off_goal.fill(0);
         self.arrival.fill(0);
         self.t = 0;
@@ -277,20 +305,25 @@ impl GridEnv {
             |i| pos[i] == goal[i],
             |i, (r, c)| distance[i][r * width + c],
         );
-        Ok(())
     }
 
     /// Checks an episode's starts and goals for [`Self::reset_with`]: one
-    /// of each per agent, inside the grid, not on walls, pairwise distinct
-    /// (and, in lifelong mode, a free cell to spare for goal draws).
-    fn validate_instance(&self, starts: &[Cell], goals: &[Cell]) -> Result<(), EnvError> {
+    /// of each per agent, inside the grid, not on walls, starts pairwise
+    /// distinct, goals too unless `shared_goals` (and, in lifelong mode
+    /// with drawn goals, a free cell to spare for goal draws).
+    fn validate_instance(
+        &self,
+        starts: &[Cell],
+        goals: &[Cell],
+        shared_goals: bool,
+    ) -> Result<(), EnvError> {
         let n = self.cfg.agents;
         for (what, list) in [("starts", starts), ("goals", goals)] {
             EnvError::check_len(what, n, list.len())?;
         }
         let grid = &self.map.grid;
         // Lifelong goal draws need a free cell that is nobody's goal.
-        if self.cfg.lifelong && grid.free_cells().len() <= n {
+        if self.cfg.lifelong && !shared_goals && grid.free_cells().len() <= n {
             return Err(EnvError::TooFewFreeCells {
                 map: self.map.name.clone(),
                 free: grid.free_cells().len(),
@@ -298,30 +331,24 @@ impl GridEnv {
                 needed: n + 1,
             });
         }
-        self.check_cells("starts", "start", starts)?;
-        self.check_cells("goals", "goal", goals)
+        self.check_cells("starts", "start", starts, true)?;
+        self.check_cells("goals", "goal", goals, !shared_goals)
     }
 
     /// Checks one cell per agent (`what`, e.g. "starts"; `which` names one,
     /// "start"): as many as agents, inside the grid, not on walls,
-    /// pairwise distinct.
+    /// pairwise distinct if `distinct`.
     fn check_cells(
         &self,
         what: &'static str,
         which: &'static str,
         list: &[Cell],
+        distinct: bool,
     ) -> Result<(), EnvError> {
         EnvError::check_len(what, self.cfg.agents, list.len())?;
         let grid = &self.map.grid;
         for (i, &cell) in list.iter().enumerate() {
-            let problem = if !grid.contains(cell) {
-                Some("outside the grid")
-            } else if grid.is_wall(cell) {
-                Some("a wall")
-            } else {
-                None
-            };
-            if let Some(problem) = problem {
+            if let Some(problem) = cell_problem(grid, cell) {
                 return Err(EnvError::BadCell {
                     agent: i,
                     which,
@@ -329,6 +356,9 @@ impl GridEnv {
                     col: cell.col,
                     problem,
                 });
+            }
+            if !distinct {
+                continue;
             }
             if let Some(j) = list[..i].iter().position(|&c| c == cell) {
                 return Err(EnvError::SharedCell {
@@ -503,8 +533,12 @@ impl GridEnv {
             self.stall.set_at_goal(i, home);
             *off_goal = if home { 0 } else { *off_goal + 1 };
             if home {
+                if lifelong && self.exhausted[i] {
+                    // At the end of its sequence: nothing more to reach.
+                    continue;
+                }
                 if lifelong {
-                    // Its new goal is drawn below.
+                    // Its new goal is drawn (or taken from its sequence) below.
                     *reward += REWARD_GOAL;
                     self.goals_reached += 1;
                     self.stall.new_goal(i);
@@ -522,13 +556,14 @@ impl GridEnv {
         }
         if lifelong {
             // New goals for this step's arrivals, drawn in agent order (each
-            // draw avoids the goals of the agents drawn before it).
+            // draw avoids the goals of the agents drawn before it), or the
+            // next of each one's sequence.
             for i in 0..self.cfg.agents {
                 if arrivals == 0 {
                     break;
                 }
                 if self.stall.arrived()[i] {
-                    self.draw_new_goal(i);
+                    self.next_goal(i);
                     arrivals -= 1;
                 }
             }
@@ -583,14 +618,30 @@ impl GridEnv {
         let cell = loop {
             let cand = free[self.rng.random_range(0..free.len())];
             let p = self.board.padded(cand);
-            if self.board.goal_owner[p] == NOBODY {
+            if self.board.goals_here[p] == 0 {
                 break cand;
             }
         };
+        self.set_goal(agent, cell);
+    }
+
+    /// Makes `cell` agent `agent`'s goal.
+    fn set_goal(&mut self, agent: usize, cell: Cell) {
         let new = self.board.padded(cell);
-        self.board.move_goal(agent, self.goal[agent], new);
+        self.board.move_goal(self.goal[agent], new);
         self.goal[agent] = new;
         self.goal_cells[agent] = cell;
         self.goal_distance[agent] = self.map.grid.distances_to(cell);
+    }
+}
+
+/// Why `cell` cannot hold an agent or a goal of `grid`, if it cannot.
+fn cell_problem(grid: &crate::map::Grid, cell: Cell) -> Option<&'static str> {
+    if !grid.contains(cell) {
+        Some("outside the grid")
+    } else if grid.is_wall(cell) {
+        Some("a wall")
+    } else {
+        None
     }
 }

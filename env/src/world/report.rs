@@ -2,7 +2,6 @@
 //! agent stands and where it heads as the state after one step, whatever
 //! the agents were told to do.
 
-use super::board::NOBODY;
 use super::{GridEnv, REWARD_ALL_AT_GOAL, REWARD_GOAL};
 use crate::error::EnvError;
 use crate::map::Cell;
@@ -14,8 +13,10 @@ impl GridEnv {
     ///
     /// Each position must lie inside the grid, off the walls, apart from
     /// the others and at most one cell from the agent's last one; each
-    /// goal inside the grid, off the walls and apart from the others. A
-    /// goal may change at any step. Invalid input is refused before
+    /// goal inside the grid, off the walls and apart from the others (or,
+    /// after a reset that allows shared goals,
+    /// [`Self::reset_with_shared_goals`], anywhere off the walls). A goal
+    /// may change at any step. Invalid input is refused before
     /// anything changes.
     ///
     /// The step is accounted as [`Self::step`] accounts one: time advances,
@@ -50,8 +51,8 @@ impl GridEnv {
         goals: &[Cell],
         rewards: &mut [f32],
     ) -> Result<(), EnvError> {
-        self.check_cells("positions", "position", positions)?;
-        self.check_cells("goals", "goal", goals)?;
+        self.check_cells("positions", "position", positions, true)?;
+        self.check_cells("goals", "goal", goals, !self.shared_goals)?;
         EnvError::check_len("rewards", self.cfg.agents, rewards.len())?;
         if let Some(agent) =
             (0..positions.len()).find(|&i| positions[i].manhattan(self.cells[i]) > 1)
@@ -71,12 +72,13 @@ impl GridEnv {
             .map(|i| goals[i] != self.goal_cells[i] && positions[i] == self.goal_cells[i])
             .collect();
         for &i in &changed {
-            self.board.goal_owner[self.goal[i]] = NOBODY;
-            self.board.refresh_code(self.goal[i]);
+            let old = self.goal[i];
+            self.board.goals_here[old] = self.board.goals_here[old].saturating_sub(1);
+            self.board.refresh_code(old);
         }
         for &i in &changed {
             let p = self.board.padded(goals[i]);
-            self.board.goal_owner[p] = i as u16 + 1;
+            self.board.goals_here[p] += 1;
             self.board.refresh_code(p);
             self.goal[i] = p;
             self.goal_cells[i] = goals[i];

@@ -155,7 +155,7 @@ impl GridEnv {
     pub(crate) fn raw(&self) -> RawView<'_> {
         RawView {
             padded_width: self.board.padded_width,
-            goal_owner: &self.board.goal_owner,
+            goals_here: &self.board.goals_here,
             occupant: &self.board.occupant,
             shared_code: &self.board.shared_code,
             pos: &self.pos,
@@ -201,7 +201,7 @@ impl GridEnv {
 /// Borrowed internals for the observation encoders.
 pub(crate) struct RawView<'a> {
     pub padded_width: usize,
-    pub goal_owner: &'a [u16],
+    pub goals_here: &'a [u16],
     pub occupant: &'a [u16],
     pub shared_code: &'a [u8],
     pub pos: &'a [usize],
