@@ -221,7 +221,12 @@ fn build(
     k: u32,
 ) -> Result<(Fleet, Arc<Map>), Status> {
     let map = Arc::new(resolve_map(&open.map)?);
-    let session = FleetSession::open_within(
+    let opener = if open.shared_goals {
+        FleetSession::open_with_shared_goals
+    } else {
+        FleetSession::open_within
+    };
+    let session = opener(
         map.clone(),
         open.rules,
         spec,

@@ -152,9 +152,9 @@ def sequences(env, fields, steps=STEPS):
     return starts, result
 
 
-def goal_file(seed, starts, goals):
+def goal_file(seed, starts, goals, steps=STEPS):
     lines = [
-        f"lifelong-goals v1 map {MAP} agents {len(starts)} steps {STEPS}",
+        f"lifelong-goals v1 map {MAP} agents {len(starts)} steps {steps}",
         f"# pogema {pogema.__version__}, wfi_warehouse, on_target restart, seed {seed}; "
         "per agent: start, then its goals in order (row,col); "
         "regenerate: scripts/pogema/export_lifelong.py",
@@ -164,16 +164,17 @@ def goal_file(seed, starts, goals):
     return "\n".join(lines) + "\n"
 
 
-def regenerate(fields, seeds):
-    """Yields (seed, text) per seed; checks the N-agent draws are prefixes of the 192-agent ones."""
+def regenerate(fields, seeds, steps=STEPS):
+    """Yields (seed, text) per seed, goals for `steps` steps; checks the N-agent draws are
+    prefixes of the 192-agent ones."""
     for seed in seeds:
-        starts, goals = sequences(make_env(max(AGENTS), seed), fields)
+        starts, goals = sequences(make_env(max(AGENTS), seed), fields, steps)
         for n in AGENTS[:-1]:
-            s, g = sequences(make_env(n, seed), fields)
+            s, g = sequences(make_env(n, seed), fields, steps)
             if s != starts[:n] or g != goals[:n]:
                 raise RuntimeError(f"seed {seed}: the {n}-agent starts or goals are not the first "
                                    f"{n} of the {max(AGENTS)}-agent ones")
-        yield seed, goal_file(seed, starts, goals)
+        yield seed, goal_file(seed, starts, goals, steps)
 
 
 def step_towards(position, target, fields, obstacles):
@@ -234,6 +235,9 @@ def main():
                       help="step pogema envs and compare the goals they hand out with the sequences")
     parser.add_argument("--seeds", type=int, default=len(SEEDS),
                         help="first SEEDS seeds only (default all 128; --check default 3)")
+    parser.add_argument("--steps", type=int, default=STEPS,
+                        help=f"goals enough for this many steps (default {STEPS}, the benchmark's; "
+                             "longer runs, e.g. the fleet client's 10,000, need more)")
     args = parser.parse_args()
     if pogema.__version__ != "1.4.0":
         sys.exit(f"pogema {pogema.__version__} installed, 1.4.0 required")
@@ -249,7 +253,7 @@ def main():
         # The map beside the goal files (the one-shot instances' warehouse.map).
         (args.out / f"{MAP}.map").write_text(map_text(obstacles))
         lengths = []
-        for seed, text in regenerate(fields, range(args.seeds)):
+        for seed, text in regenerate(fields, range(args.seeds), args.steps):
             (args.out / f"warehouse-lifelong-{seed}.goals").write_text(text)
             lengths += [len(line.split()) - 1 for line in text.splitlines()[2:]]
         print(f"wrote {args.seeds} goal files to {args.out}; goals per agent "
