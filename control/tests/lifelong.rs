@@ -9,9 +9,9 @@ use std::sync::Arc;
 
 use buridan_control::{ControlServer, ServeConfig};
 use buridan_env::map::MapSource;
-use buridan_env::{EnvConfig, GridEnv, Map, Rules};
+use buridan_env::Map;
 use buridan_eval::goal_sequences::GoalFile;
-use buridan_eval::throughput::{run_goal_file, LifelongSpec};
+use buridan_eval::throughput::{lifelong_robots, run_goal_file, LifelongSpec};
 use buridan_proto::control_convert::{
     answer_from_message, open_to_message, report_to_message, FleetMapSource, FleetOpen,
 };
@@ -23,8 +23,8 @@ fn data() -> PathBuf {
 }
 
 /// Goals reached at each step when the service drives the robots of `file`
-/// for `spec.steps` steps, the robots played by the env `run_goal_file`
-/// plays them with (so delays fall alike); and the steps at which two
+/// for `spec.steps` steps, the robots those of `run_goal_file`
+/// ([`lifelong_robots`], so delays fall alike); and the steps at which two
 /// robots headed for one cell.
 async fn through_the_service(
     server: &ControlServer,
@@ -35,26 +35,14 @@ async fn through_the_service(
     spec: &LifelongSpec,
 ) -> (Vec<u32>, usize) {
     let mut client = FleetControlClient::connect(server.url()).await.unwrap();
-    let cfg = EnvConfig {
-        agents: file.agents(),
-        rules: Rules::Pogema,
-        lifelong: true,
-        t_max: spec.steps,
-        delay: spec.delay,
-        seed: spec.seed,
-        ..EnvConfig::default()
-    };
-    let mut robots = GridEnv::new(map.clone(), cfg).unwrap();
-    robots
-        .reset_with_sequences(spec.episode, &file.starts, &file.sequences)
-        .unwrap();
+    let mut robots = lifelong_robots(map, file, spec).unwrap();
     let open = FleetOpen {
         map: FleetMapSource::Text(MapSource {
             name: "warehouse".into(),
             map_text: map_text.into(),
             scen_text: None,
         }),
-        rules: Rules::Pogema,
+        rules: robots.config().rules,
         controller: controller.into(),
         positions: robots.positions(),
         goals: robots.goals(),

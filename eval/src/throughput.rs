@@ -146,6 +146,31 @@ pub enum ThroughputError {
     },
 }
 
+/// The robots of a lifelong run on `file`, as [`run_goal_file`] plays
+/// them: a lifelong env under pogema rules, reset with the file's starts
+/// and goal sequences, for `spec.steps` steps, each move failing with
+/// probability `spec.delay` from the env's seeded stream for
+/// `spec.episode`. Whoever drives these robots (a fleet service's client)
+/// sees the delays `run_goal_file` sees.
+pub fn lifelong_robots(
+    map: &Arc<Map>,
+    file: &GoalFile,
+    spec: &LifelongSpec,
+) -> Result<GridEnv, EnvError> {
+    let cfg = EnvConfig {
+        agents: file.agents(),
+        rules: Rules::Pogema,
+        lifelong: true,
+        t_max: spec.steps,
+        delay: spec.delay,
+        seed: spec.seed,
+        ..EnvConfig::default()
+    };
+    let mut robots = GridEnv::new(map.clone(), cfg)?;
+    robots.reset_with_sequences(spec.episode, &file.starts, &file.sequences)?;
+    Ok(robots)
+}
+
 /// Runs `controller` for `spec.steps` steps on the tasks of `file` (named
 /// `name` in errors) on `map` (see the [module docs](self)).
 pub fn run_goal_file(
@@ -172,23 +197,10 @@ pub fn run_goal_file(
     }
     let started = Instant::now();
     let agents = file.agents();
-    let rules = Rules::Pogema;
-    let cfg = EnvConfig {
-        agents,
-        rules,
-        lifelong: true,
-        t_max: spec.steps,
-        delay: spec.delay,
-        seed: spec.seed,
-        ..EnvConfig::default()
-    };
-    let mut robots = GridEnv::new(map.clone(), cfg).map_err(env_err)?;
-    robots
-        .reset_with_sequences(spec.episode, &file.starts, &file.sequences)
-        .map_err(env_err)?;
+    let mut robots = lifelong_robots(map, file, spec).map_err(env_err)?;
     let mut fleet = FleetSession::open_with_shared_goals(
         map.clone(),
-        rules,
+        robots.config().rules,
         controller,
         &robots.positions(),
         &robots.goals(),
