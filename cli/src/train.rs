@@ -366,6 +366,12 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
             g.solved, g.episodes, g.env_steps
         );
     }
+    if let Some(k) = summary.kept_check.filter(|k| k.update != summary.updates) {
+        eprintln!(
+            "  kept: the weights of update {} ({} of {} held-out episodes solved after {} env steps)",
+            k.update, k.solved, k.episodes, k.env_steps
+        );
+    }
     for t in &summary.time_to_target {
         let mark = |m: Option<buridan_learner::train::target::Mark>| {
             m.map_or("not reached".to_string(), |m| {

@@ -422,44 +422,67 @@ fn the_first_episodes_after_imitation_succeed_as_the_imitated_policy_does() {
     assert!(summary.env_steps < cfg.run.steps, "{summary:?}");
 }
 
+/// The rows of a run's `greedy.csv`.
+fn greedy_records(dir: &std::path::Path) -> Vec<buridan_learner::train::stop::GreedyRecord> {
+    csv::Reader::from_path(dir.join(buridan_learner::train::GREEDY_FILE))
+        .unwrap()
+        .deserialize()
+        .collect::<Result<_, _>>()
+        .unwrap()
+}
+
+/// [`imitating_rm_1_1`] for 20k env steps that only a greedy check of 8
+/// episodes, every 4,000 env steps, can stop (its training rule needs a
+/// stretch longer than the budget).
+fn imitating_rm_1_1_to_a_greedy_stop(keep_best: bool) -> TrainConfig {
+    use buridan_learner::train::stop::GreedyCheck;
+    buridan_policy::threads::pin_threads(1);
+    let mut cfg = imitating_rm_1_1();
+    cfg.run.steps = 20_000;
+    cfg.run.stop = Some(buridan_learner::train::StopRule {
+        success: 1.0,
+        hold: 1_000_000,
+        greedy: Some(GreedyCheck {
+            success: 1.0,
+            episodes: 8,
+            every: 4_000,
+            keep_best,
+        }),
+    });
+    cfg
+}
+
+/// Trains `cfg`, which the greedy check after its first update stops;
+/// the summary and the rows of `greedy.csv`.
+fn stopped_by_the_first_update_s_check(
+    cfg: &TrainConfig,
+) -> (
+    buridan_learner::train::Summary,
+    Vec<buridan_learner::train::stop::GreedyRecord>,
+) {
+    let dir = tempfile::tempdir().unwrap();
+    let summary = train(cfg, dir.path(), &mut Record::default()).unwrap();
+    assert_eq!(
+        summary.stop_reason,
+        buridan_learner::train::StopReason::Greedy,
+        "{summary:?}"
+    );
+    assert_eq!(summary.updates, 1, "stopped after the first update");
+    (summary, greedy_records(dir.path()))
+}
+
 /// `[stop.greedy]`: once the greedy policy solves the held-out episodes the
 /// run stops, says why, and books every check in `greedy.csv`; a level no
 /// policy reaches (a stretch longer than the budget for the training rule)
 /// leaves the run to its budget, one check per `every` env steps.
 #[test]
 fn a_greedy_check_on_held_out_episodes_stops_a_run_that_has_learned() {
-    use buridan_learner::train::stop::{GreedyCheck, GreedyRecord};
-    use buridan_learner::train::{StopReason, StopRule, GREEDY_FILE};
-    buridan_policy::threads::pin_threads(1);
-    let mut cfg = imitating_rm_1_1();
-    cfg.run.steps = 20_000;
-    let check = GreedyCheck {
-        success: 1.0,
-        episodes: 8,
-        every: 4_000,
-    };
-    // The training rule cannot fire: only the greedy check can stop it.
-    let rule = |greedy| StopRule {
-        success: 1.0,
-        hold: 1_000_000,
-        greedy: Some(greedy),
-    };
-    let records = |dir: &std::path::Path| -> Vec<GreedyRecord> {
-        csv::Reader::from_path(dir.join(GREEDY_FILE))
-            .unwrap()
-            .deserialize()
-            .collect::<Result<_, _>>()
-            .unwrap()
-    };
+    use buridan_learner::train::StopReason;
+    let mut cfg = imitating_rm_1_1_to_a_greedy_stop(false);
 
     // The imitated policy solves rm-1.1 (fixed starts) greedily: the first
     // check, right after the first update, stops the run.
-    let dir = tempfile::tempdir().unwrap();
-    cfg.run.stop = Some(rule(check));
-    let summary = train(&cfg, dir.path(), &mut Record::default()).unwrap();
-    assert_eq!(summary.stop_reason, StopReason::Greedy, "{summary:?}");
-    assert_eq!(summary.updates, 1, "stopped after the first update");
-    let rows = records(dir.path());
+    let (summary, rows) = stopped_by_the_first_update_s_check(&cfg);
     assert_eq!(rows.len(), 1, "{rows:?}");
     assert_eq!(
         (rows[0].update, rows[0].episodes, rows[0].solved),
@@ -478,7 +501,7 @@ fn a_greedy_check_on_held_out_episodes_stops_a_run_that_has_learned() {
     cfg.run.steps = 9_000;
     let summary = train(&cfg, dir.path(), &mut Record::default()).unwrap();
     assert_eq!(summary.stop_reason, StopReason::Budget, "{summary:?}");
-    let rows = records(dir.path());
+    let rows = greedy_records(dir.path());
     assert_eq!(rows[0].update, 1, "{rows:?}");
     assert!(rows.len() >= 2, "{rows:?}");
     for pair in rows.windows(2) {
@@ -486,6 +509,88 @@ fn a_greedy_check_on_held_out_episodes_stops_a_run_that_has_learned() {
         assert!((4_000..5_000).contains(&gap), "{rows:?}");
     }
     assert!(rows.iter().all(|r| r.solved < r.episodes), "{rows:?}");
+}
+
+/// `[stop.greedy] keep_best`: the weights the RL phase starts from are
+/// checked before the first update (the imitated policy already solves
+/// rm-1.1; the check after the first update ends the run); without a pass
+/// the last update's weights are checked at the end and the final
+/// checkpoint holds the best check's weights, the later on a tie.
+#[test]
+fn keep_best_checks_the_imitated_weights_first_and_keeps_the_best_check() {
+    use buridan_learner::train::StopReason;
+    let mut cfg = imitating_rm_1_1_to_a_greedy_stop(true);
+
+    let (summary, rows) = stopped_by_the_first_update_s_check(&cfg);
+    let seen: Vec<_> = rows.iter().map(|r| (r.update, r.solved)).collect();
+    assert_eq!(
+        seen,
+        [(0, 8), (1, 8)],
+        "the imitated weights, then update 1's"
+    );
+    assert_eq!(summary.kept_check, Some(rows[1]), "the later on a tie");
+
+    // Without imitation nothing passes: a check before the first update,
+    // one every 4,000 env steps, one after the last update; the kept one
+    // solved the most, the latest of those.
+    let dir = tempfile::tempdir().unwrap();
+    cfg.imitation = None;
+    cfg.run.steps = 9_000;
+    let summary = train(&cfg, dir.path(), &mut Record::default()).unwrap();
+    assert_eq!(summary.stop_reason, StopReason::Budget, "{summary:?}");
+    let rows = greedy_records(dir.path());
+    assert_eq!(rows[0].update, 0, "{rows:?}");
+    assert_eq!(rows.last().unwrap().update, summary.updates, "{rows:?}");
+    let most = rows.iter().map(|r| r.solved).max().unwrap();
+    let best = rows.iter().rev().find(|r| r.solved == most).copied();
+    assert_eq!(summary.kept_check, best, "{rows:?}");
+}
+
+/// A probe with `keep_best` puts back the weights of its best check: a
+/// policy that solves the held-out episodes, then a fresh one in its place
+/// that does not, and the first one's weights return.
+#[test]
+fn a_probe_restores_the_weights_of_its_best_check() {
+    use buridan_env::Map;
+    use buridan_learner::train::stop::{GreedyCheck, GreedyProbe};
+    use buridan_learner::train::target::Mark;
+    use buridan_policy::Policy;
+    buridan_policy::threads::pin_threads(1);
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = imitating_rm_1_1();
+    cfg.run.steps = 0;
+    train(&cfg, &dir.path().join("im"), &mut Record::default()).unwrap();
+    let imitated = Policy::load(&dir.path().join("im/checkpoints/final")).unwrap();
+    let policy = Policy::new(imitated.spec().clone(), 7).unwrap();
+    policy.copy_from(&imitated).unwrap();
+    let fresh = Policy::new(imitated.spec().clone(), 7).unwrap();
+
+    let check = GreedyCheck {
+        success: 1.0,
+        episodes: 8,
+        every: 1,
+        keep_best: true,
+    };
+    let mut probe = GreedyProbe::new(check, dir.path()).unwrap();
+    let map = std::sync::Arc::new(Map::load("rm-1.1").unwrap());
+    let env = buridan_learner::train::env_config(&cfg, 0);
+    let at = |update: u64| Mark {
+        update,
+        env_steps: 1_000 * update,
+        wall_seconds: update as f64,
+    };
+    assert!(probe
+        .run(&policy, map.clone(), env.clone(), 0, at(0))
+        .unwrap());
+    policy.copy_from(&fresh).unwrap();
+    assert!(!probe.run(&policy, map, env, 0, at(1)).unwrap());
+    let kept = probe.restore_best(&policy).unwrap().unwrap();
+    assert_eq!((kept.update, kept.solved), (0, 8));
+    assert_eq!(
+        policy.weights(0).unwrap(),
+        imitated.weights(0).unwrap(),
+        "the imitated weights are back"
+    );
 }
 
 #[test]

@@ -147,11 +147,17 @@ fn a_method_without_a_config_trains_the_default_recipe() {
         })
         .unwrap();
     assert!(cell.config.is_some());
-    // It trains the recipe for its whole budget: everything but `[stop]`.
+    // It trains the recipe for its whole budget: everything but `[stop]`
+    // and the update's threads (one per run then; the run's share of the
+    // cores now, which is one for each of a study's two runs at a time).
     assert!(cfg.run.stop.is_some());
     let mut whole_budget = cfg;
     whole_budget.run.stop = None;
-    assert_eq!(cell.config_in(Path::new("out")).unwrap(), whole_budget);
+    let mut shipped = cell.config_in(Path::new("out")).unwrap();
+    let ppo = shipped.algorithm.ppo_mut().unwrap();
+    assert_eq!(ppo.update_threads, 1);
+    ppo.update_threads = 0;
+    assert_eq!(shipped, whole_budget);
 }
 
 #[test]

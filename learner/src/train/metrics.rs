@@ -383,6 +383,10 @@ pub struct Summary {
     /// The last `[stop.greedy]` check, if the run made any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub greedy_check: Option<super::stop::GreedyRecord>,
+    /// With `[stop.greedy] keep_best`: the check whose weights the final
+    /// checkpoint holds (before any `[polish]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kept_check: Option<super::stop::GreedyRecord>,
     /// Directory of the final checkpoint.
     pub final_checkpoint: PathBuf,
 }

@@ -185,6 +185,18 @@ pub struct Run {
     greedy: Option<stop::GreedyProbe>,
 }
 
+/// When [`Run::greedy_check`] plays a `[stop.greedy]` check.
+#[derive(Debug, Clone, Copy)]
+enum Check {
+    /// When one is due (every `every` env steps).
+    IfDue,
+    /// Now, on the weights the run starts from: the next check still
+    /// follows the first update.
+    First,
+    /// Now.
+    Now,
+}
+
 impl Run {
     /// Validates `cfg`, creates `out`, builds (or restores) the policy and
     /// the optimiser.
@@ -415,6 +427,7 @@ impl Run {
         let finished = exchange.finish(result.is_ok());
         let reason = result?;
         finished?;
+        let kept = self.keep_best()?;
         if let Some(polish) = &self.cfg.polish {
             imitate(
                 &self.cfg,
@@ -429,7 +442,10 @@ impl Run {
         self.save_checkpoint(&final_dir)?;
         progress.on_checkpoint(&final_dir);
         tracing::info!(reason = %reason, env_steps = self.state.env_steps, "training stopped");
-        let summary = self.summary(final_dir, reason);
+        let summary = Summary {
+            kept_check: kept,
+            ..self.summary(final_dir, reason)
+        };
         let json = serde_json::to_value(&summary).unwrap_or(serde_json::Value::Null);
         let json = serde_json::to_string_pretty(&json).expect("summary serialises");
         write_file(&self.out.join(SUMMARY_FILE), &json)?;
@@ -455,6 +471,12 @@ impl Run {
         progress.on_start(&self.cfg, self.cfg.run.steps, self.state.env_steps);
         let mut since = (self.wall_offset, self.state.env_steps);
         let _learning = cores::Learning::start();
+        let keeps_best = self.greedy.as_ref().is_some_and(|g| g.keeps_best());
+        if keeps_best && self.state.env_steps < self.cfg.run.steps {
+            // A candidate to keep, not a stop: a run reports at least one
+            // train batch of its own episodes.
+            self.greedy_check(Check::First)?;
+        }
         self.publish(exchange)?;
         while self.state.env_steps < self.cfg.run.steps {
             let Some(batch) = self.gather_batch(exchange)? else {
@@ -488,7 +510,7 @@ impl Run {
             if learned {
                 return Ok(StopReason::Learned);
             }
-            if self.greedy_check()? {
+            if self.greedy_check(Check::IfDue)? {
                 return Ok(StopReason::Greedy);
             }
         }
@@ -627,9 +649,10 @@ impl Run {
         (row, learned)
     }
 
-    /// `[stop.greedy]`, when a check is due: whether the greedy policy
-    /// now solves its share of held-out episodes of the run's map.
-    fn greedy_check(&mut self) -> Result<bool, TrainError> {
+    /// `[stop.greedy]`, when a check is due (or whenever `when` says):
+    /// whether the greedy policy now solves its share of held-out episodes
+    /// of the run's map.
+    fn greedy_check(&mut self, when: Check) -> Result<bool, TrainError> {
         let at = target::Mark {
             update: self.state.updates,
             env_steps: self.state.env_steps,
@@ -638,11 +661,43 @@ impl Run {
         let (Some(probe), Some((map, _))) = (self.greedy.as_mut(), self.layouts.first()) else {
             return Ok(false);
         };
-        if !probe.due(at.env_steps) {
-            return Ok(false);
-        }
         let env = env_config(&self.cfg, self.cfg.run.seed);
-        probe.run(&self.policy, map.clone(), env, self.cfg.run.seed, at)
+        let seed = self.cfg.run.seed;
+        match when {
+            Check::IfDue if !probe.due(at.env_steps) => Ok(false),
+            Check::IfDue | Check::Now => probe.run(&self.policy, map.clone(), env, seed, at),
+            Check::First => probe.run_first(&self.policy, map.clone(), env, seed, at),
+        }
+    }
+
+    /// `[stop.greedy] keep_best`: checks the last update's weights if no
+    /// check has yet, then puts the best checked weights into the policy;
+    /// returns the check they passed (`None` without `keep_best`).
+    fn keep_best(&mut self) -> Result<Option<stop::GreedyRecord>, TrainError> {
+        let updates = self.state.updates;
+        match &self.greedy {
+            Some(probe) if probe.keeps_best() => {
+                if !probe.checked(updates) {
+                    self.greedy_check(Check::Now)?;
+                }
+            }
+            _ => return Ok(None),
+        }
+        let probe = self.greedy.as_ref().expect("checked above");
+        let kept = probe.restore_best(&self.policy)?;
+        if let Some(k) = kept.filter(|k| k.update != updates) {
+            tracing::info!(
+                update = k.update,
+                env_steps = k.env_steps,
+                solved = k.solved,
+                episodes = k.episodes,
+                "keeping the weights of update {} ({} of {} held-out episodes solved), not the last update's",
+                k.update,
+                k.solved,
+                k.episodes
+            );
+        }
+        Ok(kept)
     }
 
     /// Whether the `stop_return` (and `stop_len`) goal holds over a full window.
@@ -695,6 +750,7 @@ impl Run {
             stop_reason: reason,
             time_to_target: state.time_to_target.clone(),
             greedy_check: self.greedy.as_ref().and_then(|g| g.last()),
+            kept_check: None,
             final_checkpoint,
         }
     }

@@ -16,13 +16,23 @@
 //! from the training envs' and the seed-42 evaluation's) and stops once
 //! their success reaches its level. Each check draws new episodes, so a
 //! policy that passed once by luck is as likely to be caught as any other.
+//!
+//! With `keep_best = true` the checks also choose what the run keeps: the
+//! weights the run starts from (after imitation, before the first update)
+//! are checked first (a candidate, not a stop: the run trains at least one
+//! batch, so it reports episodes of its own), the weights after its last
+//! update are checked when
+//! it ends, and the final checkpoint holds the checked weights that solved
+//! the most held-out episodes (the later on a tie). Whatever the updates in
+//! between did, the run then ends no worse on its held-out check than
+//! where it started — PPO cannot unlearn what imitation taught.
 
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
 use buridan_env::{seed, EnvConfig, Map};
-use buridan_policy::{ActMode, Policy};
+use buridan_policy::{ActMode, Policy, Weights};
 use serde::{Deserialize, Serialize};
 
 use super::metrics::CsvLog;
@@ -42,7 +52,8 @@ use super::{rollout, TrainError};
 ///     "success = 0.99\nhold = 200000\n[greedy]\nsuccess = 0.99\nepisodes = 200\nevery = 20000",
 /// )
 /// .unwrap();
-/// assert_eq!(rule.greedy.map(|g| (g.success, g.episodes, g.every)), Some((0.99, 200, 20_000)));
+/// let g = rule.greedy.unwrap();
+/// assert_eq!((g.success, g.episodes, g.every, g.keep_best), (0.99, 200, 20_000, false));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -84,11 +95,12 @@ fn check_level(success: f64, err: &'static str) -> Result<(), &'static str> {
 
 /// A greedy evaluation on held-out episodes between updates, TOML
 /// `[stop.greedy]`: the run stops once the share of `episodes` episodes
-/// the greedy policy solves reaches `success`.
+/// the greedy policy solves reaches `success`; with `keep_best` its final
+/// checkpoint holds the checked weights that solved the most.
 ///
 /// ```
 /// use buridan_learner::train::stop::GreedyCheck;
-/// let check = GreedyCheck { success: 0.99, episodes: 200, every: 20_000 };
+/// let check = GreedyCheck { success: 0.99, episodes: 200, every: 20_000, keep_best: true };
 /// check.validate().unwrap();
 /// assert!(check.passes(198, 200) && !check.passes(197, 200));
 /// assert!(GreedyCheck { episodes: 0, ..check }.validate().is_err());
@@ -100,8 +112,14 @@ pub struct GreedyCheck {
     pub success: f64,
     /// Held-out episodes per check (all played at once, one env each).
     pub episodes: usize,
-    /// Env steps between checks; the first follows the first update.
+    /// Env steps between checks; the first follows the first update
+    /// (with `keep_best`, precedes it).
     pub every: u64,
+    /// Keep the checked weights that solved the most held-out episodes
+    /// (the later on a tie) as the final checkpoint, the run's starting
+    /// weights and its last among them. Off by default; the recipe's.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub keep_best: bool,
 }
 
 impl GreedyCheck {
@@ -135,6 +153,8 @@ pub struct GreedyProbe {
     next: u64,
     done: u64,
     last: Option<GreedyRecord>,
+    /// With `keep_best`: the best check so far and the weights it played.
+    best: Option<(GreedyRecord, Weights)>,
     log: CsvLog,
 }
 
@@ -147,6 +167,7 @@ impl GreedyProbe {
             next: 0,
             done: 0,
             last: None,
+            best: None,
             log: CsvLog::append(&out.join(GREEDY_FILE))?,
         })
     }
@@ -159,6 +180,46 @@ impl GreedyProbe {
     /// Whether a check is due after `env_steps` env steps.
     pub fn due(&self, env_steps: u64) -> bool {
         env_steps >= self.next
+    }
+
+    /// Whether the checks choose the weights the run keeps (`keep_best`).
+    pub fn keeps_best(&self) -> bool {
+        self.check.keep_best
+    }
+
+    /// Whether the latest check played the weights of update `update`.
+    pub fn checked(&self, update: u64) -> bool {
+        self.last.is_some_and(|r| r.update == update)
+    }
+
+    /// With `keep_best`: puts the best check's weights into `policy` and
+    /// returns that check (`None` without `keep_best` or before any check;
+    /// `policy` is then left as it is).
+    pub fn restore_best(&self, policy: &Policy) -> Result<Option<GreedyRecord>, TrainError> {
+        let Some((record, weights)) = &self.best else {
+            return Ok(None);
+        };
+        if self.last != Some(*record) {
+            policy.set_weights(weights)?;
+        }
+        Ok(Some(*record))
+    }
+
+    /// [`GreedyProbe::run`] on the weights a run starts from (`keep_best`):
+    /// a candidate to keep, and the next check still follows the first
+    /// update.
+    pub fn run_first(
+        &mut self,
+        policy: &Policy,
+        map: Arc<Map>,
+        env: EnvConfig,
+        run_seed: u64,
+        at: Mark,
+    ) -> Result<bool, TrainError> {
+        let next = self.next;
+        let passed = self.run(policy, map, env, run_seed, at)?;
+        self.next = next;
+        Ok(passed)
     }
 
     /// Plays the check at `at`: `episodes` episodes of `map` under `env`'s
@@ -199,6 +260,9 @@ impl GreedyProbe {
         );
         self.log.write(&record)?;
         self.last = Some(record);
+        if self.check.keep_best && self.best.as_ref().is_none_or(|(b, _)| solved >= b.solved) {
+            self.best = Some((record, policy.weights(at.update)?));
+        }
         Ok(self.check.passes(solved, n))
     }
 }

@@ -165,11 +165,14 @@ impl TrainConfig {
     /// steps labelled by LaCAM, then OD-A\*, 10 ms per call), then PPO with
     /// the comparison settings (lr 1e-3, 12 epochs, clip 0.05, entropy
     /// 0.001, batch = minibatch = 4000), the path and intent features and
-    /// potential-based shaping 0.05; one update thread, so two runs share
-    /// two cores. PPO runs until the greedy policy solves 99 % of 200
-    /// held-out episodes (checked every 20k env steps, `[stop.greedy]`) or
-    /// the training success has stayed at 99 % or more for 200k env steps
-    /// (`[stop]`), at most 1M env steps.
+    /// potential-based shaping 0.05; the update on the run's share of the
+    /// cores (all of them alone, one each for two runs of a study:
+    /// [`crate::train::cores`]). PPO runs until the greedy policy solves
+    /// 99 % of 200 held-out episodes (checked every 20k env steps,
+    /// `[stop.greedy]`) or the training success has stayed at 99 % or more
+    /// for 200k env steps (`[stop]`), at most 1M env steps, and keeps the
+    /// checked weights that solved the most held-out episodes, the imitated
+    /// ones among them (`keep_best`).
     ///
     /// Chosen by measurement: the book's recipe chapter and
     /// `docs/results/recipe-lstm-imitation*/RESULTS.md` give its figures per
@@ -186,14 +189,13 @@ impl TrainConfig {
     /// assert_eq!(r.run.stop.map(|s| (s.success, s.hold)), Some((0.99, 200_000)));
     /// let greedy = r.run.stop.and_then(|s| s.greedy).unwrap();
     /// assert_eq!((greedy.success, greedy.episodes, greedy.every), (0.99, 200, 20_000));
+    /// assert!(greedy.keep_best);
+    /// assert_eq!(r.algorithm.ppo().unwrap().update_threads, 0, "the run's share of the cores");
     /// r.validate().unwrap();
     /// ```
     pub fn recipe() -> Self {
         Self {
-            algorithm: Algorithm::Ppo(PpoConfig {
-                update_threads: 1,
-                ..PpoConfig::default()
-            }),
+            algorithm: Algorithm::Ppo(PpoConfig::default()),
             features: ObsFeatures {
                 path: true,
                 intent: true,
@@ -209,6 +211,7 @@ impl TrainConfig {
                         success: 0.99,
                         episodes: 200,
                         every: 20_000,
+                        keep_best: true,
                     }),
                 }),
                 ..RunConfig::default()
