@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # The default recipe on the simplest conflict: rm-1.1, fixed starts,
 # 2 agents, 200k env steps, embedded (learner train) or distributed
-# (learner serve + one actor --connect). One line per run.
+# (learner serve + one actor --connect). One line per run: the training
+# return and success of the last 100 episodes (summary.json), then the mean
+# return of the run's final checkpoint over 100 seed-42 episodes, greedy and
+# sampled (learner eval).
 # usage: scripts/recipe-rm-1.1.sh embedded|served SEED OUTROOT
 # (build first: cargo build --release -p buridan-cli --bins
 #  && cargo build --release -p buridan-actor --features cli --bin actor)
@@ -25,13 +28,20 @@ else
   wait $learner
 fi
 end=$(date +%s.%N)
+for how in greedy sampled; do
+  flag=(); [ "$how" = sampled ] && flag=(--sample)
+  "$L" eval --map rm-1.1 --agents 2 --starts fixed --episodes 100 --seed 42 \
+    --controller "checkpoint:$out" "${flag[@]}" --out "$out/eval-$how" > "$out.eval-$how.log" 2>&1
+done
 python3 - "$out" "$mode" "$seed" "$start" "$end" <<'PY'
 import json, sys
 out, mode, seed, s, e = sys.argv[1:]
 try:
     j = json.load(open(out + "/summary.json"))
+    ev = {h: json.load(open(f"{out}/eval-{h}/summary.json"))["reward_mean"] for h in ("greedy", "sampled")}
     print(f"{mode} seed {seed}: return {j['episode_return_mean']:.3f} success {j['success_rate']:.2f} "
-          f"steps {j['env_steps']} wall {float(e) - float(s):.0f} s stop {j.get('stop_reason')}")
+          f"steps {j['env_steps']} wall {float(e) - float(s):.0f} s stop {j.get('stop_reason')}; "
+          f"final checkpoint return greedy {ev['greedy']:.3f} sampled {ev['sampled']:.3f}")
 except Exception as ex:
     print(f"{mode} seed {seed}: no summary ({ex})")
 PY

@@ -515,7 +515,7 @@ fn a_greedy_check_on_held_out_episodes_stops_a_run_that_has_learned() {
 /// checked before the first update (the imitated policy already solves
 /// rm-1.1; the check after the first update ends the run); without a pass
 /// the last update's weights are checked at the end and the final
-/// checkpoint holds the best check's weights, the later on a tie.
+/// checkpoint holds the best check's weights, the earlier on a tie.
 #[test]
 fn keep_best_checks_the_imitated_weights_first_and_keeps_the_best_check() {
     use buridan_learner::train::StopReason;
@@ -528,11 +528,11 @@ fn keep_best_checks_the_imitated_weights_first_and_keeps_the_best_check() {
         [(0, 8), (1, 8)],
         "the imitated weights, then update 1's"
     );
-    assert_eq!(summary.kept_check, Some(rows[1]), "the later on a tie");
+    assert_eq!(summary.kept_check, Some(rows[0]), "the earlier on a tie");
 
     // Without imitation nothing passes: a check before the first update,
     // one every 4,000 env steps, one after the last update; the kept one
-    // solved the most, the latest of those.
+    // solved the most, the earliest of those.
     let dir = tempfile::tempdir().unwrap();
     cfg.imitation = None;
     cfg.run.steps = 9_000;
@@ -542,7 +542,7 @@ fn keep_best_checks_the_imitated_weights_first_and_keeps_the_best_check() {
     assert_eq!(rows[0].update, 0, "{rows:?}");
     assert_eq!(rows.last().unwrap().update, summary.updates, "{rows:?}");
     let most = rows.iter().map(|r| r.solved).max().unwrap();
-    let best = rows.iter().rev().find(|r| r.solved == most).copied();
+    let best = rows.iter().find(|r| r.solved == most).copied();
     assert_eq!(summary.kept_check, best, "{rows:?}");
 }
 

@@ -23,7 +23,9 @@
 //! batch, so it reports episodes of its own), the weights after its last
 //! update are checked when
 //! it ends, and the final checkpoint holds the checked weights that solved
-//! the most held-out episodes (the later on a tie). Whatever the updates in
+//! the most held-out episodes (the earlier on a tie: the first PPO updates
+//! can blur what sampling does while the greedy policy still solves as
+//! many). Whatever the updates in
 //! between did, the run then ends no worse on its held-out check than
 //! where it started — PPO cannot unlearn what imitation taught.
 
@@ -116,7 +118,7 @@ pub struct GreedyCheck {
     /// (with `keep_best`, precedes it).
     pub every: u64,
     /// Keep the checked weights that solved the most held-out episodes
-    /// (the later on a tie) as the final checkpoint, the run's starting
+    /// (the earlier on a tie) as the final checkpoint, the run's starting
     /// weights and its last among them. Off by default; the recipe's.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub keep_best: bool,
@@ -260,7 +262,7 @@ impl GreedyProbe {
         );
         self.log.write(&record)?;
         self.last = Some(record);
-        if self.check.keep_best && self.best.as_ref().is_none_or(|(b, _)| solved >= b.solved) {
+        if self.check.keep_best && self.best.as_ref().is_none_or(|(b, _)| solved > b.solved) {
             self.best = Some((record, policy.weights(at.update)?));
         }
         Ok(self.check.passes(solved, n))
