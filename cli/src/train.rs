@@ -54,7 +54,7 @@ pub struct TrainArgs {
     /// `--set t_max=N` overrides).
     #[arg(long)]
     pub rules: Option<Rules>,
-    /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it. Without one: the default recipe (PPO with the 64-cell LSTM, warm-started by imitating LaCAM and OD-A*, the path and intent features and shaping, until the greedy policy solves 99 % of 200 held-out episodes or its training episodes of the last 200k env steps succeeded 99 % of the time together, at most 1M; the book's recipe chapter)
+    /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it. Without one: the default recipe (PPO with the 64-cell LSTM, warm-started by imitating LaCAM and OD-A*, the path and intent features and shaping, until the greedy policy solves 99 % of 200 held-out episodes or its training success has held 99 % for 200k env steps, at most 1M; the book's recipe chapter)
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Env-step budget: the most a run trains (the recipe's `[stop]` rule

@@ -17,8 +17,6 @@ pub struct EpisodeWindow {
     recent: VecDeque<EpisodeStats>,
     /// Episodes seen in total.
     pub total: u64,
-    /// Of them solved (counted since the window was made or restored).
-    pub solved: u64,
 }
 
 impl EpisodeWindow {
@@ -29,7 +27,6 @@ impl EpisodeWindow {
         Self {
             recent: recent[skip..].iter().copied().collect(),
             total,
-            solved: 0,
         }
     }
 
@@ -47,7 +44,7 @@ impl EpisodeWindow {
     /// let fresh = EpisodeStats { success: true, ..Default::default() };
     /// let replayed = EpisodeStats { success: false, replay: 1, ..Default::default() };
     /// w.extend(&[fresh, replayed]);
-    /// assert_eq!((w.total, w.solved, w.success_rate()), (1, 1, 1.0));
+    /// assert_eq!((w.total, w.success_rate()), (1, 1.0));
     /// ```
     pub fn extend(&mut self, episodes: &[EpisodeStats]) {
         for e in episodes.iter().filter(|e| e.replay == 0) {
@@ -56,7 +53,6 @@ impl EpisodeWindow {
             }
             self.recent.push_back(*e);
             self.total += 1;
-            self.solved += u64::from(e.success);
         }
     }
 

@@ -644,9 +644,8 @@ impl Run {
                 );
             }
         }
-        let (episodes, solved) = (self.window.total, self.window.solved);
         let learned =
-            (self.holding.as_mut()).is_some_and(|h| h.observe(at.env_steps, episodes, solved));
+            (self.holding.as_mut()).is_some_and(|h| h.observe(row.success_rate, full, at));
         (row, learned)
     }
 

@@ -3,9 +3,10 @@
 //! A budget alone makes a newcomer wait for steps the policy no longer
 //! needs: the recipe's imitation phase often leaves a policy that already
 //! solves its layout, and PPO then only has to keep it there. The rule
-//! `[stop]` ends the run once the training episodes that ended in the last
-//! `hold` env steps, all of them together, succeeded at least `success` of
-//! the time ([`Holding`]); `steps` stays the cap. The summary says which of these ended the run ([`StopReason`]).
+//! `[stop]` ends the run once the training success (the last
+//! [`EPISODE_WINDOW`](super::metrics::EPISODE_WINDOW) episodes) has stayed
+//! at or above `success` for `hold` env steps in a row; `steps` stays the
+//! cap. The summary says which of these ended the run ([`StopReason`]).
 //!
 //! Training success is a sampled policy's, on the episodes it trains on;
 //! what a user deploys is the greedy policy on episodes it has not seen.
@@ -37,7 +38,7 @@ use buridan_policy::{ActMode, Policy, Weights};
 use serde::{Deserialize, Serialize};
 
 use super::metrics::CsvLog;
-use super::target::Mark;
+use super::target::{Mark, TimeToTarget};
 use super::{rollout, TrainError};
 
 /// Stop once the training success has held a level for a stretch of env
@@ -59,12 +60,10 @@ use super::{rollout, TrainError};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StopRule {
-    /// The training success level (0..=1) that the episodes of the last
-    /// `hold` env steps must reach together.
+    /// The training success level (0..=1) over the last 100 episodes.
     pub success: f64,
-    /// Env steps over which the training success is pooled: the run stops
-    /// once the fresh episodes that ended within them (at least 100)
-    /// succeeded at least `success` of the time.
+    /// Env steps the level must hold, every update at or above it, before
+    /// the run stops.
     pub hold: u64,
     /// Also stop once a greedy evaluation on held-out episodes reaches its
     /// level, TOML `[stop.greedy]`.
@@ -313,63 +312,43 @@ impl std::fmt::Display for StopReason {
     }
 }
 
-/// Follows a [`StopRule`] update by update: the training success of every
-/// fresh episode that ended in the last `hold` env steps, pooled (one
-/// rate over thousands of episodes, not the 100-episode window of each
-/// update: a policy that truly solves 99.5 % of its episodes falls below
-/// 99 % in some 100-episode window every few updates, and a rule that
-/// every window must clear would rarely let it stop).
+/// Follows a [`StopRule`] update by update: the stretch at or above its
+/// level is a [`TimeToTarget`]'s `held` mark.
 ///
 /// ```
 /// use buridan_learner::train::{StopRule, stop::Holding};
+/// use buridan_learner::train::target::Mark;
+/// let at = |k: u64| Mark { update: k, env_steps: 1000 * k, wall_seconds: k as f64 };
 /// let mut h = Holding::new(StopRule { success: 0.9, hold: 2000, greedy: None });
-/// // (env steps, episodes ended so far, of them solved); the stretch starts at the first.
-/// assert!(!h.observe(1000, 100, 50));
-/// assert!(!h.observe(2000, 200, 145)); // 95 of 100, but over 1000 env steps only
-/// assert!(h.observe(3000, 300, 235)); // 185 of 200 = 92.5 % over 2000 env steps: held
-///
-/// let mut h = Holding::new(StopRule { success: 0.9, hold: 2000, greedy: None });
-/// h.observe(1000, 100, 100);
-/// assert!(!h.observe(2000, 200, 200));
-/// assert!(!h.observe(3000, 300, 270)); // 170 of 200 = 85 %: not held
-/// assert!(!h.observe(4000, 400, 370)); // 2000 → 4000: 170 of 200 again
-/// assert!(h.observe(5000, 500, 470)); // 3000 → 5000: 200 of 200
+/// assert!(!h.observe(0.95, true, at(1))); // held from 1000 steps on
+/// assert!(!h.observe(0.85, true, at(2))); // fell: starts over
+/// assert!(!h.observe(0.92, true, at(3)));
+/// assert!(!h.observe(0.93, false, at(4))); // not a full window: starts over
+/// assert!(!h.observe(0.93, true, at(5)));
+/// assert!(!h.observe(0.91, true, at(6)));
+/// assert!(h.observe(0.99, true, at(7))); // 5000 → 7000: held 2000 steps
 /// ```
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Holding {
-    rule: StopRule,
-    /// `(env steps, episodes, solved)` after each update, oldest first:
-    /// the oldest is the latest one at least `hold` env steps back.
-    marks: std::collections::VecDeque<(u64, u64, u64)>,
+    hold: u64,
+    level: TimeToTarget,
 }
 
 impl Holding {
-    /// Nothing held yet: the stretch starts at the first update observed.
+    /// Nothing held yet.
     pub fn new(rule: StopRule) -> Self {
         Self {
-            rule,
-            marks: std::collections::VecDeque::new(),
+            hold: rule.hold,
+            level: TimeToTarget::new(rule.success),
         }
     }
 
-    /// Books an update: the run's env steps, and the fresh episodes ended
-    /// and solved so far (running totals). `true` once the episodes of the
-    /// last `hold` env steps (at least
-    /// [`EPISODE_WINDOW`](super::metrics::EPISODE_WINDOW) of them) reach the
-    /// level together.
-    pub fn observe(&mut self, env_steps: u64, episodes: u64, solved: u64) -> bool {
-        self.marks.push_back((env_steps, episodes, solved));
-        let back = |m: &(u64, u64, u64)| env_steps.saturating_sub(m.0) >= self.rule.hold;
-        while self.marks.len() > 1 && back(&self.marks[1]) {
-            self.marks.pop_front();
-        }
-        let (since, first_episodes, first_solved) = self.marks[0];
-        if env_steps.saturating_sub(since) < self.rule.hold {
-            return false;
-        }
-        let ended = episodes.saturating_sub(first_episodes);
-        let won = solved.saturating_sub(first_solved);
-        ended >= super::metrics::EPISODE_WINDOW as u64
-            && won as f64 >= self.rule.success * ended as f64
+    /// Books one update's training success (`full_window`: over a full
+    /// episode window); `true` once the level has held for the stretch.
+    pub fn observe(&mut self, success: f64, full_window: bool, at: Mark) -> bool {
+        self.level.observe(success, full_window, at);
+        self.level
+            .held
+            .is_some_and(|since| at.env_steps.saturating_sub(since.env_steps) >= self.hold)
     }
 }

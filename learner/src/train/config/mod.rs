@@ -169,9 +169,8 @@ impl TrainConfig {
     /// cores (all of them alone, one each for two runs of a study:
     /// [`crate::train::cores`]). PPO runs until the greedy policy solves
     /// 99 % of 200 held-out episodes (checked every 20k env steps,
-    /// `[stop.greedy]`) or the training episodes of the last 200k env steps
-    /// succeeded 99 % of the time together (`[stop]`), at most 1M env
-    /// steps, and keeps the
+    /// `[stop.greedy]`) or the training success has stayed at 99 % or more
+    /// for 200k env steps (`[stop]`), at most 1M env steps, and keeps the
     /// checked weights that solved the most held-out episodes, the imitated
     /// ones among them (`keep_best`).
     ///
