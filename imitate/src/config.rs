@@ -15,6 +15,24 @@ pub enum Rollout {
     Sampled,
 }
 
+/// How a plan step in which one agent follows another into the cell it
+/// leaves becomes labels: the policy's action mask forbids entering a cell
+/// occupied at the start of the step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LabelStyle {
+    /// The step split into steps the policy can take: the leaders move and
+    /// the followers wait, then the followers enter. Following the expert,
+    /// the env executes the split steps, so the labels are exactly the
+    /// moves between the configurations a rollout passes through.
+    #[default]
+    Split,
+    /// The follower labelled "stay" in the plan's own configuration, and
+    /// the env, following the expert, executes the plan's joint move
+    /// (follows included, in the env's index order).
+    Wait,
+}
+
 /// Behaviour cloning of a planner with DAgger's on-policy correction
 /// ([`crate::dagger`]). The defaults are the recipe's.
 ///
@@ -63,6 +81,8 @@ pub struct ImitationConfig {
     /// replay this many consecutive steps through the LSTM from a stored
     /// state (the learner's `max_seq_len` by default).
     pub window: usize,
+    /// How following moves become labels ([`LabelStyle`]).
+    pub labels: LabelStyle,
 }
 
 impl Default for ImitationConfig {
@@ -81,6 +101,7 @@ impl Default for ImitationConfig {
             lr: 1e-3,
             max_rows: 2_000_000,
             window: 32,
+            labels: LabelStyle::Split,
         }
     }
 }

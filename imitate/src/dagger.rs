@@ -224,7 +224,7 @@ pub fn dagger<S: EnvSlot>(
                 let follow_expert = expert_only || rng.random_bool(cfg.beta);
                 let chosen = &mut actions[lo..lo + n];
                 match (labels, follow_expert) {
-                    (Some(l), true) => chosen.copy_from_slice(&l.actions),
+                    (Some(l), true) => chosen.copy_from_slice(&l.execute),
                     // Round 0 without a plan: wait (the episode truncates).
                     _ if expert_only => chosen.fill(0),
                     _ => chosen.copy_from_slice(&policy_actions[lo..lo + n]),

@@ -29,15 +29,49 @@ use buridan_env::{Cell, GridEnv};
 use buridan_mapf::replay::plan_actions;
 use buridan_mapf::{planner_by_name, Limits, Planner};
 
-use crate::config::ImitationConfig;
+use crate::config::{ImitationConfig, LabelStyle};
 
 /// The expert's next joint step in one state: one action per agent, none
-/// of them into a cell occupied at the start of the step, so the env
-/// executes it and a masked policy can take it.
+/// of them into a cell occupied at the start of the step, so a masked
+/// policy can take it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Labels {
-    /// Every agent's action (0 stay, 1 up, 2 right, 3 down, 4 left).
+    /// Every agent's action (0 stay, 1 up, 2 right, 3 down, 4 left): the
+    /// policy's targets.
     pub actions: Vec<u8>,
+    /// The joint move the env executes when a rollout follows the expert:
+    /// `actions` itself under [`LabelStyle::Split`], the plan's own step
+    /// (follows included) under [`LabelStyle::Wait`].
+    pub execute: Vec<u8>,
+}
+
+impl Labels {
+    fn split(actions: Vec<u8>) -> Self {
+        Self {
+            execute: actions.clone(),
+            actions,
+        }
+    }
+
+    /// The plan's step from `from` with every move into a cell occupied
+    /// at its start replaced by "stay" ([`LabelStyle::Wait`]).
+    fn wait(plan: Vec<u8>, from: &[Cell], to: &[Cell]) -> Self {
+        let actions = plan
+            .iter()
+            .zip(to)
+            .map(|(&a, target)| {
+                if a != 0 && from.contains(target) {
+                    0
+                } else {
+                    a
+                }
+            })
+            .collect();
+        Self {
+            actions,
+            execute: plan,
+        }
+    }
 }
 
 /// Splits one plan step, from `from` to `to` (a conflict-free joint move),
@@ -93,6 +127,7 @@ pub struct Expert {
     planners: Vec<Box<dyn Planner>>,
     limits: Limits,
     known: HashMap<StateKey, Option<Labels>>,
+    style: LabelStyle,
     /// Planner calls so far.
     pub calls: u64,
     /// Planner calls that found no plan within the limit.
@@ -130,6 +165,7 @@ impl Expert {
                 ..Limits::default()
             },
             known: HashMap::new(),
+            style: cfg.labels,
             calls: 0,
             failures: 0,
         }
@@ -169,6 +205,19 @@ impl Expert {
             self.known.insert(key.clone(), None);
             return;
         };
+        if self.style == LabelStyle::Wait {
+            for (t, actions) in steps.into_iter().enumerate() {
+                let (from, to) = (plan.positions_at(t), plan.positions_at(t + 1));
+                self.known
+                    .entry((key.0.clone(), goals.clone(), from.clone()))
+                    .or_insert_with(|| Some(Labels::wait(actions, &from, &to)));
+            }
+            // A state already on its goals: everyone stays.
+            self.known
+                .entry(key.clone())
+                .or_insert_with(|| Some(Labels::split(vec![0; starts.len()])));
+            return;
+        }
         let at_goals = steps.is_empty();
         for (t, actions) in steps.into_iter().enumerate() {
             let (from, to) = (plan.positions_at(t), plan.positions_at(t + 1));
@@ -180,13 +229,13 @@ impl Expert {
             for (config, actions) in split {
                 self.known
                     .entry((key.0.clone(), goals.clone(), config))
-                    .or_insert_with(|| Some(Labels { actions }));
+                    .or_insert_with(|| Some(Labels::split(actions)));
             }
         }
         if at_goals {
             // Everyone is on their goal: everyone stays.
             let actions = vec![0; starts.len()];
-            self.known.insert(key.clone(), Some(Labels { actions }));
+            self.known.insert(key.clone(), Some(Labels::split(actions)));
         } else if !self.known.contains_key(key) {
             // The plan opens with a rotation: no label the policy can take.
             self.failures += 1;

@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use buridan_env::{BatchedEnv, EnvConfig, EnvSlot, GridEnv, Map, ObsKind, VecEnv};
-use buridan_imitate::{dagger, Expert, ImitationConfig, RoundReport};
+use buridan_imitate::{dagger, Expert, ImitationConfig, LabelStyle, RoundReport};
 use buridan_policy::{ActMode, Inference, LstmSpec, Mode, ModelSpec, Policy};
 
 fn map(name: &str) -> Arc<Map> {
@@ -101,6 +101,45 @@ fn following_the_labels_stays_on_the_plans_track() {
     }
     assert!(env.stats().success, "failed after {steps} steps");
     assert!(steps < 20, "{steps} steps");
+    assert_eq!(expert.calls, 1);
+}
+
+/// The labels before the split (`labels = "wait"`), on the same episode:
+/// following the expert, the env executes the plan's own joint moves
+/// (the follow included) and solves it with one planner call; the
+/// follower's label in that step is "stay", every other label is the
+/// executed move.
+#[test]
+fn wait_labels_execute_the_plan_and_label_the_follower_stay() {
+    let mut expert = Expert::new(&ImitationConfig {
+        expert: vec!["lacam".into(), "od-astar".into()],
+        expert_time: 0.01,
+        labels: LabelStyle::Wait,
+        ..ImitationConfig::default()
+    });
+    let cfg = EnvConfig {
+        agents: 2,
+        starts: buridan_env::Starts::Fixed,
+        ..EnvConfig::default()
+    };
+    let mut env = GridEnv::new(map("rm-1.1"), cfg).unwrap();
+    let mut rewards = vec![0.0; 2];
+    let (mut steps, mut follows) = (0, 0);
+    loop {
+        let l = expert.label(&env).expect("a plan").clone();
+        for (&label, &executed) in l.actions.iter().zip(&l.execute) {
+            if label != executed {
+                assert_eq!(label, 0, "a follow is labelled stay");
+                follows += 1;
+            }
+        }
+        steps += 1;
+        if env.step(&l.execute, &mut rewards).unwrap().done() {
+            break;
+        }
+    }
+    assert!(env.stats().success, "failed after {steps} steps");
+    assert!(follows >= 1, "the plan holds a follow");
     assert_eq!(expert.calls, 1);
 }
 
