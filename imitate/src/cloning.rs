@@ -1,12 +1,13 @@
 //! Behaviour cloning: the negative log-likelihood of the expert's actions
 //! under the masked policy, minimised by Adam over minibatches.
 
-use candle_core::{DType, Tensor, D};
+use candle_core::{DType, Tensor, Var, D};
 use candle_nn::{AdamW, Optimizer, ParamsAdamW};
 use rand::seq::SliceRandom;
 use rand::Rng;
 
 use buridan_policy::dist::{mask_bias, masked_log_probs};
+use buridan_policy::shards::{on_threads, share_count, share_range};
 use buridan_policy::Policy;
 
 use crate::dataset::Dataset;
@@ -71,13 +72,32 @@ pub fn weighted_cloning_loss(
     labels: &Tensor,
     weights: &Tensor,
 ) -> Result<(Tensor, f64), ImitationError> {
-    let (chosen, hits) = label_log_probs(logits, bias, labels)?;
-    let heads = chosen.dim(D::Minus1)?;
-    let count = weights.sum_all()?.to_scalar::<f32>()?.max(1.0) * heads as f32;
-    let w = weights.unsqueeze(D::Minus1)?;
-    let loss = (chosen.broadcast_mul(&w)?.sum_all()?.neg()? / f64::from(count))?;
-    let hits = hits.broadcast_mul(&w)?.sum_all()?.to_scalar::<f32>()?;
-    Ok((loss, f64::from(hits / count)))
+    let count = weights.sum_all()?.to_scalar::<f32>()?.max(1.0) * labels.dim(D::Minus1)? as f32;
+    let (loss, hits) = loss_part(logits, bias, labels, Some(weights), count)?;
+    Ok((loss, hits / f64::from(count)))
+}
+
+/// A share's part of a minibatch's cloning loss: `−Σ w_r log π_h(a*_{r,h}
+/// | o_r) / count` over its rows and heads (`weights` 1 where the expert
+/// labelled a step, all 1 without them), where `count` is the labelled
+/// (row, head) pairs of the whole minibatch, so the parts of its shares sum
+/// to its loss; also how many of the share's labelled pairs agree with the
+/// expert.
+fn loss_part(
+    logits: &Tensor,
+    bias: &Tensor,
+    labels: &Tensor,
+    weights: Option<&Tensor>,
+    count: f32,
+) -> Result<(Tensor, f64), ImitationError> {
+    let (mut chosen, mut hits) = label_log_probs(logits, bias, labels)?;
+    if let Some(w) = weights {
+        let w = w.unsqueeze(D::Minus1)?;
+        chosen = chosen.broadcast_mul(&w)?;
+        hits = hits.broadcast_mul(&w)?;
+    }
+    let loss = (chosen.sum_all()?.neg()? / f64::from(count))?;
+    Ok((loss, f64::from(hits.sum_all()?.to_scalar::<f32>()?)))
 }
 
 /// The log-probabilities of the expert's actions `[rows, heads]` and
@@ -113,28 +133,34 @@ pub struct FitStats {
 pub struct Cloner {
     net: usize,
     opt: AdamW,
+    vars: Vec<Var>,
     minibatch: usize,
+    threads: usize,
 }
 
 impl Cloner {
     /// An optimiser over every weight of network `net` of `policy` (Adam
-    /// without decay).
+    /// without decay), each step's minibatch cut across `threads` threads
+    /// ([`buridan_policy::shards`]; 1 for one thread).
     pub fn new(
         policy: &Policy,
         net: usize,
         lr: f64,
         minibatch: usize,
+        threads: usize,
     ) -> Result<Self, ImitationError> {
         let params = ParamsAdamW {
             lr,
             weight_decay: 0.0,
             ..ParamsAdamW::default()
         };
-        let vars = policy.net_vars(net).into_iter().map(|(_, v)| v).collect();
+        let vars: Vec<Var> = policy.net_vars(net).into_iter().map(|(_, v)| v).collect();
         Ok(Self {
             net,
-            opt: AdamW::new(vars, params)?,
+            opt: AdamW::new(vars.clone(), params)?,
+            vars,
             minibatch,
+            threads,
         })
     }
 
@@ -149,26 +175,35 @@ impl Cloner {
         let device = policy.device().clone();
         let (d, w, h) = (data.obs_dim(), data.mask_dim(), data.heads());
         let (minibatch, net) = (self.minibatch, policy.net(self.net));
-        self.descend(data.len(), minibatch, epochs, rng, |chunk| {
-            let rows = chunk.len();
-            let mut obs = Vec::with_capacity(rows * d);
-            let mut masks = Vec::with_capacity(rows * w);
-            let mut labels = Vec::with_capacity(rows * h);
-            for &r in chunk {
-                obs.extend_from_slice(&data.obs[r * d..(r + 1) * d]);
-                masks.extend_from_slice(&data.masks[r * w..(r + 1) * w]);
-                labels.extend(
-                    data.labels[r * h..(r + 1) * h]
-                        .iter()
-                        .map(|&a| u32::from(a)),
-                );
-            }
-            let obs = Tensor::from_vec(obs, (rows, d), &device)?;
-            let bias = mask_bias(&masks, rows, w, &device)?;
-            let labels = Tensor::from_vec(labels, (rows, h), &device)?;
-            let logits = net.forward(&obs)?.logits;
-            cloning_loss(&logits, &bias, &labels)
-        })
+        let labelled = |chunk: &[usize]| (chunk.len() * h) as f32;
+        self.descend(
+            data.len(),
+            minibatch,
+            epochs,
+            rng,
+            1,
+            labelled,
+            |share, count| {
+                let rows = share.len();
+                let mut obs = Vec::with_capacity(rows * d);
+                let mut masks = Vec::with_capacity(rows * w);
+                let mut labels = Vec::with_capacity(rows * h);
+                for &r in share {
+                    obs.extend_from_slice(&data.obs[r * d..(r + 1) * d]);
+                    masks.extend_from_slice(&data.masks[r * w..(r + 1) * w]);
+                    labels.extend(
+                        data.labels[r * h..(r + 1) * h]
+                            .iter()
+                            .map(|&a| u32::from(a)),
+                    );
+                }
+                let obs = Tensor::from_vec(obs, (rows, d), &device)?;
+                let bias = mask_bias(&masks, rows, w, &device)?;
+                let labels = Tensor::from_vec(labels, (rows, h), &device)?;
+                let logits = net.forward(&obs)?.logits;
+                loss_part(&logits, &bias, &labels, None, count)
+            },
+        )
     }
 
     /// `epochs` passes over recurrent `data` in shuffled minibatches of
@@ -182,27 +217,53 @@ impl Cloner {
         epochs: usize,
         rng: &mut R,
     ) -> Result<FitStats, ImitationError> {
-        let (per_batch, net) = ((self.minibatch / data.steps()).max(1), self.net);
-        self.descend(data.len(), per_batch, epochs, rng, |chunk| {
-            let replay = replay_windows(policy, net, data, chunk)?;
-            weighted_cloning_loss(
-                &replay.logits,
-                &replay.bias,
-                &replay.labels,
-                &replay.weights,
-            )
-        })
+        let (steps, heads) = (data.steps(), data.heads());
+        let (per_batch, net) = ((self.minibatch / steps).max(1), self.net);
+        let labelled = |chunk: &[usize]| {
+            let held = data.held();
+            let labelled_steps: f32 = chunk
+                .iter()
+                .map(|&i| held[i].weights.iter().sum::<f32>())
+                .sum();
+            labelled_steps.max(1.0) * heads as f32
+        };
+        self.descend(
+            data.len(),
+            per_batch,
+            epochs,
+            rng,
+            steps,
+            labelled,
+            |share, count| {
+                let replay = replay_windows(policy, net, data, share)?;
+                loss_part(
+                    &replay.logits,
+                    &replay.bias,
+                    &replay.labels,
+                    Some(&replay.weights),
+                    count,
+                )
+            },
+        )
     }
 
-    /// `epochs` passes over `items` items in shuffled chunks of `per_batch`:
-    /// one Adam step on each chunk's `(loss, agreement)`.
+    /// `epochs` passes over `items` items (of `item_steps` samples each) in
+    /// shuffled chunks of `per_batch`: one Adam step on each chunk. A chunk
+    /// holds `labelled(chunk)` labelled (row, head) pairs; it is cut into
+    /// shares ([`share_count`] of the cloner's threads), and `part(share,
+    /// count)` gives a share's part of the loss and the pairs it agrees on,
+    /// each share on a thread of its own, the gradients summed in share
+    /// order.
+    #[allow(clippy::too_many_arguments)]
     fn descend<R: Rng + ?Sized>(
         &mut self,
         items: usize,
         per_batch: usize,
         epochs: usize,
         rng: &mut R,
-        mut loss_of: impl FnMut(&[usize]) -> Result<(Tensor, f64), ImitationError>,
+        item_steps: usize,
+        labelled: impl Fn(&[usize]) -> f32,
+        part: impl Fn(&[usize], f32) -> Result<(Tensor, f64), ImitationError> + Sync,
     ) -> Result<FitStats, ImitationError> {
         let mut order: Vec<usize> = (0..items).collect();
         let mut stats = FitStats::default();
@@ -210,10 +271,17 @@ impl Cloner {
             order.shuffle(rng);
             let (mut loss_sum, mut acc_sum, mut batches) = (0.0, 0.0, 0usize);
             for chunk in order.chunks(per_batch) {
-                let (loss, acc) = loss_of(chunk)?;
-                self.opt.backward_step(&loss)?;
-                loss_sum += f64::from(loss.to_scalar::<f32>()?);
-                acc_sum += acc;
+                let count = labelled(chunk);
+                let shares = share_count(self.threads, chunk.len() * item_steps).min(chunk.len());
+                let (loss, hits) = if shares == 1 {
+                    let (loss, hits) = part(chunk, count)?;
+                    self.opt.backward_step(&loss)?;
+                    (f64::from(loss.to_scalar::<f32>()?), hits)
+                } else {
+                    self.sharded_step(chunk, shares, count, &part)?
+                };
+                loss_sum += loss;
+                acc_sum += hits / f64::from(count);
                 batches += 1;
                 stats.steps += 1;
             }
@@ -221,6 +289,39 @@ impl Cloner {
             stats.accuracy = acc_sum / batches.max(1) as f64;
         }
         Ok(stats)
+    }
+
+    /// One Adam step on `chunk` cut into `shares` shares, each share's
+    /// forward and backward pass on a thread of its own, the gradients
+    /// summed in share order; the chunk's loss and agreeing pairs.
+    fn sharded_step(
+        &mut self,
+        chunk: &[usize],
+        shares: usize,
+        count: f32,
+        part: &(impl Fn(&[usize], f32) -> Result<(Tensor, f64), ImitationError> + Sync),
+    ) -> Result<(f64, f64), ImitationError> {
+        let parts = on_threads(shares, |i| {
+            let (loss, hits) = part(&chunk[share_range(i, shares, chunk.len())], count)?;
+            Ok::<_, ImitationError>((loss.backward()?, f64::from(loss.to_scalar::<f32>()?), hits))
+        })?;
+        let mut parts = parts.into_iter();
+        let (mut grads, mut loss, mut hits) = parts.next().expect("at least one share");
+        for (more, l, h) in parts {
+            for var in &self.vars {
+                if let Some(g) = more.get(var) {
+                    let sum = match grads.get(var) {
+                        Some(sum) => (sum + g)?,
+                        None => g.clone(),
+                    };
+                    grads.insert(var, sum);
+                }
+            }
+            loss += l;
+            hits += h;
+        }
+        self.opt.step(&grads)?;
+        Ok((loss, hits))
     }
 }
 

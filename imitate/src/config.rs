@@ -83,6 +83,11 @@ pub struct ImitationConfig {
     pub window: usize,
     /// How following moves become labels ([`LabelStyle`]).
     pub labels: LabelStyle,
+    /// Threads each gradient step's minibatch is cut across (its windows or
+    /// rows in shares, the shares' gradients summed in order: the same step
+    /// up to float rounding). 0: the machine's cores; `learner train` gives
+    /// it the run's share of the cores, as PPO's `update_threads`.
+    pub threads: usize,
 }
 
 impl Default for ImitationConfig {
@@ -102,6 +107,7 @@ impl Default for ImitationConfig {
             max_rows: 2_000_000,
             window: 32,
             labels: LabelStyle::Split,
+            threads: 0,
         }
     }
 }
@@ -158,5 +164,20 @@ impl ImitationConfig {
             return bad("lr", "must be positive");
         }
         Ok(())
+    }
+
+    /// The threads a gradient step uses: `threads`, or the machine's cores
+    /// when it is 0.
+    ///
+    /// ```
+    /// use buridan_imitate::ImitationConfig;
+    /// assert_eq!(ImitationConfig { threads: 3, ..ImitationConfig::default() }.update_threads(), 3);
+    /// assert!(ImitationConfig::default().update_threads() >= 1);
+    /// ```
+    pub fn update_threads(&self) -> usize {
+        match self.threads {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            n => n,
+        }
     }
 }

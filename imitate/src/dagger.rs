@@ -135,7 +135,7 @@ pub fn dagger<S: EnvSlot>(
         })
         .collect();
     let mut cloners = (0..nets)
-        .map(|k| Cloner::new(policy, k, cfg.lr, cfg.minibatch))
+        .map(|k| Cloner::new(policy, k, cfg.lr, cfg.minibatch, cfg.update_threads()))
         .collect::<Result<Vec<_>, _>>()?;
     let mut reports = Vec::with_capacity(cfg.rounds);
     let mode = match cfg.rollout {

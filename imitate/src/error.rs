@@ -39,4 +39,7 @@ pub enum ImitationError {
     /// A tensor operation failed.
     #[error("tensor: {0}")]
     Tensor(#[from] candle_core::Error),
+    /// A thread of a sharded gradient step panicked.
+    #[error(transparent)]
+    Thread(#[from] buridan_policy::shards::SharePanicked),
 }

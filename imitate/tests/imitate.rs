@@ -418,3 +418,64 @@ fn replayed_windows_give_the_logits_the_actor_computed_step_by_step() {
         }
     }
 }
+
+/// Cloning on two threads (each minibatch cut into two shares, their
+/// gradients summed) takes the steps one thread takes, up to float
+/// rounding: for a feed-forward policy's rows and a recurrent policy's
+/// windows.
+#[test]
+fn cloning_on_two_threads_takes_the_steps_one_thread_takes() {
+    let env_cfg = EnvConfig {
+        agents: 2,
+        seed: 5,
+        ..EnvConfig::default()
+    };
+    let weights_after = |lstm: Option<LstmSpec>, threads: usize| {
+        let mut venv = VecEnv::new(map("rm-2.1"), env_cfg.clone(), 8, ObsKind::Local, 1).unwrap();
+        let mut spec = ModelSpec::new(Mode::Ctde, 2, venv.obs_dim());
+        spec.lstm = lstm;
+        let policy = Policy::new(spec, 0).unwrap();
+        let cfg = ImitationConfig {
+            rounds: 1,
+            steps_per_round: 4_000,
+            envs: 8,
+            window: 16,
+            epochs: 2,
+            minibatch: 1024,
+            threads,
+            ..ImitationConfig::default()
+        };
+        let reports = dagger(&cfg, &policy, &mut venv, 1, &mut |_| {}).unwrap();
+        let weights: Vec<f32> = policy
+            .net_vars(0)
+            .into_iter()
+            .flat_map(|(_, v)| v.flatten_all().unwrap().to_vec1::<f32>().unwrap())
+            .collect();
+        (reports[0].loss, weights)
+    };
+    for lstm in [
+        None,
+        Some(LstmSpec {
+            cells: 16,
+            prev_action: true,
+            prev_reward: true,
+        }),
+    ] {
+        let (loss1, one) = weights_after(lstm, 1);
+        let (loss2, two) = weights_after(lstm, 2);
+        assert_eq!(one.len(), two.len());
+        let most = one
+            .iter()
+            .zip(&two)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0f32, f32::max);
+        assert!(most < 1e-3, "{lstm:?}: weights differ by {most}");
+        assert!(
+            (loss1 - loss2).abs() < 1e-4,
+            "{lstm:?}: loss {loss1} vs {loss2}"
+        );
+        // The shares' sums round differently from one pass's: had the step
+        // not been cut into shares, the weights would be equal to the bit.
+        assert!(most > 0.0, "{lstm:?}: two threads did not share the steps");
+    }
+}

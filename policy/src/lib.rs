@@ -14,6 +14,8 @@
 //! - [`fragment`]: [`Fragment`], `T` steps of experience as plain data.
 //! - [`checkpoint`]: where a run keeps its checkpoints, and which one a
 //!   path names.
+//! - [`shards`]: one gradient on several threads (the shares every trainer
+//!   cuts its batch into).
 //! - [`threads`]: pinning candle's CPU thread count.
 //!
 //! ```
@@ -34,6 +36,7 @@ pub mod infer;
 pub mod lstm;
 pub mod net;
 pub mod policy;
+pub mod shards;
 pub mod spec;
 pub mod threads;
 

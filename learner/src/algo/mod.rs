@@ -38,6 +38,9 @@ pub enum AlgoError {
     /// A tensor operation failed.
     #[error(transparent)]
     Candle(#[from] candle_core::Error),
+    /// A thread of a sharded update panicked.
+    #[error(transparent)]
+    Thread(#[from] buridan_policy::shards::SharePanicked),
 }
 
 /// The result of the algorithms' functions.

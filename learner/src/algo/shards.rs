@@ -1,6 +1,7 @@
 //! One gradient on several cores: a batch's independent units (samples, or
-//! whole trajectories) cut into shares, each share's forward and backward
-//! pass on a thread of its own, the gradients summed.
+//! whole trajectories) cut into shares ([`buridan_policy::shards`]), each
+//! share's forward and backward pass on a thread of its own, the gradients
+//! summed.
 //!
 //! Every loss term is a mean over samples, so a share's loss weighted by
 //! its fraction of the samples is its part of the whole batch's loss, and
@@ -10,66 +11,10 @@
 
 use candle_core::{Tensor, Var};
 
+pub use buridan_policy::shards::{on_threads, share_count, share_range, SharePanicked, MIN_SHARE};
+
 use crate::algo::optim::collect_grads;
-use crate::algo::{AlgoError, Result};
-
-/// Fewest samples worth a thread of their own in a forward and backward
-/// pass: below it, waking the thread costs more than it saves.
-pub const MIN_SHARE: usize = 512;
-
-/// How many shares `samples` samples make with at most `threads` threads:
-/// at least one, and none smaller than [`MIN_SHARE`].
-///
-/// ```
-/// use buridan_learner::algo::shards::share_count;
-/// assert_eq!(share_count(4, 100_000), 4);
-/// assert_eq!(share_count(4, 1_100), 2);
-/// assert_eq!(share_count(4, 10), 1);
-/// assert_eq!(share_count(0, 10_000), 1);
-/// ```
-pub fn share_count(threads: usize, samples: usize) -> usize {
-    threads.clamp(1, (samples / MIN_SHARE).max(1))
-}
-
-/// Items `lo..hi` of share `i` when `n` items are cut into `shares`
-/// nearly equal contiguous shares.
-///
-/// ```
-/// use buridan_learner::algo::shards::share_range;
-/// let cuts: Vec<_> = (0..3).map(|i| share_range(i, 3, 10)).collect();
-/// assert_eq!(cuts, [0..3, 3..6, 6..10]);
-/// ```
-pub fn share_range(i: usize, shares: usize, n: usize) -> std::ops::Range<usize> {
-    i * n / shares..(i + 1) * n / shares
-}
-
-/// Runs `share(i)` for every `i < shares`: share 0 on the calling thread,
-/// the others on scoped threads; the results in share order. A panicking
-/// share is an error, not a panic of the caller.
-///
-/// ```
-/// use buridan_learner::algo::shards::on_threads;
-/// let squares = on_threads(3, |i| Ok(i * i)).unwrap();
-/// assert_eq!(squares, [0, 1, 4]);
-/// ```
-pub fn on_threads<T: Send>(
-    shares: usize,
-    share: impl Fn(usize) -> Result<T> + Sync,
-) -> Result<Vec<T>> {
-    let share = &share;
-    std::thread::scope(|scope| {
-        let others: Vec<_> = (1..shares.max(1))
-            .map(|i| scope.spawn(move || share(i)))
-            .collect();
-        let mine = share(0);
-        std::iter::once(mine)
-            .chain(others.into_iter().map(|h| {
-                h.join()
-                    .unwrap_or_else(|_| Err(AlgoError::Batch("an update thread panicked".into())))
-            }))
-            .collect()
-    })
-}
+use crate::algo::Result;
 
 /// One gradient of a loss cut into `shares` shares, one per thread — the
 /// step PPO's minibatches and IMPALA's batches share. `share(i)` builds
@@ -113,7 +58,7 @@ pub fn sharded_gradient<M: Send>(
             Some(loss) => Some(collect_grads(&loss.backward()?, vars)?),
             None => None,
         };
-        Ok((grads, measured))
+        Ok::<_, crate::algo::AlgoError>((grads, measured))
     })?;
     let mut parts = parts.into_iter();
     let (mut sum, mut measured) = parts.next().expect("on_threads runs at least one share");

@@ -9,7 +9,7 @@ use buridan_imitate::ImitationConfig;
 use buridan_policy::Policy;
 
 use super::config::TrainConfig;
-use super::{env_config, TrainError};
+use super::{cores, env_config, TrainError};
 
 /// The imitation rounds of a run, one CSV row each.
 pub const IMITATION_FILE: &str = "imitation.csv";
@@ -59,6 +59,13 @@ pub(super) fn imitate(
     let seed = seed::actor_env(cfg.run.seed, phase.stream(), 0);
     let env = env_config(cfg, seed);
     let kind = cfg.mode.obs_kind();
+    // Cloning's gradient steps take the run's share of the cores, as PPO's
+    // updates do.
+    let _learning = cores::Learning::start();
+    let im = &ImitationConfig {
+        threads: cores::update_threads(im.threads),
+        ..im.clone()
+    };
     let imitated = match layouts {
         [(map, _)] => {
             let mut venv = VecEnv::new(map.clone(), env, im.envs, kind, 1)?;
