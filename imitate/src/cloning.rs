@@ -45,10 +45,9 @@ pub fn cloning_loss(
     bias: &Tensor,
     labels: &Tensor,
 ) -> Result<(Tensor, f64), ImitationError> {
-    let (chosen, hits) = label_log_probs(logits, bias, labels)?;
-    let loss = chosen.mean_all()?.neg()?;
-    let acc = hits.mean_all()?.to_scalar::<f32>()?;
-    Ok((loss, f64::from(acc)))
+    let count = labels.elem_count() as f32;
+    let (loss, hits) = loss_part(logits, bias, labels, None, count)?;
+    Ok((loss, hits / f64::from(count)))
 }
 
 /// [`cloning_loss`] over the rows whose `weights [rows]` are 1 (steps the
