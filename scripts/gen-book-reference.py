@@ -23,6 +23,7 @@ SECTIONS = [
     ("[impala]", "learner/src/train/config/algo.rs", "ImpalaConfig"),
     ("[stop]", "learner/src/train/stop.rs", "StopRule"),
     ("[stop.greedy]", "learner/src/train/stop.rs", "GreedyCheck"),
+    ("[stop.greedy.finalists]", "learner/src/train/stop.rs", "Finalists"),
     ("[replay]", "env/src/replay.rs", "ReplayConfig"),
     ("[imitation] and [polish]", "imitate/src/config.rs", "ImitationConfig"),
     ("lr_schedule / entropy_schedule", "learner/src/algo/schedule.rs", "Schedule"),

@@ -372,6 +372,12 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
             k.update, k.solved, k.episodes, k.env_steps
         );
     }
+    if let Some(r) = &summary.kept_replay {
+        eprintln!(
+            "  finalists: the kept weights solved {} of {} final held-out episodes (finalists.csv)",
+            r.solved, r.episodes
+        );
+    }
     for t in &summary.time_to_target {
         let mark = |m: Option<buridan_learner::train::target::Mark>| {
             m.map_or("not reached".to_string(), |m| {

@@ -111,6 +111,26 @@ pub fn greedy_check(run: u64, check: u64) -> u64 {
     (run ^ 0x6772_6565_6479_0000).wrapping_add(check.wrapping_mul(GOLDEN)) // "greedy"
 }
 
+/// Episode seed of the final replay that chooses among a run's best
+/// checked weights (the learner's `[stop.greedy.finalists]`): one set of
+/// episodes per run, the same for every finalist, apart from the checks'
+/// stream ([`greedy_check`]), the training envs' and seed 42's.
+///
+/// ```
+/// use buridan_env::seed::{actor_env, greedy_check, greedy_final};
+/// assert_ne!(greedy_final(0), greedy_final(1));
+/// for run in 0..100 {
+///     assert!(greedy_final(run) > 1 << 40, "far from small seeds such as 42 and run + actor");
+///     assert_ne!(greedy_final(run), actor_env(run, 0, 0));
+///     for check in 0..1000 {
+///         assert!(greedy_final(run).abs_diff(greedy_check(run, check)) > 1 << 20);
+///     }
+/// }
+/// ```
+pub fn greedy_final(run: u64) -> u64 {
+    run ^ 0x6669_6e61_6c73_0000 // "finals"
+}
+
 /// Seed of the draws that generate the layout of a generated map's spec
 /// with seed `seed` ([`crate::generate`]).
 pub fn generated_map(seed: u64) -> u64 {

@@ -447,6 +447,7 @@ fn imitating_rm_1_1_to_a_greedy_stop(keep_best: bool) -> TrainConfig {
             episodes: 8,
             every: 4_000,
             keep_best,
+            finalists: None,
         }),
     });
     cfg
@@ -546,51 +547,171 @@ fn keep_best_checks_the_imitated_weights_first_and_keeps_the_best_check() {
     assert_eq!(summary.kept_check, best, "{rows:?}");
 }
 
+/// What the probe tests play with: the imitated rm-1.1 policy (solves
+/// every held-out episode), a fresh one (solves none), a policy to load
+/// either into, the map and its env, and a probe on `check` writing into
+/// `dir`.
+struct ProbeBench {
+    imitated: Policy,
+    fresh: Policy,
+    policy: Policy,
+    map: std::sync::Arc<buridan_env::Map>,
+    env: buridan_env::EnvConfig,
+    probe: buridan_learner::train::stop::GreedyProbe,
+}
+
+impl ProbeBench {
+    fn new(dir: &std::path::Path, check: buridan_learner::train::stop::GreedyCheck) -> Self {
+        buridan_policy::threads::pin_threads(1);
+        let mut cfg = imitating_rm_1_1();
+        cfg.run.steps = 0;
+        train(&cfg, &dir.join("im"), &mut Record::default()).unwrap();
+        let imitated = Policy::load(&dir.join("im/checkpoints/final")).unwrap();
+        let policy = Policy::new(imitated.spec().clone(), 7).unwrap();
+        let fresh = Policy::new(imitated.spec().clone(), 7).unwrap();
+        Self {
+            imitated,
+            fresh,
+            policy,
+            map: std::sync::Arc::new(buridan_env::Map::load("rm-1.1").unwrap()),
+            env: buridan_learner::train::env_config(&cfg, 0),
+            probe: buridan_learner::train::stop::GreedyProbe::new(check, dir).unwrap(),
+        }
+    }
+
+    /// Checks `weights` as the weights of update `update`; whether they pass.
+    fn check(&mut self, update: u64, imitated: bool) -> bool {
+        let weights = if imitated {
+            &self.imitated
+        } else {
+            &self.fresh
+        };
+        self.policy.copy_from(weights).unwrap();
+        let at = buridan_learner::train::target::Mark {
+            update,
+            env_steps: 1_000 * update,
+            wall_seconds: update as f64,
+        };
+        let (map, env) = (self.map.clone(), self.env.clone());
+        self.probe.run(&self.policy, map, env, 0, at).unwrap()
+    }
+
+    /// The probe's choice, with the fresh weights in the policy before it.
+    fn restore_best(
+        &self,
+    ) -> (
+        buridan_learner::train::stop::GreedyRecord,
+        Option<buridan_learner::train::stop::FinalRecord>,
+    ) {
+        self.policy.copy_from(&self.fresh).unwrap();
+        let (map, env) = (self.map.clone(), self.env.clone());
+        self.probe
+            .restore_best(&self.policy, map, env, 0)
+            .unwrap()
+            .unwrap()
+    }
+
+    fn holds_the_imitated_weights(&self) -> bool {
+        self.policy.weights(0).unwrap() == self.imitated.weights(0).unwrap()
+    }
+}
+
 /// A probe with `keep_best` puts back the weights of its best check: a
 /// policy that solves the held-out episodes, then a fresh one in its place
 /// that does not, and the first one's weights return.
 #[test]
 fn a_probe_restores_the_weights_of_its_best_check() {
-    use buridan_env::Map;
-    use buridan_learner::train::stop::{GreedyCheck, GreedyProbe};
-    use buridan_learner::train::target::Mark;
-    use buridan_policy::Policy;
-    buridan_policy::threads::pin_threads(1);
+    use buridan_learner::train::stop::GreedyCheck;
     let dir = tempfile::tempdir().unwrap();
-    let mut cfg = imitating_rm_1_1();
-    cfg.run.steps = 0;
-    train(&cfg, &dir.path().join("im"), &mut Record::default()).unwrap();
-    let imitated = Policy::load(&dir.path().join("im/checkpoints/final")).unwrap();
-    let policy = Policy::new(imitated.spec().clone(), 7).unwrap();
-    policy.copy_from(&imitated).unwrap();
-    let fresh = Policy::new(imitated.spec().clone(), 7).unwrap();
-
     let check = GreedyCheck {
         success: 1.0,
         episodes: 8,
         every: 1,
         keep_best: true,
+        finalists: None,
     };
-    let mut probe = GreedyProbe::new(check, dir.path()).unwrap();
-    let map = std::sync::Arc::new(Map::load("rm-1.1").unwrap());
-    let env = buridan_learner::train::env_config(&cfg, 0);
-    let at = |update: u64| Mark {
-        update,
-        env_steps: 1_000 * update,
-        wall_seconds: update as f64,
-    };
-    assert!(probe
-        .run(&policy, map.clone(), env.clone(), 0, at(0))
-        .unwrap());
-    policy.copy_from(&fresh).unwrap();
-    assert!(!probe.run(&policy, map, env, 0, at(1)).unwrap());
-    let kept = probe.restore_best(&policy).unwrap().unwrap();
-    assert_eq!((kept.update, kept.solved), (0, 8));
-    assert_eq!(
-        policy.weights(0).unwrap(),
-        imitated.weights(0).unwrap(),
+    let mut bench = ProbeBench::new(dir.path(), check);
+    assert!(bench.check(0, true));
+    assert!(!bench.check(1, false));
+    let (kept, replay) = bench.restore_best();
+    assert_eq!((kept.update, kept.solved, replay), (0, 8, None));
+    assert!(
+        bench.holds_the_imitated_weights(),
         "the imitated weights are back"
     );
+    assert!(!dir
+        .path()
+        .join(buridan_learner::train::stop::FINALISTS_FILE)
+        .exists());
+}
+
+/// Checks of 8 episodes, every one a candidate, and 2 finalists replayed
+/// on 12 episodes.
+fn two_finalists() -> buridan_learner::train::stop::GreedyCheck {
+    buridan_learner::train::stop::GreedyCheck {
+        success: 1.0,
+        episodes: 8,
+        every: 1,
+        keep_best: true,
+        finalists: Some(buridan_learner::train::stop::Finalists {
+            count: 2,
+            episodes: 12,
+        }),
+    }
+}
+
+/// `[stop.greedy.finalists]`: the probe keeps its two best checks (the
+/// earlier among equals) and replays both on the same final episodes; the
+/// kept weights are the finalist that solved the most of them (the
+/// earlier on a tie), each replay a row of `finalists.csv`.
+#[test]
+fn finalists_are_replayed_on_the_final_episodes_and_the_best_replay_is_kept() {
+    use buridan_learner::train::stop::{FinalRecord, FINALISTS_FILE};
+    let dir = tempfile::tempdir().unwrap();
+    let mut bench = ProbeBench::new(dir.path(), two_finalists());
+    // Updates 0 and 2 play the fresh weights, 1 and 3 the imitated ones:
+    // the two best checks are updates 1 and 3.
+    for update in 0..4 {
+        bench.check(update, update % 2 == 1);
+    }
+    let (kept, replay) = bench.restore_best();
+    assert_eq!(
+        (kept.update, kept.solved),
+        (1, 8),
+        "the earlier of two equal replays"
+    );
+    let replay = replay.expect("two finalists replayed");
+    assert_eq!((replay.update, replay.solved, replay.episodes), (1, 12, 12));
+    assert!(bench.holds_the_imitated_weights());
+    let rows: Vec<FinalRecord> = csv::Reader::from_path(dir.path().join(FINALISTS_FILE))
+        .unwrap()
+        .deserialize()
+        .collect::<Result<_, _>>()
+        .unwrap();
+    let seen: Vec<_> = rows
+        .iter()
+        .map(|r| (r.update, r.check_solved, r.solved))
+        .collect();
+    assert_eq!(seen, [(1, 8, 12), (3, 8, 12)], "{rows:?}");
+}
+
+/// The replay, not the check, decides among finalists: the imitated
+/// weights checked on episodes cut to one step (none solvable) tie with
+/// the fresh weights' earlier check, and the replay on whole episodes
+/// keeps them, where the checks alone would keep the earlier, fresh ones.
+#[test]
+fn the_final_replay_overrules_the_order_of_the_checks() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bench = ProbeBench::new(dir.path(), two_finalists());
+    assert!(!bench.check(0, false));
+    let whole = bench.env.clone();
+    bench.env.t_max = 1;
+    assert!(!bench.check(1, true));
+    bench.env = whole;
+    let (kept, replay) = bench.restore_best();
+    assert_eq!((kept.update, kept.solved), (1, 0), "the imitated weights");
+    assert_eq!(replay.map(|r| r.solved), Some(12));
+    assert!(bench.holds_the_imitated_weights());
 }
 
 #[test]

@@ -387,6 +387,10 @@ pub struct Summary {
     /// checkpoint holds (before any `[polish]`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub kept_check: Option<super::stop::GreedyRecord>,
+    /// With `[stop.greedy.finalists]`: the kept weights' replay on the
+    /// final held-out episodes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kept_replay: Option<super::stop::FinalRecord>,
     /// Directory of the final checkpoint.
     pub final_checkpoint: PathBuf,
 }

@@ -443,7 +443,8 @@ impl Run {
         progress.on_checkpoint(&final_dir);
         tracing::info!(reason = %reason, env_steps = self.state.env_steps, "training stopped");
         let summary = Summary {
-            kept_check: kept,
+            kept_check: kept.map(|(check, _)| check),
+            kept_replay: kept.and_then(|(_, replay)| replay),
             ..self.summary(final_dir, reason)
         };
         let json = serde_json::to_value(&summary).unwrap_or(serde_json::Value::Null);
@@ -671,9 +672,12 @@ impl Run {
     }
 
     /// `[stop.greedy] keep_best`: checks the last update's weights if no
-    /// check has yet, then puts the best checked weights into the policy;
-    /// returns the check they passed (`None` without `keep_best`).
-    fn keep_best(&mut self) -> Result<Option<stop::GreedyRecord>, TrainError> {
+    /// check has yet, then puts the best checked weights (with
+    /// `finalists`: the best finalist's) into the policy; returns the check
+    /// they passed and their final replay (`None` without `keep_best`).
+    fn keep_best(
+        &mut self,
+    ) -> Result<Option<(stop::GreedyRecord, Option<stop::FinalRecord>)>, TrainError> {
         let updates = self.state.updates;
         match &self.greedy {
             Some(probe) if probe.keeps_best() => {
@@ -684,8 +688,12 @@ impl Run {
             _ => return Ok(None),
         }
         let probe = self.greedy.as_ref().expect("checked above");
-        let kept = probe.restore_best(&self.policy)?;
-        if let Some(k) = kept.filter(|k| k.update != updates) {
+        let Some((map, _)) = self.layouts.first() else {
+            return Ok(None);
+        };
+        let env = env_config(&self.cfg, self.cfg.run.seed);
+        let kept = probe.restore_best(&self.policy, map.clone(), env, self.cfg.run.seed)?;
+        if let Some((k, _)) = kept.filter(|(k, _)| k.update != updates) {
             tracing::info!(
                 update = k.update,
                 env_steps = k.env_steps,
@@ -751,6 +759,7 @@ impl Run {
             time_to_target: state.time_to_target.clone(),
             greedy_check: self.greedy.as_ref().and_then(|g| g.last()),
             kept_check: None,
+            kept_replay: None,
             final_checkpoint,
         }
     }
