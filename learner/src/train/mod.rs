@@ -659,16 +659,26 @@ impl Run {
             env_steps: self.state.env_steps,
             wall_seconds: self.wall(),
         };
-        let (Some(probe), Some((map, _))) = (self.greedy.as_mut(), self.layouts.first()) else {
+        if self.greedy.is_none() {
+            return Ok(false);
+        }
+        let Some((map, env)) = self.greedy_ground() else {
             return Ok(false);
         };
-        let env = env_config(&self.cfg, self.cfg.run.seed);
+        let probe = self.greedy.as_mut().expect("checked above");
         let seed = self.cfg.run.seed;
         match when {
             Check::IfDue if !probe.due(at.env_steps) => Ok(false),
-            Check::IfDue | Check::Now => probe.run(&self.policy, map.clone(), env, seed, at),
-            Check::First => probe.run_first(&self.policy, map.clone(), env, seed, at),
+            Check::IfDue | Check::Now => probe.run(&self.policy, map, env, seed, at),
+            Check::First => probe.run_first(&self.policy, map, env, seed, at),
         }
+    }
+
+    /// Where `[stop.greedy]` plays: the run's (first) map under its rules,
+    /// `None` for a run without a grid map.
+    fn greedy_ground(&self) -> Option<(Arc<Map>, EnvConfig)> {
+        let (map, _) = self.layouts.first()?;
+        Some((map.clone(), env_config(&self.cfg, self.cfg.run.seed)))
     }
 
     /// `[stop.greedy] keep_best`: checks the last update's weights if no
@@ -688,11 +698,10 @@ impl Run {
             _ => return Ok(None),
         }
         let probe = self.greedy.as_ref().expect("checked above");
-        let Some((map, _)) = self.layouts.first() else {
+        let Some((map, env)) = self.greedy_ground() else {
             return Ok(None);
         };
-        let env = env_config(&self.cfg, self.cfg.run.seed);
-        let kept = probe.restore_best(&self.policy, map.clone(), env, self.cfg.run.seed)?;
+        let kept = probe.restore_best(&self.policy, map, env, self.cfg.run.seed)?;
         if let Some((k, _)) = kept.filter(|(k, _)| k.update != updates) {
             tracing::info!(
                 update = k.update,

@@ -291,29 +291,18 @@ impl GreedyProbe {
             return Ok(Some((*first, None)));
         };
         let seed = seed::greedy_final(run_seed);
-        let env = EnvConfig { seed, ..env };
         let n = finalists.episodes;
         let mut log = CsvLog::append(&self.out.join(FINALISTS_FILE))?;
         let mut kept: Option<(usize, FinalRecord)> = None;
         for (k, (check, weights)) in self.best.iter().enumerate() {
             policy.set_weights(weights)?;
-            let started = Instant::now();
-            let episodes = rollout::rollout(
-                policy,
-                map.clone(),
-                env.clone(),
-                n,
-                n,
-                ActMode::Greedy,
-                seed,
-            )
-            .map_err(|source| TrainError::GreedyCheck { source })?;
+            let (solved, seconds) = solve_greedily(policy, map.clone(), env.clone(), n, seed)?;
             let record = FinalRecord {
                 update: check.update,
                 check_solved: check.solved,
                 episodes: n,
-                solved: episodes.iter().filter(|e| e.success).count(),
-                seconds: started.elapsed().as_secs_f64(),
+                solved,
+                seconds,
             };
             tracing::info!(
                 update = record.update,
@@ -368,19 +357,15 @@ impl GreedyProbe {
         self.next = at.env_steps + self.check.every;
         let seed = seed::greedy_check(run_seed, self.done);
         self.done += 1;
-        let started = Instant::now();
         let n = self.check.episodes;
-        let env = EnvConfig { seed, ..env };
-        let episodes = rollout::rollout(policy, map, env, n, n, ActMode::Greedy, seed)
-            .map_err(|source| TrainError::GreedyCheck { source })?;
-        let solved = episodes.iter().filter(|e| e.success).count();
+        let (solved, seconds) = solve_greedily(policy, map, env, n, seed)?;
         let record = GreedyRecord {
             update: at.update,
             env_steps: at.env_steps,
             wall_seconds: at.wall_seconds,
             episodes: n,
             solved,
-            seconds: started.elapsed().as_secs_f64(),
+            seconds,
         };
         tracing::info!(
             env_steps = record.env_steps,
@@ -403,6 +388,24 @@ impl GreedyProbe {
         }
         Ok(self.check.passes(solved, n))
     }
+}
+
+/// Plays `n` episodes of `map` under `env`'s rules greedily, all at once,
+/// from episode seed `seed` (put into `env`): how many it solved, and the
+/// seconds that took. What a check and a finalist's replay play.
+fn solve_greedily(
+    policy: &Policy,
+    map: Arc<Map>,
+    env: EnvConfig,
+    n: usize,
+    seed: u64,
+) -> Result<(usize, f64), TrainError> {
+    let started = Instant::now();
+    let env = EnvConfig { seed, ..env };
+    let episodes = rollout::rollout(policy, map, env, n, n, ActMode::Greedy, seed)
+        .map_err(|source| TrainError::GreedyCheck { source })?;
+    let solved = episodes.iter().filter(|e| e.success).count();
+    Ok((solved, started.elapsed().as_secs_f64()))
 }
 
 /// One greedy check of a run, a row of `greedy.csv`.
