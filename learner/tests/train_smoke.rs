@@ -555,8 +555,7 @@ struct ProbeBench {
     imitated: Policy,
     fresh: Policy,
     policy: Policy,
-    map: std::sync::Arc<buridan_env::Map>,
-    env: buridan_env::EnvConfig,
+    ground: buridan_learner::train::stop::Ground,
     probe: buridan_learner::train::stop::GreedyProbe,
 }
 
@@ -573,8 +572,11 @@ impl ProbeBench {
             imitated,
             fresh,
             policy,
-            map: std::sync::Arc::new(buridan_env::Map::load("rm-1.1").unwrap()),
-            env: buridan_learner::train::env_config(&cfg, 0),
+            ground: buridan_learner::train::stop::Ground {
+                map: std::sync::Arc::new(buridan_env::Map::load("rm-1.1").unwrap()),
+                env: buridan_learner::train::env_config(&cfg, 0),
+                run_seed: 0,
+            },
             probe: buridan_learner::train::stop::GreedyProbe::new(check, dir).unwrap(),
         }
     }
@@ -592,8 +594,7 @@ impl ProbeBench {
             env_steps: 1_000 * update,
             wall_seconds: update as f64,
         };
-        let (map, env) = (self.map.clone(), self.env.clone());
-        self.probe.run(&self.policy, map, env, 0, at).unwrap()
+        self.probe.run(&self.policy, &self.ground, at).unwrap()
     }
 
     /// The probe's choice, with the fresh weights in the policy before it.
@@ -604,9 +605,8 @@ impl ProbeBench {
         Option<buridan_learner::train::stop::FinalRecord>,
     ) {
         self.policy.copy_from(&self.fresh).unwrap();
-        let (map, env) = (self.map.clone(), self.env.clone());
         self.probe
-            .restore_best(&self.policy, map, env, 0)
+            .restore_best(&self.policy, &self.ground)
             .unwrap()
             .unwrap()
     }
@@ -704,10 +704,10 @@ fn the_final_replay_overrules_the_order_of_the_checks() {
     let dir = tempfile::tempdir().unwrap();
     let mut bench = ProbeBench::new(dir.path(), two_finalists());
     assert!(!bench.check(0, false));
-    let whole = bench.env.clone();
-    bench.env.t_max = 1;
+    let whole = bench.ground.env.clone();
+    bench.ground.env.t_max = 1;
     assert!(!bench.check(1, true));
-    bench.env = whole;
+    bench.ground.env = whole;
     let (kept, replay) = bench.restore_best();
     assert_eq!((kept.update, kept.solved), (1, 0), "the imitated weights");
     assert_eq!(replay.map(|r| r.solved), Some(12));

@@ -662,23 +662,26 @@ impl Run {
         if self.greedy.is_none() {
             return Ok(false);
         }
-        let Some((map, env)) = self.greedy_ground() else {
+        let Some(ground) = self.greedy_ground() else {
             return Ok(false);
         };
         let probe = self.greedy.as_mut().expect("checked above");
-        let seed = self.cfg.run.seed;
         match when {
             Check::IfDue if !probe.due(at.env_steps) => Ok(false),
-            Check::IfDue | Check::Now => probe.run(&self.policy, map, env, seed, at),
-            Check::First => probe.run_first(&self.policy, map, env, seed, at),
+            Check::IfDue | Check::Now => probe.run(&self.policy, &ground, at),
+            Check::First => probe.run_first(&self.policy, &ground, at),
         }
     }
 
     /// Where `[stop.greedy]` plays: the run's (first) map under its rules,
     /// `None` for a run without a grid map.
-    fn greedy_ground(&self) -> Option<(Arc<Map>, EnvConfig)> {
+    fn greedy_ground(&self) -> Option<stop::Ground> {
         let (map, _) = self.layouts.first()?;
-        Some((map.clone(), env_config(&self.cfg, self.cfg.run.seed)))
+        Some(stop::Ground {
+            map: map.clone(),
+            env: env_config(&self.cfg, self.cfg.run.seed),
+            run_seed: self.cfg.run.seed,
+        })
     }
 
     /// `[stop.greedy] keep_best`: checks the last update's weights if no
@@ -698,10 +701,10 @@ impl Run {
             _ => return Ok(None),
         }
         let probe = self.greedy.as_ref().expect("checked above");
-        let Some((map, env)) = self.greedy_ground() else {
+        let Some(ground) = self.greedy_ground() else {
             return Ok(None);
         };
-        let kept = probe.restore_best(&self.policy, map, env, self.cfg.run.seed)?;
+        let kept = probe.restore_best(&self.policy, &ground)?;
         if let Some((k, _)) = kept.filter(|(k, _)| k.update != updates) {
             tracing::info!(
                 update = k.update,

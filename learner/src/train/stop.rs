@@ -215,6 +215,19 @@ pub const GREEDY_FILE: &str = "greedy.csv";
 /// ([`FinalRecord`]).
 pub const FINALISTS_FILE: &str = "finalists.csv";
 
+/// Where a run's greedy checks and finalists' replays play: `map` under
+/// `env`'s rules, episode seeds drawn from `run_seed`'s held-out streams
+/// ([`seed::greedy_check`], [`seed::greedy_final`]).
+#[derive(Debug, Clone)]
+pub struct Ground {
+    /// The layout played.
+    pub map: Arc<Map>,
+    /// Its rules and limits (the seed is replaced by each check's own).
+    pub env: EnvConfig,
+    /// The run's seed, from which the held-out episode streams derive.
+    pub run_seed: u64,
+}
+
 /// A [`GreedyCheck`] through a run: when the next check is due, the seed
 /// of each, and their log `greedy.csv` in the run's directory (appended
 /// to on resume; the checks themselves start afresh).
@@ -270,16 +283,14 @@ impl GreedyProbe {
     /// their check (`None` without `keep_best` or before any check;
     /// `policy` is then left as it is). With `finalists` and more than one
     /// candidate, first replays each candidate on the final held-out
-    /// episodes of `map` under `env`'s rules ([`seed::greedy_final`] of
-    /// `run_seed`), books the replays in `finalists.csv` and keeps the
-    /// one that solved the most (the earlier candidate on a tie); the
-    /// replay is returned beside the check.
+    /// episodes of `ground` ([`seed::greedy_final`] of its run seed),
+    /// books the replays in `finalists.csv` and keeps the one that solved
+    /// the most (the earlier candidate on a tie); the replay is returned
+    /// beside the check.
     pub fn restore_best(
         &self,
         policy: &Policy,
-        map: Arc<Map>,
-        env: EnvConfig,
-        run_seed: u64,
+        ground: &Ground,
     ) -> Result<Option<(GreedyRecord, Option<FinalRecord>)>, TrainError> {
         let Some((first, weights)) = self.best.first() else {
             return Ok(None);
@@ -290,13 +301,13 @@ impl GreedyProbe {
             }
             return Ok(Some((*first, None)));
         };
-        let seed = seed::greedy_final(run_seed);
+        let seed = seed::greedy_final(ground.run_seed);
         let n = finalists.episodes;
         let mut log = CsvLog::append(&self.out.join(FINALISTS_FILE))?;
         let mut kept: Option<(usize, FinalRecord)> = None;
         for (k, (check, weights)) in self.best.iter().enumerate() {
             policy.set_weights(weights)?;
-            let (solved, seconds) = solve_greedily(policy, map.clone(), env.clone(), n, seed)?;
+            let (solved, seconds) = solve_greedily(policy, ground, n, seed)?;
             let record = FinalRecord {
                 update: check.update,
                 check_solved: check.solved,
@@ -331,34 +342,25 @@ impl GreedyProbe {
     pub fn run_first(
         &mut self,
         policy: &Policy,
-        map: Arc<Map>,
-        env: EnvConfig,
-        run_seed: u64,
+        ground: &Ground,
         at: Mark,
     ) -> Result<bool, TrainError> {
         let next = self.next;
-        let passed = self.run(policy, map, env, run_seed, at)?;
+        let passed = self.run(policy, ground, at)?;
         self.next = next;
         Ok(passed)
     }
 
-    /// Plays the check at `at`: `episodes` episodes of `map` under `env`'s
-    /// rules, greedily, from the check's own seed
-    /// ([`seed::greedy_check`] of `run_seed`, put into `env`); books them
-    /// in `greedy.csv` and says whether they reach the level.
-    pub fn run(
-        &mut self,
-        policy: &Policy,
-        map: Arc<Map>,
-        env: EnvConfig,
-        run_seed: u64,
-        at: Mark,
-    ) -> Result<bool, TrainError> {
+    /// Plays the check at `at`: `episodes` episodes of `ground`, greedily,
+    /// from the check's own seed ([`seed::greedy_check`] of its run
+    /// seed); books them in `greedy.csv` and says whether they reach the
+    /// level.
+    pub fn run(&mut self, policy: &Policy, ground: &Ground, at: Mark) -> Result<bool, TrainError> {
         self.next = at.env_steps + self.check.every;
-        let seed = seed::greedy_check(run_seed, self.done);
+        let seed = seed::greedy_check(ground.run_seed, self.done);
         self.done += 1;
         let n = self.check.episodes;
-        let (solved, seconds) = solve_greedily(policy, map, env, n, seed)?;
+        let (solved, seconds) = solve_greedily(policy, ground, n, seed)?;
         let record = GreedyRecord {
             update: at.update,
             env_steps: at.env_steps,
@@ -390,18 +392,21 @@ impl GreedyProbe {
     }
 }
 
-/// Plays `n` episodes of `map` under `env`'s rules greedily, all at once,
-/// from episode seed `seed` (put into `env`): how many it solved, and the
-/// seconds that took. What a check and a finalist's replay play.
+/// Plays `n` episodes of `ground` greedily, all at once, from episode
+/// seed `seed`: how many it solved, and the seconds that took. What a
+/// check and a finalist's replay play.
 fn solve_greedily(
     policy: &Policy,
-    map: Arc<Map>,
-    env: EnvConfig,
+    ground: &Ground,
     n: usize,
     seed: u64,
 ) -> Result<(usize, f64), TrainError> {
     let started = Instant::now();
-    let env = EnvConfig { seed, ..env };
+    let env = EnvConfig {
+        seed,
+        ..ground.env.clone()
+    };
+    let map = ground.map.clone();
     let episodes = rollout::rollout(policy, map, env, n, n, ActMode::Greedy, seed)
         .map_err(|source| TrainError::GreedyCheck { source })?;
     let solved = episodes.iter().filter(|e| e.success).count();
