@@ -156,7 +156,8 @@ pub struct PpoConfig {
     pub epochs: usize,
     /// Surrogate clip ε (0.05).
     pub clip: f32,
-    /// Entropy coefficient (0.001).
+    /// Entropy coefficient (0.001): a bonus; negative, a penalty that
+    /// drives the policy toward the deterministic one greedy execution runs.
     pub entropy_coeff: f32,
     /// Train batch in env steps (4000).
     pub train_batch: usize,
@@ -245,7 +246,7 @@ pub struct ImpalaConfig {
     pub train_batch: usize,
     /// Value loss coefficient (0.5).
     pub vf_coeff: f32,
-    /// Entropy coefficient (0).
+    /// Entropy coefficient (0): a bonus; negative, a penalty (as PPO's).
     pub entropy_coeff: f32,
     /// Global-norm gradient clip (RLlib 40).
     pub grad_clip: Option<f64>,

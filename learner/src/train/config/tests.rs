@@ -177,8 +177,8 @@ fn hyperparameters_outside_their_range_are_refused_by_name() {
         ("impala.lr", "finite and positive", |c| {
             impala(c).lr = f64::INFINITY
         }),
-        ("ppo.entropy_coeff", "finite and at least 0", |c| {
-            ppo(c).entropy_coeff = -0.01
+        ("ppo.entropy_coeff", "finite", |c| {
+            ppo(c).entropy_coeff = f32::NAN
         }),
         ("impala.rho_bar", "finite and positive", |c| {
             impala(c).rho_bar = -1.0
@@ -199,8 +199,10 @@ fn hyperparameters_outside_their_range_are_refused_by_name() {
         }
     }
     // The legal edges stay legal.
-    let edges: [Change; 5] = [
+    let edges: [Change; 6] = [
         |c| ppo(c).entropy_coeff = 0.0,
+        // Negative: a penalty on entropy.
+        |c| ppo(c).entropy_coeff = -0.05,
         |c| ppo(c).kl_coeff = 0.0,
         |c| ppo(c).lambda = 1.0,
         |c| impala(c).lambda = 0.0,

@@ -109,7 +109,10 @@ impl TrainConfig {
     /// turning every weight into NaN.
     fn validate_hyperparameters(&self) -> Result<(), ConfigError> {
         type Keys = Vec<(&'static str, f64)>;
-        let (positive, non_negative, unit): (Keys, Keys, Keys) = match &self.algorithm {
+        // An entropy coefficient may be negative: a penalty that pushes the
+        // policy toward the deterministic one greedy execution runs.
+        let (positive, non_negative, finite, unit): (Keys, Keys, Keys, Keys) = match &self.algorithm
+        {
             Algorithm::Ppo(p) => (
                 vec![
                     ("ppo.lr", p.lr),
@@ -119,10 +122,10 @@ impl TrainConfig {
                     ("ppo.grad_clip", p.grad_clip.unwrap_or(1.0)),
                 ],
                 vec![
-                    ("ppo.entropy_coeff", p.entropy_coeff.into()),
                     ("ppo.vf_coeff", p.vf_coeff.into()),
                     ("ppo.kl_coeff", p.kl_coeff),
                 ],
+                vec![("ppo.entropy_coeff", p.entropy_coeff.into())],
                 vec![("ppo.lambda", p.lambda.into())],
             ),
             Algorithm::Impala(i) => (
@@ -133,10 +136,8 @@ impl TrainConfig {
                     ("impala.c_bar", i.c_bar.into()),
                     ("impala.pg_rho_bar", i.pg_rho_bar.into()),
                 ],
-                vec![
-                    ("impala.vf_coeff", i.vf_coeff.into()),
-                    ("impala.entropy_coeff", i.entropy_coeff.into()),
-                ],
+                vec![("impala.vf_coeff", i.vf_coeff.into())],
+                vec![("impala.entropy_coeff", i.entropy_coeff.into())],
                 vec![("impala.lambda", i.lambda.into())],
             ),
         };
@@ -153,6 +154,7 @@ impl TrainConfig {
         in_range(&non_negative, "finite and at least 0", |v| {
             v.is_finite() && v >= 0.0
         })?;
+        in_range(&finite, "finite", f64::is_finite)?;
         in_range(&unit, "in [0, 1]", |v| (0.0..=1.0).contains(&v))
     }
 
