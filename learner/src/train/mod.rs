@@ -680,7 +680,6 @@ impl Run {
         Some(stop::Ground {
             map: map.clone(),
             env: env_config(&self.cfg, self.cfg.run.seed),
-            run_seed: self.cfg.run.seed,
         })
     }
 

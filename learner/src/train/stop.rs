@@ -216,16 +216,15 @@ pub const GREEDY_FILE: &str = "greedy.csv";
 pub const FINALISTS_FILE: &str = "finalists.csv";
 
 /// Where a run's greedy checks and finalists' replays play: `map` under
-/// `env`'s rules, episode seeds drawn from `run_seed`'s held-out streams
-/// ([`seed::greedy_check`], [`seed::greedy_final`]).
+/// `env`'s rules, episode seeds drawn from the held-out streams of the
+/// run's seed, `env.seed` ([`seed::greedy_check`], [`seed::greedy_final`]).
 #[derive(Debug, Clone)]
 pub struct Ground {
     /// The layout played.
     pub map: Arc<Map>,
-    /// Its rules and limits (the seed is replaced by each check's own).
+    /// Its rules and limits, and the run's seed (each check plays from a
+    /// seed of its own, derived from it).
     pub env: EnvConfig,
-    /// The run's seed, from which the held-out episode streams derive.
-    pub run_seed: u64,
 }
 
 /// A [`GreedyCheck`] through a run: when the next check is due, the seed
@@ -301,7 +300,7 @@ impl GreedyProbe {
             }
             return Ok(Some((*first, None)));
         };
-        let seed = seed::greedy_final(ground.run_seed);
+        let seed = seed::greedy_final(ground.env.seed);
         let n = finalists.episodes;
         let mut log = CsvLog::append(&self.out.join(FINALISTS_FILE))?;
         let mut kept: Option<(usize, FinalRecord)> = None;
@@ -357,7 +356,7 @@ impl GreedyProbe {
     /// level.
     pub fn run(&mut self, policy: &Policy, ground: &Ground, at: Mark) -> Result<bool, TrainError> {
         self.next = at.env_steps + self.check.every;
-        let seed = seed::greedy_check(ground.run_seed, self.done);
+        let seed = seed::greedy_check(ground.env.seed, self.done);
         self.done += 1;
         let n = self.check.episodes;
         let (solved, seconds) = solve_greedily(policy, ground, n, seed)?;
