@@ -8,7 +8,7 @@ use buridan_env::error::error_chain;
 use buridan_env::generate::GeneratedMap;
 use buridan_env::{Map, REFERENCE_MODELS};
 use buridan_eval::by_name::Controller as ControllerSpec;
-use buridan_eval::fleet::{FleetError, FleetSession};
+use buridan_eval::fleet::{FleetError, FleetOptions, FleetSession};
 use buridan_mapf::Limits;
 use buridan_proto::control_convert::{
     answer_to_message, open_from_message, report_from_message, FleetAnswer, FleetMapSource,
@@ -221,19 +221,19 @@ fn build(
     k: u32,
 ) -> Result<(Fleet, Arc<Map>), Status> {
     let map = Arc::new(resolve_map(&open.map)?);
-    let opener = if open.shared_goals {
-        FleetSession::open_with_shared_goals
+    let options = FleetOptions::from(open.seed).within(limits);
+    let options = if open.shared_goals {
+        options.with_shared_goals()
     } else {
-        FleetSession::open_within
+        options
     };
-    let session = opener(
+    let session = FleetSession::open(
         map.clone(),
         open.rules,
         spec,
         &open.positions,
         &open.goals,
-        open.seed,
-        limits,
+        options,
     )
     .map_err(|e| Status::invalid_argument(error_chain(&e)))?;
     Ok((Fleet::new(session, k, &open.positions), map))

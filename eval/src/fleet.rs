@@ -11,7 +11,7 @@
 //! robot is not where the plan put it (a robot lagged) or a goal changed.
 //!
 //! Goals are exclusive unless the session opens with
-//! [`FleetSession::open_with_shared_goals`] (POGEMA's lifelong tasks, where
+//! [`FleetOptions::with_shared_goals`] (POGEMA's lifelong tasks, where
 //! several robots may head for one cell). A one-shot planner cannot plan
 //! for two agents ending on one cell, so there each replan gives it
 //! distinct stand-in goals ([`planning_goals`]): of the robots sharing a
@@ -81,90 +81,79 @@ pub struct FleetSession {
     answered: bool,
     /// The goals of the last report (a planner's env may hold stand-ins).
     goals: Vec<Cell>,
-    /// Whether robots may share goals ([`FleetSession::open_with_shared_goals`]).
+    /// Whether robots may share goals ([`FleetOptions::with_shared_goals`]).
     shared_goals: bool,
+}
+
+/// How a [`FleetSession`] opens beyond its fleet and controller: the seed
+/// of the controller's draws (sampled actions, shield ties), the limits
+/// its planners plan within each time they plan (a service bounds a
+/// step's latency so; the defaults otherwise), and whether robots may
+/// share goals (several robots heading for one cell, as in POGEMA's
+/// lifelong tasks: reports may name shared goals, and a planner plans for
+/// distinct stand-ins, see the [module docs](self)). A bare seed is the
+/// options with that seed and the rest by default.
+///
+/// ```
+/// use buridan_eval::fleet::FleetOptions;
+/// use buridan_mapf::Limits;
+/// let o = FleetOptions::from(42).within(Limits::default()).with_shared_goals();
+/// assert_eq!((o.seed, o.shared_goals), (42, true));
+/// assert!(!FleetOptions::from(7).shared_goals);
+/// ```
+#[derive(Debug, Clone, Default)]
+pub struct FleetOptions {
+    /// Seeds the controller's draws.
+    pub seed: u64,
+    /// What a planner may spend each time it plans.
+    pub limits: Limits,
+    /// Whether robots may share goals.
+    pub shared_goals: bool,
+}
+
+impl FleetOptions {
+    /// These options with planners planning within `limits`.
+    pub fn within(self, limits: Limits) -> Self {
+        Self { limits, ..self }
+    }
+
+    /// These options with goals that robots may share.
+    pub fn with_shared_goals(self) -> Self {
+        Self {
+            shared_goals: true,
+            ..self
+        }
+    }
+}
+
+impl From<u64> for FleetOptions {
+    fn from(seed: u64) -> Self {
+        Self {
+            seed,
+            ..Self::default()
+        }
+    }
 }
 
 impl FleetSession {
     /// A session for the robots standing on `positions` and heading for
     /// `goals` on `map` under `rules`, driven by `controller` (the
     /// controller grammar; policies read the window and features of their
-    /// checkpoint). `seed` seeds the controller's draws (sampled actions,
-    /// shield ties). Planners get the planning limits' defaults.
+    /// checkpoint), opened with `options` ([`FleetOptions`]; a bare seed
+    /// for the defaults).
     pub fn open(
         map: Arc<Map>,
         rules: Rules,
         controller: &ControllerSpec,
         positions: &[Cell],
         goals: &[Cell],
-        seed: u64,
+        options: impl Into<FleetOptions>,
     ) -> Result<Self, FleetError> {
-        Self::open_within(
-            map,
-            rules,
-            controller,
-            positions,
-            goals,
-            seed,
-            Limits::default(),
-        )
-    }
-
-    /// [`FleetSession::open`] whose planners plan within `limits` (time,
-    /// memory) each time they plan: a service bounds a step's latency so.
-    pub fn open_within(
-        map: Arc<Map>,
-        rules: Rules,
-        controller: &ControllerSpec,
-        positions: &[Cell],
-        goals: &[Cell],
-        seed: u64,
-        limits: Limits,
-    ) -> Result<Self, FleetError> {
-        Self::open_inner(
-            map,
-            rules,
-            controller,
-            (positions, goals),
+        let FleetOptions {
             seed,
             limits,
-            false,
-        )
-    }
-
-    /// [`FleetSession::open_within`] for robots whose goals may be shared
-    /// (several robots heading for one cell, as in POGEMA's lifelong
-    /// tasks): reports may name shared goals, and a planner plans for
-    /// distinct stand-ins (see the [module docs](self)).
-    pub fn open_with_shared_goals(
-        map: Arc<Map>,
-        rules: Rules,
-        controller: &ControllerSpec,
-        positions: &[Cell],
-        goals: &[Cell],
-        seed: u64,
-        limits: Limits,
-    ) -> Result<Self, FleetError> {
-        Self::open_inner(
-            map,
-            rules,
-            controller,
-            (positions, goals),
-            seed,
-            limits,
-            true,
-        )
-    }
-
-    fn open_inner(
-        map: Arc<Map>,
-        rules: Rules,
-        controller: &ControllerSpec,
-        (positions, goals): (&[Cell], &[Cell]),
-        seed: u64,
-        limits: Limits,
-        shared_goals: bool,
-    ) -> Result<Self, FleetError> {
+            shared_goals,
+        } = options.into();
         let agents = positions.len();
         let controller = controller.factory(agents, seed, limits, rules)?();
         let cfg = EnvConfig {

@@ -42,7 +42,7 @@ use buridan_env::{EnvConfig, EnvError, GridEnv, Map, Rules};
 use buridan_mapf::Limits;
 
 use crate::by_name::Controller as ControllerSpec;
-use crate::fleet::{FleetError, FleetSession};
+use crate::fleet::{FleetError, FleetOptions, FleetSession};
 use crate::goal_sequences::GoalFile;
 
 /// How a lifelong run is measured.
@@ -198,14 +198,15 @@ pub fn run_goal_file(
     let started = Instant::now();
     let agents = file.agents();
     let mut robots = lifelong_robots(map, file, spec).map_err(env_err)?;
-    let mut fleet = FleetSession::open_with_shared_goals(
+    let mut fleet = FleetSession::open(
         map.clone(),
         robots.config().rules,
         controller,
         &robots.positions(),
         &robots.goals(),
-        spec.seed,
-        spec.limits,
+        FleetOptions::from(spec.seed)
+            .within(spec.limits)
+            .with_shared_goals(),
     )
     .map_err(fleet_err)?;
     let (mut moves, mut rewards) = (vec![0u8; agents], vec![0.0f32; agents]);

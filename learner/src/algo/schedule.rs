@@ -36,8 +36,8 @@ pub enum ScheduleError {
         /// The previous point's env step.
         previous: u64,
     },
-    /// A value is negative, NaN or infinite.
-    #[error("schedule point {index}: value {value} must be finite and at least 0")]
+    /// A value is NaN or infinite.
+    #[error("schedule point {index}: value {value} must be a finite number")]
     BadValue {
         /// Position of the point (0-based).
         index: usize,
@@ -72,13 +72,15 @@ enum Number {
 
 impl Schedule {
     /// A schedule through `points`: at least one, steps strictly
-    /// increasing, values finite and non-negative.
+    /// increasing, values finite. The range a value must lie in is the
+    /// setting's (a learning rate at least 0, an entropy coefficient of
+    /// either sign), checked where the configuration is validated.
     pub fn new(points: Vec<(u64, f64)>) -> Result<Self, ScheduleError> {
         if points.is_empty() {
             return Err(ScheduleError::Empty);
         }
         for (index, &(step, value)) in points.iter().enumerate() {
-            if !(value.is_finite() && value >= 0.0) {
+            if !value.is_finite() {
                 return Err(ScheduleError::BadValue { index, value });
             }
             if index > 0 && step <= points[index - 1].0 {
@@ -160,7 +162,7 @@ mod tests {
     }
 
     #[test]
-    fn rejects_empty_unsorted_and_negative_schedules() {
+    fn rejects_empty_unsorted_and_non_finite_schedules() {
         assert_eq!(Schedule::new(vec![]), Err(ScheduleError::Empty));
         assert_eq!(
             Schedule::new(vec![(5, 1.0), (3, 1.0)]),
@@ -171,10 +173,12 @@ mod tests {
             })
         );
         assert!(matches!(
-            Schedule::new(vec![(0, -1.0)]),
-            Err(ScheduleError::BadValue { index: 0, .. })
+            Schedule::new(vec![(0, 1.0), (10, f64::NAN)]),
+            Err(ScheduleError::BadValue { index: 1, .. })
         ));
-        assert!(Schedule::new(vec![(0, f64::NAN)]).is_err());
+        assert!(Schedule::new(vec![(0, f64::INFINITY)]).is_err());
+        // A negative value is the setting's to refuse (an entropy penalty is one).
+        assert_eq!(Schedule::new(vec![(0, -0.05)]).unwrap().value(7), -0.05);
     }
 
     #[derive(Debug, Deserialize, Serialize)]

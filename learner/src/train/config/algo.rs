@@ -187,7 +187,9 @@ pub struct PpoConfig {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lr_schedule: Option<Schedule>,
     /// Entropy coefficient over env steps, RLlib's
-    /// `entropy_coeff_schedule`: replaces `entropy_coeff` when set.
+    /// `entropy_coeff_schedule`: replaces `entropy_coeff` when set. Its
+    /// points may be negative, as `entropy_coeff` may (`[[0, -0.05],
+    /// [500_000, 0]]`: a penalty that fades out).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub entropy_schedule: Option<Schedule>,
     /// Threads that share each minibatch's gradient (0, the default: the
@@ -273,7 +275,9 @@ pub struct ImpalaConfig {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lr_schedule: Option<Schedule>,
     /// Entropy coefficient over env steps, RLlib's
-    /// `entropy_coeff_schedule`: replaces `entropy_coeff` when set.
+    /// `entropy_coeff_schedule`: replaces `entropy_coeff` when set. Its
+    /// points may be negative, as `entropy_coeff` may (`[[0, -0.05],
+    /// [500_000, 0]]`: a penalty that fades out).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub entropy_schedule: Option<Schedule>,
     /// Threads that share the train batch's gradient (1, the default; 0:

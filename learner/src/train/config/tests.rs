@@ -1,4 +1,5 @@
 use super::*;
+use crate::algo::schedule::Schedule;
 
 /// The default config with one field changed, validated.
 fn with(change: impl Fn(&mut TrainConfig)) -> Result<(), ConfigError> {
@@ -171,7 +172,7 @@ fn impala(c: &mut TrainConfig) -> &mut ImpalaConfig {
 #[test]
 fn hyperparameters_outside_their_range_are_refused_by_name() {
     type Change = fn(&mut TrainConfig);
-    let bad: [(&str, &str, Change); 7] = [
+    let bad: [(&str, &str, Change); 8] = [
         ("ppo.lr", "finite and positive", |c| ppo(c).lr = f64::NAN),
         ("ppo.lr", "finite and positive", |c| ppo(c).lr = 0.0),
         ("impala.lr", "finite and positive", |c| {
@@ -187,6 +188,10 @@ fn hyperparameters_outside_their_range_are_refused_by_name() {
         ("ppo.grad_clip", "finite and positive", |c| {
             ppo(c).grad_clip = Some(f64::NAN)
         }),
+        // A schedule's points stand in the range of the setting they replace.
+        ("impala.lr_schedule", "finite and at least 0", |c| {
+            impala(c).lr_schedule = Some(Schedule::new(vec![(0, 1e-3), (10, -1e-4)]).unwrap())
+        }),
     ];
     for (key, range, change) in bad {
         match with(change) {
@@ -199,7 +204,7 @@ fn hyperparameters_outside_their_range_are_refused_by_name() {
         }
     }
     // The legal edges stay legal.
-    let edges: [Change; 6] = [
+    let edges: [Change; 8] = [
         |c| ppo(c).entropy_coeff = 0.0,
         // Negative: a penalty on entropy.
         |c| ppo(c).entropy_coeff = -0.05,
@@ -207,6 +212,9 @@ fn hyperparameters_outside_their_range_are_refused_by_name() {
         |c| ppo(c).lambda = 1.0,
         |c| impala(c).lambda = 0.0,
         |c| ppo(c).lr = 1e-8,
+        // A learning rate decays to 0; an entropy penalty fades out.
+        |c| ppo(c).lr_schedule = Some(Schedule::new(vec![(0, 1e-3), (10, 0.0)]).unwrap()),
+        |c| ppo(c).entropy_schedule = Some(Schedule::new(vec![(0, -0.05), (10, 0.0)]).unwrap()),
     ];
     for (i, change) in edges.into_iter().enumerate() {
         assert!(with(change).is_ok(), "edge {i} refused");

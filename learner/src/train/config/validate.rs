@@ -5,6 +5,7 @@ use buridan_imitate::ImitationConfig;
 use buridan_policy::Mode;
 
 use super::{Algorithm, ConfigError, TrainConfig};
+use crate::algo::schedule::Schedule;
 
 fn ensure(ok: bool, why: &'static str) -> Result<(), ConfigError> {
     if ok {
@@ -111,36 +112,50 @@ impl TrainConfig {
         type Keys = Vec<(&'static str, f64)>;
         // An entropy coefficient may be negative: a penalty that pushes the
         // policy toward the deterministic one greedy execution runs.
-        let (positive, non_negative, finite, unit): (Keys, Keys, Keys, Keys) = match &self.algorithm
-        {
-            Algorithm::Ppo(p) => (
-                vec![
-                    ("ppo.lr", p.lr),
-                    ("ppo.clip", p.clip.into()),
-                    ("ppo.vf_clip", p.vf_clip.into()),
-                    ("ppo.kl_target", p.kl_target),
-                    ("ppo.grad_clip", p.grad_clip.unwrap_or(1.0)),
-                ],
-                vec![
-                    ("ppo.vf_coeff", p.vf_coeff.into()),
-                    ("ppo.kl_coeff", p.kl_coeff),
-                ],
-                vec![("ppo.entropy_coeff", p.entropy_coeff.into())],
-                vec![("ppo.lambda", p.lambda.into())],
-            ),
-            Algorithm::Impala(i) => (
-                vec![
-                    ("impala.lr", i.lr),
-                    ("impala.grad_clip", i.grad_clip.unwrap_or(1.0)),
-                    ("impala.rho_bar", i.rho_bar.into()),
-                    ("impala.c_bar", i.c_bar.into()),
-                    ("impala.pg_rho_bar", i.pg_rho_bar.into()),
-                ],
-                vec![("impala.vf_coeff", i.vf_coeff.into())],
-                vec![("impala.entropy_coeff", i.entropy_coeff.into())],
-                vec![("impala.lambda", i.lambda.into())],
-            ),
+        let (positive, mut non_negative, mut finite, unit): (Keys, Keys, Keys, Keys) =
+            match &self.algorithm {
+                Algorithm::Ppo(p) => (
+                    vec![
+                        ("ppo.lr", p.lr),
+                        ("ppo.clip", p.clip.into()),
+                        ("ppo.vf_clip", p.vf_clip.into()),
+                        ("ppo.kl_target", p.kl_target),
+                        ("ppo.grad_clip", p.grad_clip.unwrap_or(1.0)),
+                    ],
+                    vec![
+                        ("ppo.vf_coeff", p.vf_coeff.into()),
+                        ("ppo.kl_coeff", p.kl_coeff),
+                    ],
+                    vec![("ppo.entropy_coeff", p.entropy_coeff.into())],
+                    vec![("ppo.lambda", p.lambda.into())],
+                ),
+                Algorithm::Impala(i) => (
+                    vec![
+                        ("impala.lr", i.lr),
+                        ("impala.grad_clip", i.grad_clip.unwrap_or(1.0)),
+                        ("impala.rho_bar", i.rho_bar.into()),
+                        ("impala.c_bar", i.c_bar.into()),
+                        ("impala.pg_rho_bar", i.pg_rho_bar.into()),
+                    ],
+                    vec![("impala.vf_coeff", i.vf_coeff.into())],
+                    vec![("impala.entropy_coeff", i.entropy_coeff.into())],
+                    vec![("impala.lambda", i.lambda.into())],
+                ),
+            };
+        // A schedule's points stand in the range of the setting they replace,
+        // except that a learning rate may decay to 0.
+        let (lr, entropy) = self.algorithm.schedules();
+        let (lr_key, entropy_key) = match &self.algorithm {
+            Algorithm::Ppo(_) => ("ppo.lr_schedule", "ppo.entropy_schedule"),
+            Algorithm::Impala(_) => ("impala.lr_schedule", "impala.entropy_schedule"),
         };
+        let points = |s: Option<&Schedule>, key| {
+            s.into_iter()
+                .flat_map(|s| s.points().iter().map(move |&(_, v)| (key, v)))
+                .collect::<Keys>()
+        };
+        non_negative.extend(points(lr, lr_key));
+        finite.extend(points(entropy, entropy_key));
         let in_range = |keys: &[(&'static str, f64)], range, ok: fn(f64) -> bool| match keys
             .iter()
             .find(|(_, value)| !ok(*value))
