@@ -7,7 +7,7 @@
 use buridan_env::{BatchedEnv, EnvError, VecEnv};
 use buridan_policy::{ActMode, Fragment, Inference, PolicyError, Weights};
 
-use crate::shield::{RolloutShield, RolloutShieldError};
+use buridan_mapf::shield::rollout::{RolloutShield, RolloutShieldError};
 
 /// The envs of a collector whose kind is chosen at run time: the grid
 /// [`VecEnv`], a plant batch, or a [`crate::remote_env::RemoteEnv`] on an
@@ -68,7 +68,7 @@ pub struct Collector<E = VecEnv> {
     pub version: u64,
     /// Rollouts through the PIBT collision shield (`shield_rollouts`):
     /// the policy acts under wall masks and the env executes the shield's
-    /// joint move ([`crate::shield`]). `None`: the env executes the
+    /// joint move ([`buridan_mapf::shield::rollout`]). `None`: the env executes the
     /// policy's actions.
     pub shield: Option<RolloutShield>,
 }

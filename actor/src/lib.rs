@@ -3,8 +3,6 @@
 //!
 //! - [`Collector`]: envs + inference → [`buridan_policy::Fragment`]; used
 //!   in-process by `learner train` and here.
-//! - [`shield`]: [`shield::RolloutShield`], rollouts through the PIBT
-//!   collision shield (`shield_rollouts`), trained as deployed.
 //! - [`client`]: the stateless gRPC actor behind the `actor` binary — join,
 //!   receive weights, submit fragments, reconnect with backoff.
 //! - [`remote_env`]: [`remote_env::RemoteEnv`], envs stepped on an external
@@ -19,6 +17,5 @@ pub mod collector;
 #[cfg(feature = "misbehave")]
 pub mod misbehave;
 pub mod remote_env;
-pub mod shield;
 
 pub use collector::{ActorEnv, CollectError, Collector};

@@ -13,7 +13,18 @@ pub enum Rollout {
     Greedy,
     /// Actions sampled from the policy.
     Sampled,
+    /// The policy's preferences through the collision shield with goal
+    /// settling ([`SHIELD_PATIENCE`]), as `shield-settle=16` executes a
+    /// policy: the states a shielded policy meets. The policy ranks its
+    /// moves under the wall mask (a move into a neighbour's cell asks it
+    /// to make way); its labels stay those of the env's mask. Grid envs
+    /// only.
+    Shielded,
 }
+
+/// The patience of the shield's goal settling in
+/// [`Rollout::Shielded`] rollouts: the evaluation's `shield-settle=16`.
+pub const SHIELD_PATIENCE: u32 = 16;
 
 /// How a plan step in which one agent follows another into the cell it
 /// leaves becomes labels: the policy's action mask forbids entering a cell
@@ -62,7 +73,9 @@ pub struct ImitationConfig {
     /// after the first (it unjams the policy, so later states get labels
     /// too).
     pub beta: f64,
-    /// How the policy acts in its rollouts.
+    /// How the policy acts in its rollouts: `greedy` (the default),
+    /// `sampled`, or `shielded` (its preferences through the collision
+    /// shield with goal settling, as `shield-settle=16` executes it).
     pub rollout: Rollout,
     /// Round 0 follows the expert, so a fresh policy's data starts on the
     /// expert's track. Off for a polish after learning from rewards

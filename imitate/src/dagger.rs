@@ -21,13 +21,15 @@
 //! execution, so the trained network is an ordinary checkpoint.
 
 use buridan_env::{BatchedEnv, EnvSlot, VecEnv};
+use buridan_mapf::shield::rollout::RolloutShield;
+use buridan_policy::dist::greedy_head;
 use buridan_policy::infer::one_hot_prev;
 use buridan_policy::{ActMode, Inference, Policy, NO_ACTION};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::cloning::Cloner;
-use crate::config::{ImitationConfig, Rollout};
+use crate::config::{ImitationConfig, Rollout, SHIELD_PATIENCE};
 use crate::dataset::Dataset;
 use crate::error::ImitationError;
 use crate::expert::Expert;
@@ -139,9 +141,16 @@ pub fn dagger<S: EnvSlot>(
         .collect::<Result<Vec<_>, _>>()?;
     let mut reports = Vec::with_capacity(cfg.rounds);
     let mode = match cfg.rollout {
-        Rollout::Greedy => ActMode::Greedy,
+        Rollout::Greedy | Rollout::Shielded => ActMode::Greedy,
         Rollout::Sampled => ActMode::Sample,
     };
+    // Shielded rollouts: the shield's joint move replaces the policy's
+    // greedy actions (the expert's steps stay the expert's).
+    let mut shielded = (cfg.rollout == Rollout::Shielded).then(|| Shielded {
+        shield: RolloutShield::new(seed).with_goal_settling(SHIELD_PATIENCE),
+        walls: vec![0u8; rows * w],
+        chosen: vec![0u8; rows * heads],
+    });
     // Actions are `[rows, heads]`: one per agent in every mode.
     let (mut actions, mut policy_actions, mut logp) = (
         vec![0u8; rows * heads],
@@ -178,13 +187,24 @@ pub fn dagger<S: EnvSlot>(
                 one_hot_prev(&st.prev_actions, spec.actions, &mut prev_one_hot);
             }
             if let Some(actor) = actor.as_mut() {
-                actor.act(
+                let logits = actor.act(
                     venv.obs(),
                     venv.masks(),
                     mode,
                     &mut policy_actions,
                     &mut logp,
                 )?;
+                if let Some(s) = shielded.as_mut() {
+                    s.shield.write_masks(&*venv, &mut s.walls)?;
+                    greedy_under(logits, &s.walls, &mut s.chosen);
+                    s.shield.joint_move(
+                        &*venv,
+                        &s.chosen,
+                        logits,
+                        &s.walls,
+                        &mut policy_actions,
+                    )?;
+                }
             }
             for e in 0..envs {
                 let lo = e * n;
@@ -285,4 +305,40 @@ pub fn dagger<S: EnvSlot>(
         reports.push(report);
     }
     Ok(reports)
+}
+
+/// What [`Rollout::Shielded`] rollouts carry from step to step: the shield
+/// of every env, the wall masks the policy ranks its moves under, and its
+/// first choices under them.
+struct Shielded {
+    shield: RolloutShield,
+    walls: Vec<u8>,
+    chosen: Vec<u8>,
+}
+
+/// Per agent, the most probable action that `masks` allows (the first on
+/// a tie, [`greedy_head`]): `logits` and `masks` hold five entries per
+/// agent, `out` one; stay where the mask allows nothing.
+fn greedy_under(logits: &[f32], masks: &[u8], out: &mut [u8]) {
+    let na = buridan_env::NUM_ACTIONS;
+    for (i, a) in out.iter_mut().enumerate() {
+        let moves = i * na..(i + 1) * na;
+        *a = greedy_head(&logits[moves.clone()], &masks[moves]).map_or(0, |(best, _)| best);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::greedy_under;
+
+    #[test]
+    fn greedy_under_a_mask_skips_forbidden_moves_and_keeps_the_first_of_a_tie() {
+        let logits = [0.0, 3.0, 1.0, 0.0, 0.0, 0.0, 3.0, 3.0, 0.0, 0.0];
+        let masks = [1, 0, 1, 1, 1, 1, 1, 1, 1, 1];
+        let mut out = [9u8; 2];
+        greedy_under(&logits, &masks, &mut out);
+        // Agent 0's best move (up) is masked: right; agent 1: up and
+        // right tie, up comes first.
+        assert_eq!(out, [2, 1]);
+    }
 }

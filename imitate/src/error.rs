@@ -39,6 +39,10 @@ pub enum ImitationError {
     /// A tensor operation failed.
     #[error("tensor: {0}")]
     Tensor(#[from] candle_core::Error),
+    /// A shielded rollout step could not be made
+    /// ([`crate::config::Rollout::Shielded`]).
+    #[error("shielded rollout")]
+    Shield(#[from] buridan_mapf::shield::rollout::RolloutShieldError),
     /// A thread of a sharded gradient step panicked.
     #[error(transparent)]
     Thread(#[from] buridan_policy::shards::SharePanicked),

@@ -281,36 +281,66 @@ fn dagger_teaches_a_recurrent_policy_on_windows_of_its_own_steps() {
     );
 }
 
+/// The report of one DAgger round of an untrained CTDE policy on rm-2.1
+/// with 2 agents (8 envs, 4,000 env steps, no expert steps in the
+/// policy's rollouts), under `cfg`'s other settings.
+fn first_round(cfg: ImitationConfig) -> RoundReport {
+    let env_cfg = EnvConfig {
+        agents: 2,
+        seed: 5,
+        ..EnvConfig::default()
+    };
+    let mut venv = VecEnv::new(map("rm-2.1"), env_cfg, 8, ObsKind::Local, 1).unwrap();
+    let policy = Policy::new(ModelSpec::new(Mode::Ctde, 2, venv.obs_dim()), 0).unwrap();
+    let cfg = ImitationConfig {
+        rounds: 1,
+        steps_per_round: 4_000,
+        envs: 8,
+        beta: 0.0,
+        ..cfg
+    };
+    dagger(&cfg, &policy, &mut venv, 1, &mut |_| {})
+        .unwrap()
+        .remove(0)
+}
+
 /// With `expert_first` off (a polish after learning from rewards) round 0
 /// rolls out the policy, not the expert: an untrained policy's greedy
 /// rollouts fail where the expert's succeed, and the expert still labels
 /// the states they reach.
 #[test]
 fn without_expert_first_round_zero_follows_the_policy() {
-    let env_cfg = EnvConfig {
-        agents: 2,
-        seed: 5,
-        ..EnvConfig::default()
-    };
-    let first_round = |expert_first: bool| {
-        let mut venv = VecEnv::new(map("rm-2.1"), env_cfg.clone(), 8, ObsKind::Local, 1).unwrap();
-        let policy = Policy::new(ModelSpec::new(Mode::Ctde, 2, venv.obs_dim()), 0).unwrap();
-        let cfg = ImitationConfig {
-            rounds: 1,
-            steps_per_round: 4_000,
-            envs: 8,
-            beta: 0.0,
-            expert_first,
-            ..ImitationConfig::default()
-        };
-        dagger(&cfg, &policy, &mut venv, 1, &mut |_| {})
-            .unwrap()
-            .remove(0)
-    };
-    let (expert, policy) = (first_round(true), first_round(false));
+    let expert = first_round(ImitationConfig::default());
+    let policy = first_round(ImitationConfig {
+        expert_first: false,
+        ..ImitationConfig::default()
+    });
     assert!(expert.success_rate > 0.95, "{expert:?}");
     assert!(policy.success_rate < 0.5, "{policy:?}");
     assert!(policy.expert_calls > 0 && policy.rows > 0, "{policy:?}");
+}
+
+/// `rollout = "shielded"`: the untrained policy's preferences go through
+/// the collision shield with goal settling, whose progress fallback walks
+/// an agent that made no progress for 16 steps along its shortest path; the
+/// rollouts then reach goals that the same policy's greedy rollouts never
+/// reach, and the expert labels the states they pass through.
+#[test]
+fn shielded_rollouts_reach_the_states_a_shielded_policy_meets() {
+    let shielded: ImitationConfig =
+        toml::from_str("expert_first = false\nrollout = \"shielded\"").unwrap();
+    let greedy = first_round(ImitationConfig {
+        expert_first: false,
+        ..ImitationConfig::default()
+    });
+    let shielded = first_round(shielded);
+    // Measured: greedy 0 of 40 episodes, shielded 8 of 41.
+    assert!(greedy.success_rate < 0.05, "{greedy:?}");
+    assert!(shielded.success_rate > 0.1, "{shielded:?}");
+    assert!(
+        shielded.expert_calls > 0 && shielded.rows > 0,
+        "{shielded:?}"
+    );
 }
 
 #[test]

@@ -28,7 +28,9 @@
 //! returns succeeds in the env** — no blocked move, no collision, no swap.
 //!
 //! The shield knows no networks: callers pass preference orders (the
-//! evaluation crate builds them from a checkpoint's action probabilities).
+//! evaluation crate builds them from a checkpoint's action probabilities;
+//! [`rollout::RolloutShield`] from a batch's logits, for training rollouts
+//! through the shield).
 //!
 //! ```
 //! use buridan_env::{Cell, Grid};
@@ -51,6 +53,7 @@
 
 mod preference;
 mod progress;
+pub mod rollout;
 mod yielding;
 
 use buridan_env::{Cell, Grid, NUM_ACTIONS};

@@ -18,7 +18,7 @@ use tokio::sync::watch;
 use super::{ActorError, ActorOptions, SessionEnd, SetupError, Update};
 use crate::collector::{ActorEnv, Collector};
 use crate::remote_env::{RemoteEnv, RemoteEnvError, RemoteEnvOptions};
-use crate::shield::RolloutShield;
+use buridan_mapf::shield::rollout::RolloutShield;
 
 /// The spec of the env server at `url` (a short connection of its own).
 pub(super) async fn fetch_env_spec(

@@ -42,9 +42,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use buridan_actor::shield::RolloutShield;
 use buridan_actor::Collector;
 use buridan_env::{seed, BatchedEnv, EnvConfig, Map, Shaping, VecEnv, WeightedLayout};
+use buridan_mapf::shield::rollout::RolloutShield;
 use buridan_plant::{Plant, PlantEnv, PlantVecEnv};
 use buridan_policy::checkpoint::{self, CONFIG_FILE, OPTIMIZER_FILE, TRAINER_FILE};
 use buridan_policy::{Fragment, Inference, ModelSpec, Policy, Weights};

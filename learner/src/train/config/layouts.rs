@@ -86,13 +86,59 @@ impl WeightedMap {
         Ok(maps)
     }
 
-    /// A short name of a list: `NAME:WEIGHT` joined by `+`.
+    /// A short name of a list: `NAME:WEIGHT` joined by `+`. Generated
+    /// maps of consecutive seeds that share their settings and weight (what
+    /// a seed range expands to, [`WeightedMap::parse_list`]) fold back into
+    /// the range with the weight they share.
+    ///
+    /// ```
+    /// use buridan_learner::train::WeightedMap;
+    /// let maps = WeightedMap::parse_list("maze/19x19/seed=0..100,rm-2.2:2").unwrap();
+    /// assert_eq!(WeightedMap::label(&maps), "maze/19x19/seed=0..100:1+rm-2.2:2");
+    /// let maps = WeightedMap::parse_list("maze/19x19/seed=3,maze/19x19/seed=5").unwrap();
+    /// assert_eq!(WeightedMap::label(&maps), "maze/19x19/seed=3:1+maze/19x19/seed=5:1");
+    /// ```
     pub fn label(maps: &[WeightedMap]) -> String {
-        maps.iter()
-            .map(|m| format!("{}:{}", m.name, m.weight))
-            .collect::<Vec<_>>()
-            .join("+")
+        let mut parts: Vec<String> = Vec::new();
+        let mut i = 0;
+        while i < maps.len() {
+            let Some((prefix, first)) = seeded(&maps[i]) else {
+                parts.push(format!("{}:{}", maps[i].name, maps[i].weight));
+                i += 1;
+                continue;
+            };
+            let run = maps[i..]
+                .iter()
+                .zip(first..)
+                .take_while(|(m, seed)| {
+                    m.weight == maps[i].weight && seeded(m) == Some((prefix, *seed))
+                })
+                .count();
+            if run == 1 {
+                parts.push(format!("{}:{}", maps[i].name, maps[i].weight));
+            } else {
+                // The weights of a range's seeds sum back to the range's
+                // weight, up to float rounding.
+                let weight = (maps[i].weight * run as f64 * 1e9).round() / 1e9;
+                parts.push(format!(
+                    "{prefix}/seed={first}..{}:{weight}",
+                    first + run as u64
+                ));
+            }
+            i += run;
+        }
+        parts.join("+")
     }
+}
+
+/// A generated map's name split into its settings and its seed
+/// (`maze/19x19/seed=7` → `("maze/19x19", 7)`); `None` for other names.
+fn seeded(map: &WeightedMap) -> Option<(&str, u64)> {
+    if !GeneratedMap::is_spec(&map.name) {
+        return None;
+    }
+    let (prefix, seed) = map.name.rsplit_once("/seed=")?;
+    Some((prefix, seed.parse().ok()?))
 }
 
 /// The plant `name` (a bundled id or a file) as its file has it.

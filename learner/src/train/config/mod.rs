@@ -96,7 +96,7 @@ pub struct TrainConfig {
     /// the actors, checkpoints and when it stops, TOML top-level keys.
     pub run: RunConfig,
     /// Rollouts through the PIBT collision shield, as a shielded policy is
-    /// deployed (`buridan_actor::shield`; CS-PIBT): the policy acts under
+    /// deployed (`buridan_mapf::shield::rollout`; CS-PIBT): the policy acts under
     /// wall masks, so asking for a neighbour's cell is legal, and the env
     /// executes the shield's conflict-free joint move. Grid runs only; off
     /// by default.

@@ -23,8 +23,8 @@
 
 use std::sync::Arc;
 
+use super::{preference_orders, ActionOrder, Shield, ShieldError};
 use buridan_env::{seed, BatchedEnv, EnvError, GridEnv, Map, NUM_ACTIONS};
-use buridan_mapf::shield::{preference_orders, ActionOrder, Shield, ShieldError};
 
 /// Why a shielded rollout step could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -65,7 +65,7 @@ struct EnvShield {
 ///
 /// ```
 /// use std::sync::Arc;
-/// use buridan_actor::shield::RolloutShield;
+/// use buridan_mapf::shield::rollout::RolloutShield;
 /// use buridan_env::{BatchedEnv, EnvConfig, Map, ObsKind, VecEnv};
 /// let map = Arc::new(Map::load("rm-2.1").unwrap());
 /// let mut venv = VecEnv::new(map, EnvConfig::default(), 2, ObsKind::Local, 1).unwrap();
@@ -83,6 +83,8 @@ pub struct RolloutShield {
     seed: u64,
     envs: Vec<Option<EnvShield>>,
     prefs: Vec<ActionOrder>,
+    /// The patience of [`Shield::with_goal_settling`], if settling.
+    settling: Option<u32>,
 }
 
 impl RolloutShield {
@@ -93,6 +95,17 @@ impl RolloutShield {
             seed,
             envs: Vec::new(),
             prefs: Vec::new(),
+            settling: None,
+        }
+    }
+
+    /// This shield with goal settling and its progress fallback after
+    /// `patience` steps ([`Shield::with_goal_settling`]), as
+    /// `shield-settle=PATIENCE` executes a policy.
+    pub fn with_goal_settling(self, patience: u32) -> Self {
+        Self {
+            settling: Some(patience),
+            ..self
         }
     }
 
@@ -137,7 +150,7 @@ impl RolloutShield {
                 &masks[moves],
                 &mut self.prefs,
             );
-            let shield = shield_for(&mut self.envs[e], self.seed, e, env);
+            let shield = shield_for(&mut self.envs[e], self.seed, self.settling, e, env);
             shield
                 .step(
                     &env.positions(),
@@ -156,6 +169,7 @@ impl RolloutShield {
 fn shield_for<'a>(
     slot: &'a mut Option<EnvShield>,
     seed: u64,
+    settling: Option<u32>,
     e: usize,
     env: &GridEnv,
 ) -> &'a mut Shield {
@@ -165,7 +179,10 @@ fn shield_for<'a>(
     if !current {
         let mut shield = match slot.take() {
             Some(s) if Arc::ptr_eq(&s.map, env.map()) => s.shield,
-            _ => Shield::new(&env.map().grid),
+            _ => match settling {
+                Some(patience) => Shield::new(&env.map().grid).with_goal_settling(patience),
+                None => Shield::new(&env.map().grid),
+            },
         };
         // Tie-breaks drawn per episode as the evaluation's shield draws
         // them, from the batch's seed and the env's index.
