@@ -81,6 +81,7 @@ pub struct ShieldController {
     patience: Option<u32>,
     goal_settling: bool,
     dead_end_order: bool,
+    dead_end_eviction: bool,
     one_way_lanes: bool,
     shield: Option<Shield>,
     prefs: Vec<ActionOrder>,
@@ -116,6 +117,7 @@ impl ShieldController {
             patience: None,
             goal_settling: false,
             dead_end_order: false,
+            dead_end_eviction: false,
             one_way_lanes: false,
             shield: None,
             prefs: Vec::with_capacity(agents),
@@ -150,6 +152,14 @@ impl ShieldController {
         self
     }
 
+    /// The same controller whose shield also backs agents out of a dead
+    /// end entered in the wrong order ([`Shield::with_dead_end_eviction`];
+    /// the option `evict` of `shield[…]:checkpoint:DIR`).
+    pub fn with_dead_end_eviction(mut self) -> Self {
+        self.dead_end_eviction = true;
+        self
+    }
+
     /// The same controller whose shield keeps one-lane corridors one-way
     /// ([`Shield::with_one_way_lanes`]; `shield-lanes[=K]:checkpoint:DIR`,
     /// which also fills dead-end aisles from the back).
@@ -169,6 +179,9 @@ impl ShieldController {
         if self.dead_end_order {
             shield = shield.with_dead_end_order();
         }
+        if self.dead_end_eviction {
+            shield = shield.with_dead_end_eviction();
+        }
         if self.one_way_lanes {
             shield = shield.with_one_way_lanes();
         }
@@ -187,6 +200,8 @@ impl Controller for ShieldController {
         } else {
             "shield"
         };
+        let evict = if self.dead_end_eviction { "-evict" } else { "" };
+        let shield = format!("{shield}{evict}");
         match self.patience {
             None => format!("{}+{shield}", self.policy.name()),
             Some(k) => format!("{}+{shield}={k}", self.policy.name()),

@@ -31,8 +31,9 @@ fn shield() -> impl Strategy<Value = Shield> {
         prop::option::of((any::<u32>(), any::<bool>())),
         any::<bool>(),
         any::<bool>(),
+        any::<bool>(),
     )
-        .prop_map(|(policy, env, fallback, ordered, lanes)| Shield {
+        .prop_map(|(policy, env, fallback, ordered, evict, lanes)| Shield {
             policy,
             ranking: if env { Ranking::Env } else { Ranking::Walls },
             fallback: fallback.map(|(patience, goal_settling)| Fallback {
@@ -40,6 +41,7 @@ fn shield() -> impl Strategy<Value = Shield> {
                 goal_settling,
             }),
             dead_end_order: ordered,
+            dead_end_eviction: evict,
             one_way_lanes: lanes,
         })
 }

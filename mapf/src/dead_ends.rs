@@ -107,6 +107,11 @@ impl DeadEnds {
         self.index_on_the_way(self.topo.index(on), self.topo.index(goal))
     }
 
+    /// [`DeadEnds::depth`] of the cell with index `cell`.
+    pub(crate) fn index_depth(&self, cell: u32) -> u32 {
+        self.depth[cell as usize]
+    }
+
     pub(crate) fn index_on_the_way(&self, on: u32, goal: u32) -> bool {
         let (d_on, mut d) = (self.depth[on as usize], self.depth[goal as usize]);
         if d_on == 0 || d <= d_on {

@@ -113,6 +113,7 @@ impl LifelongPibt {
             &cur,
             &self.goals,
             &mut self.priorities,
+            &[],
         );
         self.steps += 1;
         Ok(next.iter().map(|&c| self.topo.cell(c)).collect())

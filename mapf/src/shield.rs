@@ -69,7 +69,7 @@ use crate::rules::ConflictModel;
 
 use preference::Ranks;
 use progress::{shortest_first, GoalDistances, ProgressFallback};
-use yielding::{keep_lanes_one_way, yield_to_deeper_goals};
+use yielding::{evict_from_dead_ends, keep_lanes_one_way, yield_to_deeper_goals};
 
 /// Why the shield refused a step.
 ///
@@ -132,6 +132,11 @@ pub struct Shield {
     ranks: Ranks,
     fallback: Option<ProgressFallback>,
     dead_ends: Option<DeadEnds>,
+    /// Whether agents in a dead end's way back out
+    /// ([`Shield::with_dead_end_eviction`]).
+    evict: bool,
+    /// Per agent: backing out of a dead end this step, moved first.
+    urgent: Vec<bool>,
     lanes: Option<Lanes>,
     /// Each agent's distance table to its goal, kept while the fallback or
     /// the lane rule needs it.
@@ -159,6 +164,8 @@ impl Shield {
             ranks: Ranks(Vec::new()),
             fallback: None,
             dead_ends: None,
+            evict: false,
+            urgent: Vec::new(),
             lanes: None,
             dist: GoalDistances::default(),
         }
@@ -290,6 +297,62 @@ impl Shield {
         self
     }
 
+    /// A shield with the dead-end order ([`Shield::with_dead_end_order`])
+    /// that also undoes a wrong order: an agent inside the branch of its
+    /// goal that stands in the way of an agent bound deeper, one that has
+    /// passed neither its goal nor itself, backs out towards the core
+    /// ahead of everybody else (PIBT moves it first and pushes whoever is
+    /// between it and the core out ahead of it), then waits outside as the
+    /// order says. Without it an aisle entered in the wrong order stays
+    /// jammed: the agent at the back cannot get by, and the one in front
+    /// has no reason to leave.
+    ///
+    /// ```
+    /// use buridan_env::{Cell, Grid};
+    /// use buridan_mapf::shield::Shield;
+    /// // A two-wide spine on the left, a dead-end aisle to the right.
+    /// let grid = Grid::from_rows(&["......", "..@@@@"]).unwrap();
+    /// // Agent 0 rests on its goal in the aisle; agent 1, bound for the
+    /// // far end, has just entered behind it.
+    /// let goals = [Cell::new(0, 3), Cell::new(0, 5)];
+    /// // A policy that heads for its goal and rests there.
+    /// let prefs = |at: Cell, goal: Cell| match (goal.col as i32 - at.col as i32).signum() {
+    ///     0 if at.row == goal.row => [0, 1, 2, 3, 4],
+    ///     1 => [2, 1, 3, 0, 4],
+    ///     _ => if at.row == goal.row { [4, 3, 1, 0, 2] } else { [1, 3, 2, 4, 0] },
+    /// };
+    /// let play = |mut shield: Shield| {
+    ///     let mut pos = [Cell::new(0, 3), Cell::new(0, 2)];
+    ///     let mut actions = [0u8; 2];
+    ///     for t in 0..30 {
+    ///         if pos == goals {
+    ///             return Some(t);
+    ///         }
+    ///         let orders = [prefs(pos[0], goals[0]), prefs(pos[1], goals[1])];
+    ///         shield.step(&pos, &goals, &orders, &mut actions).unwrap();
+    ///         for (p, &a) in pos.iter_mut().zip(&actions) {
+    ///             *p = match a {
+    ///                 1 => Cell::new(p.row - 1, p.col),
+    ///                 2 => Cell::new(p.row, p.col + 1),
+    ///                 3 => Cell::new(p.row + 1, p.col),
+    ///                 4 => Cell::new(p.row, p.col - 1),
+    ///                 _ => *p,
+    ///             };
+    ///         }
+    ///     }
+    ///     None
+    /// };
+    /// assert_eq!(play(Shield::new(&grid).with_dead_end_order()), None, "a livelock");
+    /// assert!(play(Shield::new(&grid).with_dead_end_eviction()).is_some(), "refilled from the back");
+    /// ```
+    pub fn with_dead_end_eviction(mut self) -> Self {
+        if self.dead_ends.is_none() {
+            self = self.with_dead_end_order();
+        }
+        self.evict = true;
+        self
+    }
+
     /// A shield that keeps one-lane corridors one-way ([`crate::lanes`]):
     /// an agent about to enter a lane waits outside (it ranks every move into
     /// the lane last and takes the lowest priority) while another agent
@@ -409,6 +472,18 @@ impl Shield {
         if self.priorities.len() != n {
             self.begin_episode(n, self.tie_seed);
         }
+        self.urgent.clear();
+        if let Some(dead_ends) = self.dead_ends.as_ref().filter(|_| self.evict) {
+            self.urgent.resize(n, false);
+            evict_from_dead_ends(
+                dead_ends,
+                &self.topo,
+                &self.cur,
+                &self.goals,
+                &mut self.ranks.0,
+                &mut self.urgent,
+            );
+        }
         if let Some(dead_ends) = &self.dead_ends {
             yield_to_deeper_goals(
                 dead_ends,
@@ -446,6 +521,7 @@ impl Shield {
             &self.cur,
             &self.goals,
             &mut self.priorities,
+            &self.urgent,
         );
         self.steps += 1;
         for ((a, &from), &to) in actions.iter_mut().zip(&self.cur).zip(&next) {

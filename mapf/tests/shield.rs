@@ -418,6 +418,35 @@ fn the_dead_end_order_lets_the_deeper_goal_in_first() {
     }
 }
 
+/// [`wrong_order_aisle`] after the wrong move: agent 0 already stands on
+/// its goal in the aisle's second cell and agent 1, bound for the aisle's
+/// end, waits at the spine's far end.
+fn entered_in_the_wrong_order() -> Arc<Map> {
+    toy(
+        "aisle entered in the wrong order",
+        &["..........", "..@@@@@@@@", "..@@@@@@@@", "..@@@@@@@@"],
+        [Cell::new(0, 3), Cell::new(3, 0)],
+        [Cell::new(0, 3), Cell::new(0, 9)],
+    )
+}
+
+#[test]
+fn eviction_backs_an_agent_out_of_an_aisle_entered_in_the_wrong_order() {
+    let map = entered_in_the_wrong_order();
+    for tie_seed in 0..8 {
+        let mut ordered = ordered_shield(&map.grid);
+        let slow = goal_greedy_episode(&map, &mut ordered, tie_seed);
+        // Agent 0 is inside, so the order does not hold it back: agent 1
+        // gets by only once the progress fallback (patience 16) acts.
+        assert!(slow.is_none_or(|t| t > 30), "tie seed {tie_seed}: {slow:?}");
+        let mut evicting = ordered_shield(&map.grid).with_dead_end_eviction();
+        // Agent 0 backs out ahead of agent 1, which walks its 3 + 9 cells
+        // to the far end without a wait; agent 0 follows it back in.
+        let length = goal_greedy_episode(&map, &mut evicting, tie_seed);
+        assert_eq!(length, Some(12), "tie seed {tie_seed}");
+    }
+}
+
 /// Two open columns joined by a one-lane row of nine cells (rm-2.1's
 /// rows between the blocks, in small). Agent 0 starts top left, bound for
 /// the bottom right; agent 1 the other way round: both take the lane.

@@ -358,7 +358,7 @@ fn json_loads(py: Python<'_>, text: &str) -> PyResult<Py<PyAny>> {
 /// (`"cbs"`, `"lacam"`, `"lacam+od-astar"`, …), `"random"`,
 /// `"checkpoint:DIR"` (a trained policy), `"shield[OPTIONS]:checkpoint:DIR"`
 /// (through the PIBT collision shield; options `env`, `patience=K`,
-/// `settle`, `ordered`, `lanes`), `"sampled:CONTROLLER"`, or a planner net
+/// `settle`, `ordered`, `evict`, `lanes`), `"sampled:CONTROLLER"`, or a planner net
 /// around any of these (`"rescue[=PLANNER]:CONTROLLER"`, `"lookahead:…"`,
 /// `"backstop:…"`, `"pace:…"`); `buridan_eval::by_name::Controller` has
 /// the grammar's table. `delay` is the probability that a robot fails to

@@ -102,6 +102,9 @@ impl Controller {
                     if s.dead_end_order {
                         shield = shield.with_dead_end_order();
                     }
+                    if s.dead_end_eviction {
+                        shield = shield.with_dead_end_eviction();
+                    }
                     if s.one_way_lanes {
                         shield = shield.with_one_way_lanes();
                     }

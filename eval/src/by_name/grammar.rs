@@ -180,6 +180,8 @@ pub struct Shield {
     pub fallback: Option<Fallback>,
     /// Dead-end aisles are filled from the back.
     pub dead_end_order: bool,
+    /// Agents in a dead end's way back out of it (with the order).
+    pub dead_end_eviction: bool,
     /// One-lane corridors are kept one-way.
     pub one_way_lanes: bool,
 }
@@ -192,6 +194,7 @@ impl Shield {
             ranking: Ranking::Walls,
             fallback: None,
             dead_end_order: false,
+            dead_end_eviction: false,
             one_way_lanes: false,
         }
     }
@@ -201,6 +204,9 @@ impl Shield {
     fn named_form(&self) -> Option<&'static str> {
         let settle = self.fallback.is_some_and(|f| f.goal_settling);
         let (o, l) = (self.dead_end_order, self.one_way_lanes);
+        if self.dead_end_eviction {
+            return None;
+        }
         Some(match (self.ranking, settle, o, l) {
             (Ranking::Walls, false, false, false) => "shield",
             (Ranking::Env, false, false, false) => "shield-env",
@@ -271,7 +277,7 @@ pub struct Net {
 /// | `checkpoint:DIR` | a trained policy (a run or checkpoint directory), greedy |
 /// | `sampled:CONTROLLER` | every policy inside samples its actions instead |
 /// | `shield:checkpoint:DIR` | the policy through the PIBT collision shield |
-/// | `shield[OPTION,…]:checkpoint:DIR` | the shield with options: `env` (moves into occupied cells ranked last), `patience=K` (an agent without progress for K steps follows its shortest path), `settle` (with `patience`: only the first arrival on the goal counts as progress), `ordered` (dead-end aisles filled from the back), `lanes` (one-lane corridors kept one-way) |
+/// | `shield[OPTION,…]:checkpoint:DIR` | the shield with options: `env` (moves into occupied cells ranked last), `patience=K` (an agent without progress for K steps follows its shortest path), `settle` (with `patience`: only the first arrival on the goal counts as progress), `ordered` (dead-end aisles filled from the back), `evict` (the dead-end order, and an agent in the way of one bound deeper backs out of the aisle), `lanes` (one-lane corridors kept one-way) |
 /// | `shield=K:…` | `shield[patience=K]:…` |
 /// | `shield-env[=K]:…` | `shield[env(,patience=K)]:…` |
 /// | `shield-ordered[=K]:…` | `shield[(patience=K,)ordered]:…` |
@@ -406,6 +412,9 @@ impl fmt::Display for Controller {
                         if s.dead_end_order {
                             options.push("ordered".into());
                         }
+                        if s.dead_end_eviction {
+                            options.push("evict".into());
+                        }
                         if s.one_way_lanes {
                             options.push("lanes".into());
                         }
@@ -426,7 +435,7 @@ impl fmt::Display for Controller {
 }
 
 /// The forms of the grammar, as the error lists them.
-pub const FORMS: &str = "PLANNER (ma-astar, od-astar, od-astar-soc, cbs, pibt, lacam, lacam-star, lacam-star-makespan, pp, or several joined by '+'), random, lifelong-pibt, checkpoint:DIR, shield:checkpoint:DIR, shield[OPTION,...]:checkpoint:DIR (options env, patience=K, settle, ordered, lanes), shield=K:, shield-env[=K]:, shield-ordered[=K]:, shield-lanes[=K]:, shield-settle=K:, sampled:CONTROLLER, rescue[=PLANNER]:CONTROLLER, lookahead[=PLANNER]:CONTROLLER, backstop[=PLANNER]:CONTROLLER or pace[=PLANNER]:CONTROLLER";
+pub const FORMS: &str = "PLANNER (ma-astar, od-astar, od-astar-soc, cbs, pibt, lacam, lacam-star, lacam-star-makespan, pp, or several joined by '+'), random, lifelong-pibt, checkpoint:DIR, shield:checkpoint:DIR, shield[OPTION,...]:checkpoint:DIR (options env, patience=K, settle, ordered, evict, lanes), shield=K:, shield-env[=K]:, shield-ordered[=K]:, shield-lanes[=K]:, shield-settle=K:, sampled:CONTROLLER, rescue[=PLANNER]:CONTROLLER, lookahead[=PLANNER]:CONTROLLER, backstop[=PLANNER]:CONTROLLER or pace[=PLANNER]:CONTROLLER";
 
 /// What is wrong with a controller's text.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -494,7 +503,7 @@ impl fmt::Display for Problem {
             ),
             Problem::ShieldOption { option } => write!(
                 f,
-                "shield option '{option}' is unknown or given twice (expected env, patience=K, settle, ordered, lanes)"
+                "shield option '{option}' is unknown or given twice (expected env, patience=K, settle, ordered, evict, lanes)"
             ),
             Problem::Label { label } => write!(
                 f,
@@ -703,6 +712,7 @@ fn shield_options(options: &str) -> Result<Shield, Problem> {
             "env" => &mut env,
             "settle" => &mut settle,
             "ordered" => &mut shield.dead_end_order,
+            "evict" => &mut shield.dead_end_eviction,
             "lanes" => &mut shield.one_way_lanes,
             _ => {
                 let Some(value) = option.strip_prefix("patience=") else {

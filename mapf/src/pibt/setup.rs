@@ -53,7 +53,7 @@ impl Setup {
 
     /// Agents by decreasing priority (see [`priority_order`]).
     pub fn order(priorities: &[f64]) -> Vec<u32> {
-        priority_order(priorities)
+        priority_order(priorities, &[])
     }
 
     /// The plan visiting `configs` in order, trimmed.
@@ -76,17 +76,25 @@ pub(crate) fn advance_priorities(priorities: &mut [f64], config: &[u32], goals: 
     }
 }
 
-/// Agents by decreasing priority (ties: lower index first).
-pub(crate) fn priority_order(priorities: &[f64]) -> Vec<u32> {
+/// Agents by decreasing priority (ties: lower index first); the agents
+/// marked in `urgent` (all of them or none given) go before all others,
+/// among themselves by priority.
+pub(crate) fn priority_order(priorities: &[f64], urgent: &[bool]) -> Vec<u32> {
+    let is_urgent = |a: u32| urgent.get(a as usize).copied().unwrap_or(false);
     let mut order: Vec<u32> = (0..priorities.len() as u32).collect();
-    order.sort_by(|&a, &b| priorities[b as usize].total_cmp(&priorities[a as usize]));
+    order.sort_by(|&a, &b| {
+        is_urgent(b)
+            .cmp(&is_urgent(a))
+            .then(priorities[b as usize].total_cmp(&priorities[a as usize]))
+    });
     order
 }
 
 /// One step of online PIBT, shared by lifelong PIBT and the collision
 /// shield: the next configuration `gen` (a fresh [`Generator`], with the
 /// swap operation if the caller wants it) finds after `cur` with agents in
-/// `priorities` order, then the priorities advanced towards `goals`.
+/// `priorities` order (the `urgent` ones first, [`priority_order`]), then
+/// the priorities advanced towards `goals`.
 /// Without constraints every agent can at least stay, so the generator
 /// cannot fail; should it ever, everybody stays (a legal step), rather than
 /// handing the env an illegal one.
@@ -96,8 +104,9 @@ pub(crate) fn online_step<P: Preference>(
     cur: &[u32],
     goals: &[u32],
     priorities: &mut [f64],
+    urgent: &[bool],
 ) -> Vec<u32> {
-    let order = priority_order(priorities);
+    let order = priority_order(priorities, urgent);
     let mut next = Vec::with_capacity(cur.len());
     let ok = gen.generate(pref, cur, &order, &[], &mut next);
     debug_assert!(ok, "without constraints every agent can at least stay");

@@ -39,17 +39,7 @@ pub(super) fn yield_to_deeper_goals(
         if at == goal || dead_ends.mouth(at) == Some(mouth) {
             continue;
         }
-        // Someone bound deeper along this path has not passed `goal` yet.
-        let waits = goals
-            .iter()
-            .zip(cur)
-            .enumerate()
-            .any(|(j, (&deeper, &pos))| {
-                j != i
-                    && dead_ends.index_on_the_way(goal, deeper)
-                    && !dead_ends.index_on_the_way(goal, pos)
-            });
-        if !waits {
+        if bound_deeper(dead_ends, cur, goals, i).next().is_none() {
             continue;
         }
         let moves = topo.moves(at);
@@ -59,6 +49,65 @@ pub(super) fn yield_to_deeper_goals(
         });
         priorities[i] = priorities[i].fract();
     }
+}
+
+/// The eviction of [`Shield::with_dead_end_eviction`](super::Shield::with_dead_end_eviction):
+/// every agent inside the branch of its goal that stands in the way of an
+/// agent bound deeper along the same path, one that has passed neither
+/// the first agent's goal nor the first agent itself, backs out: it ranks
+/// its moves by the depth they lead to (towards the core first) and is
+/// marked `urgent`, so that PIBT moves it before the others and pushes
+/// whoever stands between it and the core out ahead of it. Outside the
+/// branch the dead-end order keeps it waiting until the deeper agent has
+/// passed its goal ([`yield_to_deeper_goals`]): a one-lane aisle entered
+/// in the wrong order is refilled from the back.
+pub(super) fn evict_from_dead_ends(
+    dead_ends: &DeadEnds,
+    topo: &Topology,
+    cur: &[u32],
+    goals: &[u32],
+    ranks: &mut [[u8; NUM_ACTIONS]],
+    urgent: &mut [bool],
+) {
+    for (i, (&at, &goal)) in cur.iter().zip(goals).enumerate() {
+        urgent[i] = false;
+        let Some(mouth) = dead_ends.mouth(goal) else {
+            continue;
+        };
+        if dead_ends.mouth(at) != Some(mouth) {
+            continue;
+        }
+        // Someone bound deeper must pass `at` as well, and has not yet.
+        let in_the_way = bound_deeper(dead_ends, cur, goals, i).any(|j| {
+            (at == goals[j] || dead_ends.index_on_the_way(at, goals[j]))
+                && !dead_ends.index_on_the_way(at, cur[j])
+        });
+        if !in_the_way {
+            continue;
+        }
+        let moves = topo.moves(at);
+        rerank(&mut ranks[i], |a| match moves[usize::from(a)] {
+            NONE => u32::MAX,
+            to => dead_ends.index_depth(to),
+        });
+        urgent[i] = true;
+    }
+}
+
+/// The agents bound deeper along the path to agent `i`'s goal that have
+/// not passed that goal yet: the ones it must let by first.
+fn bound_deeper<'a>(
+    dead_ends: &'a DeadEnds,
+    cur: &'a [u32],
+    goals: &'a [u32],
+    i: usize,
+) -> impl Iterator<Item = usize> + 'a {
+    let goal = goals[i];
+    (0..goals.len()).filter(move |&j| {
+        j != i
+            && dead_ends.index_on_the_way(goal, goals[j])
+            && !dead_ends.index_on_the_way(goal, cur[j])
+    })
 }
 
 /// One agent about to enter a lane, for [`keep_lanes_one_way`].
