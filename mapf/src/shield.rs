@@ -299,13 +299,14 @@ impl Shield {
 
     /// A shield with the dead-end order ([`Shield::with_dead_end_order`])
     /// that also undoes a wrong order: an agent inside the branch of its
-    /// goal that stands in the way of an agent bound deeper, one that has
-    /// passed neither its goal nor itself, backs out towards the core
-    /// ahead of everybody else (PIBT moves it first and pushes whoever is
-    /// between it and the core out ahead of it), then waits outside as the
-    /// order says. Without it an aisle entered in the wrong order stays
-    /// jammed: the agent at the back cannot get by, and the one in front
-    /// has no reason to leave.
+    /// goal that stands in the way of an agent bound deeper (one that has
+    /// passed neither its goal nor itself) or of one bound out of the
+    /// branch backs out towards the core ahead of everybody else (PIBT
+    /// moves it first and pushes whoever is between it and the core out
+    /// ahead of it), then waits outside while the order says so or while
+    /// someone inside is bound out. Without it an aisle entered in the
+    /// wrong order stays jammed: the agent at the back cannot get by, and
+    /// the one in front has no reason to leave.
     ///
     /// ```
     /// use buridan_env::{Cell, Grid};
@@ -492,6 +493,7 @@ impl Shield {
                 &self.goals,
                 &mut self.ranks.0,
                 &mut self.priorities,
+                self.evict,
             );
         }
         if let Some(lanes) = &self.lanes {

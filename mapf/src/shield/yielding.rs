@@ -24,6 +24,8 @@ pub(super) fn rerank<K: Ord>(rank: &mut [u8; NUM_ACTIONS], key: impl Fn(u8) -> K
 /// outside the branch of its goal that must let another agent pass its
 /// goal first ranks the moves into that branch last (`ranks`, one table
 /// per agent) and drops to the lowest priority (its tie-breaker alone).
+/// With `evict` ([`evict_from_dead_ends`]) it also waits outside while an
+/// agent inside the branch is bound out of it.
 pub(super) fn yield_to_deeper_goals(
     dead_ends: &DeadEnds,
     topo: &Topology,
@@ -31,6 +33,7 @@ pub(super) fn yield_to_deeper_goals(
     goals: &[u32],
     ranks: &mut [[u8; NUM_ACTIONS]],
     priorities: &mut [f64],
+    evict: bool,
 ) {
     for (i, (&at, &goal)) in cur.iter().zip(goals).enumerate() {
         let Some(mouth) = dead_ends.mouth(goal) else {
@@ -39,7 +42,14 @@ pub(super) fn yield_to_deeper_goals(
         if at == goal || dead_ends.mouth(at) == Some(mouth) {
             continue;
         }
-        if bound_deeper(dead_ends, cur, goals, i).next().is_none() {
+        // With eviction, it also waits while an agent inside heads out.
+        let coming_out = evict
+            && (0..cur.len()).any(|j| {
+                j != i
+                    && dead_ends.mouth(cur[j]) == Some(mouth)
+                    && dead_ends.mouth(goals[j]) != Some(mouth)
+            });
+        if bound_deeper(dead_ends, cur, goals, i).next().is_none() && !coming_out {
             continue;
         }
         let moves = topo.moves(at);
@@ -52,15 +62,17 @@ pub(super) fn yield_to_deeper_goals(
 }
 
 /// The eviction of [`Shield::with_dead_end_eviction`](super::Shield::with_dead_end_eviction):
-/// every agent inside the branch of its goal that stands in the way of an
-/// agent bound deeper along the same path, one that has passed neither
-/// the first agent's goal nor the first agent itself, backs out: it ranks
-/// its moves by the depth they lead to (towards the core first) and is
-/// marked `urgent`, so that PIBT moves it before the others and pushes
-/// whoever stands between it and the core out ahead of it. Outside the
-/// branch the dead-end order keeps it waiting until the deeper agent has
-/// passed its goal ([`yield_to_deeper_goals`]): a one-lane aisle entered
-/// in the wrong order is refilled from the back.
+/// every agent inside the branch of its goal that stands in the way of
+/// another, either one bound deeper along the same path that has passed
+/// neither the first agent's goal nor the first agent itself, or one
+/// deeper in the branch that is bound out of it, backs out: it ranks its
+/// moves by the depth they lead to (towards the core first) and is marked
+/// `urgent`, so that PIBT moves it before the others and pushes whoever
+/// stands between it and the core out ahead of it. Outside the branch
+/// the dead-end order keeps it waiting until the deeper agent has passed
+/// its goal and the other has come out ([`yield_to_deeper_goals`]): a
+/// one-lane aisle entered in the wrong order is refilled from the back,
+/// and nobody meets head-on in its mouth.
 pub(super) fn evict_from_dead_ends(
     dead_ends: &DeadEnds,
     topo: &Topology,
@@ -82,7 +94,13 @@ pub(super) fn evict_from_dead_ends(
             (at == goals[j] || dead_ends.index_on_the_way(at, goals[j]))
                 && !dead_ends.index_on_the_way(at, cur[j])
         });
-        if !in_the_way {
+        // Someone deeper in the branch is bound out of it through `at`.
+        let in_the_way_out = (0..cur.len()).any(|j| {
+            j != i
+                && dead_ends.mouth(goals[j]) != Some(mouth)
+                && dead_ends.index_on_the_way(at, cur[j])
+        });
+        if !(in_the_way || in_the_way_out) {
             continue;
         }
         let moves = topo.moves(at);
