@@ -72,7 +72,8 @@ pub(super) fn yield_to_deeper_goals(
 /// the dead-end order keeps it waiting until the deeper agent has passed
 /// its goal and the other has come out ([`yield_to_deeper_goals`]): a
 /// one-lane aisle entered in the wrong order is refilled from the back,
-/// and nobody meets head-on in its mouth.
+/// and nobody meets head-on in its mouth. Every agent also keeps out of
+/// the branches other agents are bound for ([`keep_out_of_dead_ends`]).
 pub(super) fn evict_from_dead_ends(
     dead_ends: &DeadEnds,
     topo: &Topology,
@@ -81,9 +82,12 @@ pub(super) fn evict_from_dead_ends(
     ranks: &mut [[u8; NUM_ACTIONS]],
     urgent: &mut [bool],
 ) {
+    let targeted: Vec<u32> = goals.iter().filter_map(|&g| dead_ends.mouth(g)).collect();
     for (i, (&at, &goal)) in cur.iter().zip(goals).enumerate() {
         urgent[i] = false;
-        let Some(mouth) = dead_ends.mouth(goal) else {
+        let own = dead_ends.mouth(goal);
+        keep_out_of_dead_ends(dead_ends, topo.moves(at), own, &targeted, &mut ranks[i]);
+        let Some(mouth) = own else {
             continue;
         };
         if dead_ends.mouth(at) != Some(mouth) {
@@ -109,6 +113,35 @@ pub(super) fn evict_from_dead_ends(
             to => dead_ends.index_depth(to),
         });
         urgent[i] = true;
+    }
+}
+
+/// No through traffic in a dead end that others are bound for: an agent
+/// ranks the moves into a branch that holds another agent's goal
+/// (`targeted`, the mouths of the goals' branches) and not its own
+/// (`goal_mouth`) last, and, standing inside one, the moves towards the
+/// core first. Branches nobody is bound for stay free to step aside into.
+fn keep_out_of_dead_ends(
+    dead_ends: &DeadEnds,
+    moves: &[u32; NUM_ACTIONS],
+    goal_mouth: Option<u32>,
+    targeted: &[u32],
+    rank: &mut [u8; NUM_ACTIONS],
+) {
+    let foreign = |v: u32| {
+        v != NONE
+            && dead_ends
+                .mouth(v)
+                .is_some_and(|m| Some(m) != goal_mouth && targeted.contains(&m))
+    };
+    let at = moves[0];
+    if foreign(at) {
+        rerank(rank, |a| match moves[usize::from(a)] {
+            NONE => u32::MAX,
+            to => dead_ends.index_depth(to),
+        });
+    } else {
+        rerank(rank, |a| foreign(moves[usize::from(a)]));
     }
 }
 
