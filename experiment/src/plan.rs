@@ -30,6 +30,8 @@
 //!                                   #   back (an agent bound nearer the mouth waits outside)
 //!                                   # "lanes": ordered, and one-lane corridors kept one-way (an
 //!                                   #   agent waits outside while another comes out towards it)
+//!                                   # "evict": lanes, and an agent in a dead end's way backs out
+//!                                   #   of it (an aisle entered in the wrong order is refilled)
 //!                                   # "rescued": shielded, a planner plans whenever an agent is stuck
 //!                                   # "lookahead": rescued, with foresight (a twin plays the episode ahead;
 //!                                   #   if it would get stuck, the planner plans from the start)

@@ -12,10 +12,11 @@ use buridan_eval::shield::DEFAULT_PATIENCE;
 /// also lets an agent without progress for K steps follow its shortest
 /// path; `settle` counts only the first arrival on a goal as progress;
 /// `ordered` also fills dead-end aisles from the back; `lanes` also keeps
-/// one-lane corridors one-way; `rescued`, `lookahead`, `backstop` and
+/// one-lane corridors one-way; `evict` also backs agents out of dead ends
+/// entered in the wrong order (the shield option `evict`); `rescued`, `lookahead`, `backstop` and
 /// `pace` put the shielded policy in a planner net (`rescue_planner`,
 /// within `rescue_time`).
-pub const NAMED_ACTIONS: [(&str, &str); 11] = [
+pub const NAMED_ACTIONS: [(&str, &str); 12] = [
     ("sampled", "sampled:checkpoint:"),
     ("greedy", "checkpoint:"),
     ("shielded", "shield:checkpoint:"),
@@ -23,6 +24,10 @@ pub const NAMED_ACTIONS: [(&str, &str); 11] = [
     ("settle", "shield-settle={K}:checkpoint:"),
     ("ordered", "shield-ordered={K}:checkpoint:"),
     ("lanes", "shield-lanes={K}:checkpoint:"),
+    (
+        "evict",
+        "shield[patience={K},ordered,evict,lanes]:checkpoint:",
+    ),
     ("rescued", "rescue:shield:checkpoint:"),
     ("lookahead", "lookahead:shield:checkpoint:"),
     ("backstop", "backstop:shield:checkpoint:"),
@@ -40,6 +45,8 @@ pub const NAMED_ACTIONS: [(&str, &str); 11] = [
 /// use buridan_experiment::plan::Actions;
 /// let a: Actions = "lanes".parse().unwrap();
 /// assert_eq!((a.name(), a.controller().to_string().as_str()), ("lanes", "shield-lanes=16:checkpoint:"));
+/// let a: Actions = "evict".parse().unwrap();
+/// assert_eq!(a.controller().to_string(), "shield[patience=16,ordered,evict,lanes]:checkpoint:");
 /// let a: Actions = "bss@backstop:sampled:shield[patience=16,settle,lanes]:checkpoint:".parse().unwrap();
 /// assert_eq!(a.name(), "bss");
 /// assert!("cbs".parse::<Actions>().unwrap_err().contains("evaluates no policy"));
