@@ -304,7 +304,8 @@ impl Shield {
     /// branch backs out towards the core ahead of everybody else (PIBT
     /// moves it first and pushes whoever is between it and the core out
     /// ahead of it), then waits outside while the order says so or while
-    /// someone inside is bound out. Nobody passes through a dead end: an
+    /// someone inside is bound out, stepping back from the mouth while it
+    /// waits next to it. Nobody passes through a dead end: an
     /// agent ranks the moves into a branch that holds another agent's goal
     /// but not its own last (inside one, the moves towards the core
     /// first); branches nobody is bound for stay free to step aside into.

@@ -25,7 +25,11 @@ pub(super) fn rerank<K: Ord>(rank: &mut [u8; NUM_ACTIONS], key: impl Fn(u8) -> K
 /// goal first ranks the moves into that branch last (`ranks`, one table
 /// per agent) and drops to the lowest priority (its tie-breaker alone).
 /// With `evict` ([`evict_from_dead_ends`]) it also waits outside while an
-/// agent inside the branch is bound out of it.
+/// agent inside the branch is bound out of it, and, waiting within two
+/// steps of the branch's mouth (Manhattan distance), it ranks the moves
+/// that take it further from the mouth first: the agents bound in find
+/// the way clear, and a waiting agent is not squeezed into the branch
+/// when they push it.
 pub(super) fn yield_to_deeper_goals(
     dead_ends: &DeadEnds,
     topo: &Topology,
@@ -53,9 +57,21 @@ pub(super) fn yield_to_deeper_goals(
             continue;
         }
         let moves = topo.moves(at);
+        let m = topo.cell(mouth);
+        let near = |v: u32| {
+            let c = topo.cell(v);
+            c.row.abs_diff(m.row) + c.col.abs_diff(m.col)
+        };
+        let retreat = evict && near(at) <= 2;
         rerank(&mut ranks[i], |a| {
             let to = moves[usize::from(a)];
-            to != NONE && dead_ends.mouth(to) == Some(mouth)
+            let inside = to != NONE && dead_ends.mouth(to) == Some(mouth);
+            let closer = if retreat && to != NONE {
+                3usize.saturating_sub(near(to))
+            } else {
+                0
+            };
+            (inside, closer)
         });
         priorities[i] = priorities[i].fract();
     }
