@@ -277,7 +277,7 @@ pub struct Net {
 /// | `checkpoint:DIR` | a trained policy (a run or checkpoint directory), greedy |
 /// | `sampled:CONTROLLER` | every policy inside samples its actions instead |
 /// | `shield:checkpoint:DIR` | the policy through the PIBT collision shield |
-/// | `shield[OPTION,…]:checkpoint:DIR` | the shield with options: `env` (moves into occupied cells ranked last), `patience=K` (an agent without progress for K steps follows its shortest path), `settle` (with `patience`: only the first arrival on the goal counts as progress), `ordered` (dead-end aisles filled from the back), `evict` (the dead-end order, and an agent in the way of one bound deeper or bound out backs out of the aisle; nobody passes through a dead end others are bound for), `lanes` (one-lane corridors kept one-way) |
+/// | `shield[OPTION,…]:checkpoint:DIR` | the shield with options: `env` (moves into occupied cells ranked last), `patience=K` (an agent without progress for K steps follows its shortest path), `settle` (with `patience`: only the first arrival on the goal counts as progress), `ordered` (dead-end aisles filled from the back), `evict` (the dead-end order, and an agent in the way of one bound deeper or bound out backs out of the aisle, agents outside wait while one inside is bound out, and nobody passes through a dead end others are bound for), `lanes` (one-lane corridors kept one-way) |
 /// | `shield=K:…` | `shield[patience=K]:…` |
 /// | `shield-env[=K]:…` | `shield[env(,patience=K)]:…` |
 /// | `shield-ordered[=K]:…` | `shield[(patience=K,)ordered]:…` |
