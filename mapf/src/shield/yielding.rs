@@ -47,12 +47,7 @@ pub(super) fn yield_to_deeper_goals(
             continue;
         }
         // With eviction, it also waits while an agent inside heads out.
-        let coming_out = evict
-            && (0..cur.len()).any(|j| {
-                j != i
-                    && dead_ends.mouth(cur[j]) == Some(mouth)
-                    && dead_ends.mouth(goals[j]) != Some(mouth)
-            });
+        let coming_out = evict && bound_out(dead_ends, cur, goals, mouth).next().is_some();
         if bound_deeper(dead_ends, cur, goals, i).next().is_none() && !coming_out {
             continue;
         }
@@ -115,19 +110,12 @@ pub(super) fn evict_from_dead_ends(
                 && !dead_ends.index_on_the_way(at, cur[j])
         });
         // Someone deeper in the branch is bound out of it through `at`.
-        let in_the_way_out = (0..cur.len()).any(|j| {
-            j != i
-                && dead_ends.mouth(goals[j]) != Some(mouth)
-                && dead_ends.index_on_the_way(at, cur[j])
-        });
+        let in_the_way_out =
+            bound_out(dead_ends, cur, goals, mouth).any(|j| dead_ends.index_on_the_way(at, cur[j]));
         if !(in_the_way || in_the_way_out) {
             continue;
         }
-        let moves = topo.moves(at);
-        rerank(&mut ranks[i], |a| match moves[usize::from(a)] {
-            NONE => u32::MAX,
-            to => dead_ends.index_depth(to),
-        });
+        towards_core(dead_ends, topo.moves(at), &mut ranks[i]);
         urgent[i] = true;
     }
 }
@@ -150,15 +138,21 @@ fn keep_out_of_dead_ends(
                 .mouth(v)
                 .is_some_and(|m| Some(m) != goal_mouth && targeted.contains(&m))
     };
-    let at = moves[0];
-    if foreign(at) {
-        rerank(rank, |a| match moves[usize::from(a)] {
-            NONE => u32::MAX,
-            to => dead_ends.index_depth(to),
-        });
+    if foreign(moves[0]) {
+        towards_core(dead_ends, moves, rank);
     } else {
         rerank(rank, |a| foreign(moves[usize::from(a)]));
     }
+}
+
+/// Ranks an agent's moves (`moves`, its cell's move table) by the depth
+/// they lead to, towards the core first (walls and the edge last), its
+/// current ranks breaking ties.
+fn towards_core(dead_ends: &DeadEnds, moves: &[u32; NUM_ACTIONS], rank: &mut [u8; NUM_ACTIONS]) {
+    rerank(rank, |a| match moves[usize::from(a)] {
+        NONE => u32::MAX,
+        to => dead_ends.index_depth(to),
+    });
 }
 
 /// The agents bound deeper along the path to agent `i`'s goal that have
@@ -174,6 +168,19 @@ fn bound_deeper<'a>(
         j != i
             && dead_ends.index_on_the_way(goal, goals[j])
             && !dead_ends.index_on_the_way(goal, cur[j])
+    })
+}
+
+/// The agents inside the branch hanging from `mouth` whose goals lie
+/// outside it: the ones bound out through its mouth.
+fn bound_out<'a>(
+    dead_ends: &'a DeadEnds,
+    cur: &'a [u32],
+    goals: &'a [u32],
+    mouth: u32,
+) -> impl Iterator<Item = usize> + 'a {
+    (0..cur.len()).filter(move |&j| {
+        dead_ends.mouth(cur[j]) == Some(mouth) && dead_ends.mouth(goals[j]) != Some(mouth)
     })
 }
 
