@@ -22,7 +22,6 @@
 
 use buridan_env::{BatchedEnv, EnvSlot, VecEnv};
 use buridan_mapf::shield::rollout::RolloutShield;
-use buridan_policy::dist::greedy_head;
 use buridan_policy::infer::one_hot_prev;
 use buridan_policy::{ActMode, Inference, Policy, NO_ACTION};
 use rand::{Rng, SeedableRng};
@@ -144,12 +143,13 @@ pub fn dagger<S: EnvSlot>(
         Rollout::Greedy | Rollout::Shielded => ActMode::Greedy,
         Rollout::Sampled => ActMode::Sample,
     };
-    // Shielded rollouts: the shield's joint move replaces the policy's
-    // greedy actions (the expert's steps stay the expert's).
+    // Shielded rollouts: the policy acts greedily under the wall masks and
+    // the shield's joint move replaces its actions (the expert's steps stay
+    // the expert's), as the collector's `shield_rollouts` do.
     let mut shielded = (cfg.rollout == Rollout::Shielded).then(|| Shielded {
         shield: RolloutShield::new(seed).with_goal_settling(SHIELD_PATIENCE),
         walls: vec![0u8; rows * w],
-        chosen: vec![0u8; rows * heads],
+        executed: vec![0u8; rows * heads],
     });
     // Actions are `[rows, heads]`: one per agent in every mode.
     let (mut actions, mut policy_actions, mut logp) = (
@@ -187,23 +187,23 @@ pub fn dagger<S: EnvSlot>(
                 one_hot_prev(&st.prev_actions, spec.actions, &mut prev_one_hot);
             }
             if let Some(actor) = actor.as_mut() {
-                let logits = actor.act(
-                    venv.obs(),
-                    venv.masks(),
-                    mode,
-                    &mut policy_actions,
-                    &mut logp,
-                )?;
+                let masks = match shielded.as_mut() {
+                    Some(s) => {
+                        s.shield.write_masks(&*venv, &mut s.walls)?;
+                        &s.walls[..]
+                    }
+                    None => venv.masks(),
+                };
+                let logits = actor.act(venv.obs(), masks, mode, &mut policy_actions, &mut logp)?;
                 if let Some(s) = shielded.as_mut() {
-                    s.shield.write_masks(&*venv, &mut s.walls)?;
-                    greedy_under(logits, &s.walls, &mut s.chosen);
                     s.shield.joint_move(
                         &*venv,
-                        &s.chosen,
+                        &policy_actions,
                         logits,
                         &s.walls,
-                        &mut policy_actions,
+                        &mut s.executed,
                     )?;
+                    policy_actions.copy_from_slice(&s.executed);
                 }
             }
             for e in 0..envs {
@@ -308,37 +308,10 @@ pub fn dagger<S: EnvSlot>(
 }
 
 /// What [`Rollout::Shielded`] rollouts carry from step to step: the shield
-/// of every env, the wall masks the policy ranks its moves under, and its
-/// first choices under them.
+/// of every env, the wall masks the policy acts under, and the joint move
+/// the shield makes of its actions.
 struct Shielded {
     shield: RolloutShield,
     walls: Vec<u8>,
-    chosen: Vec<u8>,
-}
-
-/// Per agent, the most probable action that `masks` allows (the first on
-/// a tie, [`greedy_head`]): `logits` and `masks` hold five entries per
-/// agent, `out` one; stay where the mask allows nothing.
-fn greedy_under(logits: &[f32], masks: &[u8], out: &mut [u8]) {
-    let na = buridan_env::NUM_ACTIONS;
-    for (i, a) in out.iter_mut().enumerate() {
-        let moves = i * na..(i + 1) * na;
-        *a = greedy_head(&logits[moves.clone()], &masks[moves]).map_or(0, |(best, _)| best);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::greedy_under;
-
-    #[test]
-    fn greedy_under_a_mask_skips_forbidden_moves_and_keeps_the_first_of_a_tie() {
-        let logits = [0.0, 3.0, 1.0, 0.0, 0.0, 0.0, 3.0, 3.0, 0.0, 0.0];
-        let masks = [1, 0, 1, 1, 1, 1, 1, 1, 1, 1];
-        let mut out = [9u8; 2];
-        greedy_under(&logits, &masks, &mut out);
-        // Agent 0's best move (up) is masked: right; agent 1: up and
-        // right tie, up comes first.
-        assert_eq!(out, [2, 1]);
-    }
+    executed: Vec<u8>,
 }
