@@ -102,28 +102,30 @@ impl WeightedMap {
         let mut parts: Vec<String> = Vec::new();
         let mut i = 0;
         while i < maps.len() {
-            let Some((prefix, first)) = seeded(&maps[i]) else {
-                parts.push(format!("{}:{}", maps[i].name, maps[i].weight));
-                i += 1;
-                continue;
-            };
-            let run = maps[i..]
-                .iter()
-                .zip(first..)
-                .take_while(|(m, seed)| {
-                    m.weight == maps[i].weight && seeded(m) == Some((prefix, *seed))
-                })
-                .count();
-            if run == 1 {
-                parts.push(format!("{}:{}", maps[i].name, maps[i].weight));
-            } else {
-                // The weights of a range's seeds sum back to the range's
-                // weight, up to float rounding.
-                let weight = (maps[i].weight * run as f64 * 1e9).round() / 1e9;
-                parts.push(format!(
-                    "{prefix}/seed={first}..{}:{weight}",
-                    first + run as u64
-                ));
+            let (weight, first) = (maps[i].weight, generated(&maps[i]));
+            let run = first.map_or(1, |first| {
+                maps[i..]
+                    .iter()
+                    .zip(first.seed..)
+                    .take_while(|(m, seed)| {
+                        m.weight == weight
+                            && generated(m)
+                                == Some(GeneratedMap {
+                                    seed: *seed,
+                                    ..first
+                                })
+                    })
+                    .count()
+            });
+            match first {
+                // A spec prints its seed last: `…/seed=A` becomes `…/seed=A..B`.
+                Some(first) if run > 1 => {
+                    // The weights of a range's seeds sum back to the range's
+                    // weight, up to float rounding.
+                    let weight = (weight * run as f64 * 1e9).round() / 1e9;
+                    parts.push(format!("{first}..{}:{weight}", first.seed + run as u64));
+                }
+                _ => parts.push(format!("{}:{weight}", maps[i].name)),
             }
             i += run;
         }
@@ -131,14 +133,12 @@ impl WeightedMap {
     }
 }
 
-/// A generated map's name split into its settings and its seed
-/// (`maze/19x19/seed=7` → `("maze/19x19", 7)`); `None` for other names.
-fn seeded(map: &WeightedMap) -> Option<(&str, u64)> {
+/// The generated map `map` names, if it names one.
+fn generated(map: &WeightedMap) -> Option<GeneratedMap> {
     if !GeneratedMap::is_spec(&map.name) {
         return None;
     }
-    let (prefix, seed) = map.name.rsplit_once("/seed=")?;
-    Some((prefix, seed.parse().ok()?))
+    map.name.parse().ok()
 }
 
 /// The plant `name` (a bundled id or a file) as its file has it.
