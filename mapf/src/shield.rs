@@ -69,7 +69,7 @@ use crate::rules::ConflictModel;
 
 use preference::Ranks;
 use progress::{shortest_first, GoalDistances, ProgressFallback};
-use yielding::{evict_from_dead_ends, keep_lanes_one_way, yield_to_deeper_goals};
+use yielding::{evict_from_dead_ends, keep_lanes_one_way, yield_to_deeper_goals, Fleet};
 
 /// Why the shield refused a step.
 ///
@@ -137,6 +137,9 @@ pub struct Shield {
     evict: bool,
     /// Per agent: backing out of a dead end this step, moved first.
     urgent: Vec<bool>,
+    /// Per agent: held outside a dead end by the order with eviction this
+    /// step; no swap pulls it.
+    holding: Vec<bool>,
     lanes: Option<Lanes>,
     /// Each agent's distance table to its goal, kept while the fallback or
     /// the lane rule needs it.
@@ -166,6 +169,7 @@ impl Shield {
             dead_ends: None,
             evict: false,
             urgent: Vec::new(),
+            holding: Vec::new(),
             lanes: None,
             dist: GoalDistances::default(),
         }
@@ -303,9 +307,12 @@ impl Shield {
     /// passed neither its goal nor itself) or of one bound out of the
     /// branch backs out towards the core ahead of everybody else (PIBT
     /// moves it first and pushes whoever is between it and the core out
-    /// ahead of it), then waits outside while the order says so or while
-    /// someone inside is bound out, stepping back from the mouth while it
-    /// waits next to it. Nobody passes through a dead end: an
+    /// ahead of it; neither the one-way lane rule nor a lane's traffic
+    /// holds it back), then waits outside while the order says so or while
+    /// someone inside is bound out. A waiting agent keeps out of the cells
+    /// within two steps of the mouth (Manhattan distance) and steps back
+    /// out of them, and no swap of the progress fallback pulls it towards
+    /// the mouth. Nobody passes through a dead end: an
     /// agent ranks the moves into a branch that holds another agent's goal
     /// but not its own last (inside one, the moves towards the core
     /// first); branches nobody is bound for stay free to step aside into.
@@ -478,38 +485,36 @@ impl Shield {
         if self.priorities.len() != n {
             self.begin_episode(n, self.tie_seed);
         }
+        let fleet = Fleet {
+            topo: &self.topo,
+            cur: &self.cur,
+            goals: &self.goals,
+        };
         self.urgent.clear();
         if let Some(dead_ends) = self.dead_ends.as_ref().filter(|_| self.evict) {
             self.urgent.resize(n, false);
-            evict_from_dead_ends(
-                dead_ends,
-                &self.topo,
-                &self.cur,
-                &self.goals,
-                &mut self.ranks.0,
-                &mut self.urgent,
-            );
+            evict_from_dead_ends(dead_ends, fleet, &mut self.ranks.0, &mut self.urgent);
         }
+        self.holding.clear();
+        self.holding.resize(n, false);
         if let Some(dead_ends) = &self.dead_ends {
             yield_to_deeper_goals(
                 dead_ends,
-                &self.topo,
-                &self.cur,
-                &self.goals,
+                fleet,
                 &mut self.ranks.0,
                 &mut self.priorities,
+                &mut self.holding,
                 self.evict,
             );
         }
         if let Some(lanes) = &self.lanes {
             keep_lanes_one_way(
                 lanes,
-                &self.topo,
-                &self.cur,
-                &self.goals,
+                fleet,
                 &self.dist.table,
                 &mut self.ranks.0,
                 &mut self.priorities,
+                &self.urgent,
             );
         }
         let mut gen = Generator::new(
@@ -520,7 +525,9 @@ impl Shield {
         // Stalled agents also back away and pull where two of them must
         // pass in a lane (LaCAM3's swap, see [`crate::pibt`]).
         if let Some(f) = self.fallback.as_ref().filter(|f| f.stalled.contains(&true)) {
-            gen = gen.with_swap_for(&self.dist.table, &self.goals, &f.stalled);
+            gen = gen
+                .with_swap_for(&self.dist.table, &self.goals, &f.stalled)
+                .holding(&self.holding);
         }
         let next = online_step(
             gen,

@@ -570,3 +570,34 @@ fn bad_input_is_a_typed_error() {
         "{err:?}"
     );
 }
+
+/// Two aisles sharing one mouth (the twin dead end, in small): a one-cell
+/// stem from the open rows down to a junction with an aisle on each side.
+/// Agent 1 rests on its goal at the junction; agent 0, bound for the
+/// right aisle's far end, stands in the stem above it.
+fn junction_goal() -> Arc<Map> {
+    toy(
+        "goal at the junction of two aisles",
+        &[".......", ".......", "@@@.@@@", "@.....@"],
+        [Cell::new(2, 3), Cell::new(3, 3)],
+        [Cell::new(3, 5), Cell::new(3, 3)],
+    )
+}
+
+#[test]
+fn an_evicted_agent_backs_out_through_a_lane_whose_traffic_comes_its_way() {
+    let map = junction_goal();
+    for tie_seed in 0..8 {
+        // The order keeps agent 0 out of nothing (agent 1 is on its goal),
+        // the lane rule holds agent 1 back while agent 0 in the stem comes
+        // towards it, and agent 0 cannot pass it: the episode runs out.
+        let plain = goal_greedy_episode(&map, &mut lane_shield(&map.grid), tie_seed);
+        assert_eq!(plain, None, "tie seed {tie_seed}");
+        // With eviction agent 1 backs out up the stem (the lane rule does
+        // not hold an agent backing out) and waits clear of the mouth
+        // while agent 0 walks down to the aisle's end; then it comes back.
+        let mut evicting = lane_shield(&map.grid).with_dead_end_eviction();
+        let length = goal_greedy_episode(&map, &mut evicting, tie_seed);
+        assert_eq!(length, Some(11), "tie seed {tie_seed}");
+    }
+}

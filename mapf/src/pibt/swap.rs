@@ -23,6 +23,9 @@ pub(crate) struct SwapInfo<'a> {
     goals: &'a [u32],
     /// Only these agents start a swap (all when `None`).
     only: Option<&'a [bool]>,
+    /// Agents that are never pulled (none when empty): see
+    /// [`Generator::holding`].
+    held: &'a [bool],
 }
 
 impl<'a> Generator<'a> {
@@ -33,6 +36,7 @@ impl<'a> Generator<'a> {
             dist,
             goals,
             only: None,
+            held: &[],
         });
         self
     }
@@ -49,7 +53,21 @@ impl<'a> Generator<'a> {
             dist,
             goals,
             only: Some(only),
+            held: &[],
         });
+        self
+    }
+
+    /// Keeps the agents marked in `held` out of every swap as partners:
+    /// nobody pulls them, and nobody waits or backs away for them. The
+    /// collision shield's dead-end eviction holds the agents its order
+    /// keeps waiting outside a branch (a pull would drag one towards the
+    /// mouth it waits away from, and it would step back the next step).
+    /// Without the swap operation this does nothing.
+    pub fn holding(mut self, held: &'a [bool]) -> Self {
+        if let Some(info) = &mut self.swap {
+            info.held = held;
+        }
         self
     }
 
@@ -84,7 +102,8 @@ impl<'a> Generator<'a> {
         if best == here || info.only.is_some_and(|only| !only[i as usize]) {
             return None;
         }
-        let undecided = |j: u32| j != NONE && j != i && self.next[j as usize] == NONE;
+        let held = |j: u32| info.held.get(j as usize).copied().unwrap_or(false);
+        let undecided = |j: u32| j != NONE && j != i && self.next[j as usize] == NONE && !held(j);
         let swap = |partner, to, wait| Some(Swap { partner, to, wait });
         let j = self.occ_now[best as usize];
         if j != NONE {
@@ -115,6 +134,7 @@ impl<'a> Generator<'a> {
             }
             let k = self.occ_now[u as usize];
             if k != NONE
+                && !held(k)
                 && self.swap_required(info, k, i, here, best)
                 && self.swap_possible(info, best, here)
             {

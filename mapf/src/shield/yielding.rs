@@ -9,6 +9,15 @@ use crate::lanes::Lanes;
 
 use super::preference::ActionOrder;
 
+/// Where the agents stand and where they are bound this step (cell
+/// indices of `topo`), as the rules below read it.
+#[derive(Clone, Copy)]
+pub(super) struct Fleet<'a> {
+    pub(super) topo: &'a Topology,
+    pub(super) cur: &'a [u32],
+    pub(super) goals: &'a [u32],
+}
+
 /// Re-ranks one agent's actions (`rank[a]`: 0 for the most preferred) by
 /// `key`, the current ranks breaking ties: the progress fallback and the
 /// dead-end order each put their own criterion ahead of the policy's.
@@ -25,20 +34,22 @@ pub(super) fn rerank<K: Ord>(rank: &mut [u8; NUM_ACTIONS], key: impl Fn(u8) -> K
 /// goal first ranks the moves into that branch last (`ranks`, one table
 /// per agent) and drops to the lowest priority (its tie-breaker alone).
 /// With `evict` ([`evict_from_dead_ends`]) it also waits outside while an
-/// agent inside the branch is bound out of it, and, waiting within two
-/// steps of the branch's mouth (Manhattan distance), it ranks the moves
-/// that take it further from the mouth first: the agents bound in find
-/// the way clear, and a waiting agent is not squeezed into the branch
-/// when they push it.
+/// agent inside the branch is bound out of it, it ranks the moves that
+/// end within two steps of the branch's mouth (Manhattan distance) after
+/// the others, the closer the later (waiting there, it steps back; further
+/// away, it does not step in), and it is marked in `holding`, so that no
+/// swap pulls it: the agents bound in find the way clear, a waiting agent
+/// is not squeezed into the branch when they push it, and it does not
+/// step in and back out at the zone's edge.
 pub(super) fn yield_to_deeper_goals(
     dead_ends: &DeadEnds,
-    topo: &Topology,
-    cur: &[u32],
-    goals: &[u32],
+    fleet: Fleet<'_>,
     ranks: &mut [[u8; NUM_ACTIONS]],
     priorities: &mut [f64],
+    holding: &mut [bool],
     evict: bool,
 ) {
+    let Fleet { topo, cur, goals } = fleet;
     for (i, (&at, &goal)) in cur.iter().zip(goals).enumerate() {
         let Some(mouth) = dead_ends.mouth(goal) else {
             continue;
@@ -57,11 +68,10 @@ pub(super) fn yield_to_deeper_goals(
             let c = topo.cell(v);
             c.row.abs_diff(m.row) + c.col.abs_diff(m.col)
         };
-        let retreat = evict && near(at) <= 2;
         rerank(&mut ranks[i], |a| {
             let to = moves[usize::from(a)];
             let inside = to != NONE && dead_ends.mouth(to) == Some(mouth);
-            let closer = if retreat && to != NONE {
+            let closer = if evict && to != NONE {
                 3usize.saturating_sub(near(to))
             } else {
                 0
@@ -69,6 +79,7 @@ pub(super) fn yield_to_deeper_goals(
             (inside, closer)
         });
         priorities[i] = priorities[i].fract();
+        holding[i] = evict;
     }
 }
 
@@ -87,12 +98,11 @@ pub(super) fn yield_to_deeper_goals(
 /// the branches other agents are bound for ([`keep_out_of_dead_ends`]).
 pub(super) fn evict_from_dead_ends(
     dead_ends: &DeadEnds,
-    topo: &Topology,
-    cur: &[u32],
-    goals: &[u32],
+    fleet: Fleet<'_>,
     ranks: &mut [[u8; NUM_ACTIONS]],
     urgent: &mut [bool],
 ) {
+    let Fleet { topo, cur, goals } = fleet;
     let targeted: Vec<u32> = goals.iter().filter_map(|&g| dead_ends.mouth(g)).collect();
     for (i, (&at, &goal)) in cur.iter().zip(goals).enumerate() {
         urgent[i] = false;
@@ -200,16 +210,18 @@ struct Entry {
 /// last and takes the lowest priority) while an agent inside heads out at
 /// its end, while an agent bound deeper into the same lane has yet to pass
 /// its goal, or while a higher-priority agent enters the part of the lane
-/// it needs from the other end.
+/// it needs from the other end. The agents marked `urgent` (backing out of
+/// a dead end, [`evict_from_dead_ends`]) never yield: the agent coming
+/// towards one is on its way into the branch the urgent one blocks.
 pub(super) fn keep_lanes_one_way(
     lanes: &Lanes,
-    topo: &Topology,
-    cur: &[u32],
-    goals: &[u32],
+    fleet: Fleet<'_>,
     dist: &[Vec<u32>],
     ranks: &mut [[u8; NUM_ACTIONS]],
     priorities: &mut [f64],
+    urgent: &[bool],
 ) {
+    let Fleet { topo, cur, goals } = fleet;
     // Places counted from `end` of `lane`.
     let depth = |lane: u32, end: usize, v: u32| {
         let p = lanes.place(v);
@@ -230,6 +242,9 @@ pub(super) fn keep_lanes_one_way(
         .collect();
     let mut entries = Vec::new();
     for (agent, (&at, &to)) in cur.iter().zip(&wants).enumerate() {
+        if urgent.get(agent).copied().unwrap_or(false) {
+            continue;
+        }
         let Some(lane) = (to != NONE && to != at)
             .then(|| lanes.lane_index(to))
             .flatten()
