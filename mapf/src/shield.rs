@@ -312,7 +312,9 @@ impl Shield {
     /// someone inside is bound out. A waiting agent keeps out of the cells
     /// within two steps of the mouth (Manhattan distance) and steps back
     /// out of them, and no swap of the progress fallback pulls it towards
-    /// the mouth. Nobody passes through a dead end: an
+    /// the mouth; nor does a stalled agent about to step onto its own goal
+    /// in the open start a swap with the agent beyond it
+    /// (`Generator::for_eviction`). Nobody passes through a dead end: an
     /// agent ranks the moves into a branch that holds another agent's goal
     /// but not its own last (inside one, the moves towards the core
     /// first); branches nobody is bound for stay free to step aside into.
@@ -525,9 +527,10 @@ impl Shield {
         // Stalled agents also back away and pull where two of them must
         // pass in a lane (LaCAM3's swap, see [`crate::pibt`]).
         if let Some(f) = self.fallback.as_ref().filter(|f| f.stalled.contains(&true)) {
-            gen = gen
-                .with_swap_for(&self.dist.table, &self.goals, &f.stalled)
-                .holding(&self.holding);
+            gen = gen.with_swap_for(&self.dist.table, &self.goals, &f.stalled);
+            if self.evict {
+                gen = gen.for_eviction(&self.holding);
+            }
         }
         let next = online_step(
             gen,

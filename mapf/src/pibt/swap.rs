@@ -24,8 +24,11 @@ pub(crate) struct SwapInfo<'a> {
     /// Only these agents start a swap (all when `None`).
     only: Option<&'a [bool]>,
     /// Agents that are never pulled (none when empty): see
-    /// [`Generator::holding`].
+    /// [`Generator::for_eviction`].
     held: &'a [bool],
+    /// No swap one cell apart when the cell ahead is the agent's own goal
+    /// in the open: see [`Generator::for_eviction`].
+    open_goals: bool,
 }
 
 impl<'a> Generator<'a> {
@@ -37,6 +40,7 @@ impl<'a> Generator<'a> {
             goals,
             only: None,
             held: &[],
+            open_goals: false,
         });
         self
     }
@@ -54,19 +58,25 @@ impl<'a> Generator<'a> {
             goals,
             only: Some(only),
             held: &[],
+            open_goals: false,
         });
         self
     }
 
-    /// Keeps the agents marked in `held` out of every swap as partners:
-    /// nobody pulls them, and nobody waits or backs away for them. The
-    /// collision shield's dead-end eviction holds the agents its order
-    /// keeps waiting outside a branch (a pull would drag one towards the
-    /// mouth it waits away from, and it would step back the next step).
-    /// Without the swap operation this does nothing.
-    pub fn holding(mut self, held: &'a [bool]) -> Self {
+    /// The swaps of the collision shield's dead-end eviction. The agents
+    /// marked in `held` (those the dead-end order keeps waiting outside a
+    /// branch) are nobody's partner: nobody pulls them, and nobody waits
+    /// or backs away for them (a pull would drag one towards the mouth it
+    /// waits away from, and it would step back the next step). And an
+    /// agent whose next cell is its own goal starts no swap with a partner
+    /// one cell beyond it where both cells branch (three or more passing
+    /// neighbours each): in the open the partner walks round the goal, and
+    /// waiting for it there only trades places back and forth. Without the
+    /// swap operation this does nothing.
+    pub fn for_eviction(mut self, held: &'a [bool]) -> Self {
         if let Some(info) = &mut self.swap {
             info.held = held;
+            info.open_goals = true;
         }
         self
     }
@@ -113,7 +123,7 @@ impl<'a> Generator<'a> {
             {
                 return swap(j, here, false);
             }
-        } else if self.rules.forbid_following {
+        } else if self.rules.forbid_following && !self.open_goal(info, i, here, best) {
             for &w in &self.topo.moves(best)[1..] {
                 if w == NONE || w == here {
                     continue;
@@ -142,6 +152,16 @@ impl<'a> Generator<'a> {
             }
         }
         None
+    }
+
+    /// Whether `best`, the next cell of agent `i` at `here`, is its own
+    /// goal with both cells branching, where [`Generator::for_eviction`]
+    /// starts no swap one cell apart.
+    fn open_goal(&self, info: SwapInfo<'_>, i: u32, here: u32, best: u32) -> bool {
+        info.open_goals
+            && info.dist[i as usize][best as usize] == 0
+            && self.passing_neighbours(info, here).1 >= 3
+            && self.passing_neighbours(info, best).1 >= 3
     }
 
     /// Moves `j` into `to` if `j` is undecided, `to` is free at `t + 1` and
@@ -350,6 +370,61 @@ mod tests {
         assert_eq!(
             gen.swap_partner(info, 0, setup.starts[1], &setup.starts),
             None
+        );
+    }
+
+    /// One generator step with the swap of the shield's eviction
+    /// ([`Generator::for_eviction`]) or the plain one.
+    fn eviction_step(
+        setup: &Setup,
+        order: &[u32],
+        held: &[bool],
+        evict: bool,
+    ) -> Vec<(usize, usize)> {
+        let mut gen = Generator::new(&setup.topo, ConflictModel::ENV_EXECUTABLE, 0)
+            .with_swap(&setup.dist, &setup.goals);
+        if evict {
+            gen = gen.for_eviction(held);
+        }
+        let mut next = Vec::new();
+        assert!(gen.generate(&setup.dist, &setup.starts, order, &[], &mut next));
+        next.iter()
+            .map(|&v| setup.topo.cell(v))
+            .map(|c| (c.row, c.col))
+            .collect()
+    }
+
+    #[test]
+    fn under_eviction_an_agent_steps_onto_its_goal_in_the_open() {
+        // An open room: agent 0 one step left of its goal (0, 2); agent 1
+        // below that goal, bound for 0's cell, must pass through it.
+        let rows = ["....", "....", "...."];
+        let setup = setup_of(&rows, &[(0, 1), (1, 2)], &[(0, 2), (0, 1)]);
+        // The plain swap has 0 wait and pulls 1 onto 0's goal: the two
+        // then trade places back and forth.
+        assert_eq!(eviction_step(&setup, &[0, 1], &[], false), [(0, 1), (0, 2)]);
+        // Under eviction 0 steps onto its goal; 1 walks round it.
+        let next = eviction_step(&setup, &[0, 1], &[], true);
+        assert_eq!(next[0], (0, 2));
+        // In an aisle (no branching at the goal) the swap stays.
+        let setup = setup_of(&AISLE, &[(1, 2), (1, 3)], &[(1, 4), (1, 3)]);
+        assert_eq!(
+            eviction_step(&setup, &[0, 1], &[], true),
+            eviction_step(&setup, &[0, 1], &[], false)
+        );
+    }
+
+    #[test]
+    fn under_eviction_a_held_agent_is_nobody_s_swap_partner() {
+        // The aisle's swap of the first test: agent 0 backs out and pulls
+        // agent 1 resting on (1, 3) along.
+        let setup = setup_of(&AISLE, &[(1, 2), (1, 3)], &[(1, 4), (1, 3)]);
+        assert_eq!(eviction_step(&setup, &[0, 1], &[], true), [(1, 1), (1, 2)]);
+        // Held (the dead-end order keeps it waiting), 1 is pulled by
+        // nobody: 0 pushes it deeper as PIBT would.
+        assert_eq!(
+            eviction_step(&setup, &[0, 1], &[false, true], true),
+            [(1, 2), (1, 4)]
         );
     }
 
