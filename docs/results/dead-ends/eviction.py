@@ -7,9 +7,9 @@ resamples of the seeds, seed 1). Run from the repository root:
 
     python3 docs/results/dead-ends/eviction.py [EVALS_CSV]
 
-Input: eviction-2026-12-06.csv (columns seed, layout, agents, controller,
-episode_seed, episodes, success), as `runs/de-eval.sh` in RESULTS.md
-writes it.
+Input: eviction-2026-12-06.csv or eviction-b-2026-12-06.csv (columns
+seed, layout, agents, controller, episode_seed, episodes, success), as
+the loops in RESULTS.md write them.
 """
 import csv
 import random
@@ -20,6 +20,7 @@ HERE = Path(__file__).parent
 PAIRS = [
     ("shield-ordered=16", "shield[patience=16,ordered,evict]"),
     ("shield-lanes=16", "shield[patience=16,ordered,evict,lanes]"),
+    ("shield-lanes=16", "shield[patience=16,ordered,evict,lanes,settle]"),
 ]
 
 
@@ -35,7 +36,7 @@ def main():
     for r in csv.DictReader(open(path)):
         key = (r["layout"], int(r["agents"]), int(r["episode_seed"]), r["controller"])
         cells.setdefault(key, {})[int(r["seed"])] = float(r["success"])
-    print("layout,agents,episode_seed,base,seeds,base_mean,base_low,base_high,"
+    print("layout,agents,episode_seed,base,evict,seeds,base_mean,base_low,base_high,"
           "evict_mean,evict_low,evict_high,difference,diff_low,diff_high")
     groups = sorted({k[:3] for k in cells}, key=lambda k: (k[0], k[1], -k[2]))
     for layout, agents, eseed in groups:
@@ -48,7 +49,7 @@ def main():
             d = [y - x for x, y in zip(xb, xe)]
             mean = lambda xs: sum(xs) / len(xs)
             (bl, bh), (el, eh), (dl, dh) = boot(xb), boot(xe), boot(d)
-            print(f"{layout},{agents},{eseed},{base},{len(seeds)},{mean(xb):.1f},{bl:.1f},{bh:.1f},"
+            print(f"{layout},{agents},{eseed},{base},\"{evict}\",{len(seeds)},{mean(xb):.1f},{bl:.1f},{bh:.1f},"
                   f"{mean(xe):.1f},{el:.1f},{eh:.1f},{mean(d):+.1f},{dl:+.1f},{dh:+.1f}")
 
 
