@@ -69,7 +69,9 @@ use crate::rules::ConflictModel;
 
 use preference::Ranks;
 use progress::{shortest_first, GoalDistances, ProgressFallback};
-use yielding::{evict_from_dead_ends, keep_lanes_one_way, yield_to_deeper_goals, Fleet};
+use yielding::{
+    evict_from_dead_ends, hurry_the_awaited, keep_lanes_one_way, yield_to_deeper_goals, Fleet,
+};
 
 /// Why the shield refused a step.
 ///
@@ -314,7 +316,9 @@ impl Shield {
     /// out of them, and no swap of the progress fallback pulls it towards
     /// the mouth; nor does a stalled agent about to step onto its own goal
     /// in the open start a swap with the agent beyond it
-    /// (`Generator::for_eviction`). Nobody passes through a dead end: an
+    /// (`Generator::for_eviction`). An agent inside a branch that others
+    /// wait for outside walks its shortest path at once, without the
+    /// fallback's patience. Nobody passes through a dead end: an
     /// agent ranks the moves into a branch that holds another agent's goal
     /// but not its own last (inside one, the moves towards the core
     /// first); branches nobody is bound for stay free to step aside into.
@@ -507,6 +511,16 @@ impl Shield {
                 &mut self.priorities,
                 &mut self.holding,
                 self.evict,
+            );
+        }
+        if let Some(dead_ends) = self.dead_ends.as_ref().filter(|_| self.evict) {
+            hurry_the_awaited(
+                dead_ends,
+                fleet,
+                &self.holding,
+                &self.urgent,
+                &self.dist.table,
+                &mut self.ranks.0,
             );
         }
         if let Some(lanes) = &self.lanes {

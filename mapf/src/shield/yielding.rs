@@ -83,6 +83,37 @@ pub(super) fn yield_to_deeper_goals(
     }
 }
 
+/// With eviction, the agents others wait for outside a branch (bound
+/// deeper than a held agent's goal, [`yield_to_deeper_goals`]) that are
+/// already inside that branch walk their shortest path at once (`dist`,
+/// each agent's distance table), as the progress fallback would make them
+/// only after its patience: the queue at the mouth waits for nobody who
+/// dawdles in the aisle. Agents backing out (`urgent`) keep their way out.
+pub(super) fn hurry_the_awaited(
+    dead_ends: &DeadEnds,
+    fleet: Fleet<'_>,
+    holding: &[bool],
+    urgent: &[bool],
+    dist: &[Vec<u32>],
+    ranks: &mut [[u8; NUM_ACTIONS]],
+) {
+    let Fleet { topo, cur, goals } = fleet;
+    let mut awaited = vec![false; cur.len()];
+    for i in (0..cur.len()).filter(|&i| holding.get(i).copied().unwrap_or(false)) {
+        let mouth = dead_ends.mouth(goals[i]);
+        for j in bound_deeper(dead_ends, cur, goals, i) {
+            if mouth.is_some() && dead_ends.mouth(cur[j]) == mouth {
+                awaited[j] = true;
+            }
+        }
+    }
+    for j in (0..cur.len()).filter(|&j| awaited[j] && !urgent.get(j).copied().unwrap_or(false)) {
+        if let Some(table) = dist.get(j).filter(|t| !t.is_empty()) {
+            super::progress::shortest_first(table, topo.moves(cur[j]), &mut ranks[j]);
+        }
+    }
+}
+
 /// The eviction of [`Shield::with_dead_end_eviction`](super::Shield::with_dead_end_eviction):
 /// every agent inside the branch of its goal that stands in the way of
 /// another, either one bound deeper along the same path that has passed
