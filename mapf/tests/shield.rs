@@ -376,6 +376,20 @@ fn goal_greedy_episode_watched(
     map: &Arc<Map>,
     shield: &mut Shield,
     tie_seed: u64,
+    watch: impl FnMut(&[Cell]),
+) -> Option<u32> {
+    let greedy = |_: usize, at: Cell, goal: Cell| goal_greedy(&map.grid, at, goal);
+    episode_watched(map, shield, tie_seed, greedy, watch)
+}
+
+/// Plays `map`'s scenario through `shield`, agent `i` at `at` bound for
+/// `goal` ranking its moves by `prefs(i, at, goal)`, showing `watch` the
+/// positions before each step; the episode's length if it succeeded.
+fn episode_watched(
+    map: &Arc<Map>,
+    shield: &mut Shield,
+    tie_seed: u64,
+    prefs: impl Fn(usize, Cell, Cell) -> ActionOrder,
     mut watch: impl FnMut(&[Cell]),
 ) -> Option<u32> {
     let n = map.scenario.as_ref().unwrap().starts.len();
@@ -385,10 +399,8 @@ fn goal_greedy_episode_watched(
     loop {
         let (pos, goals) = (env.positions(), env.goals());
         watch(&pos);
-        let prefs: Vec<ActionOrder> = (0..n)
-            .map(|i| goal_greedy(&map.grid, pos[i], goals[i]))
-            .collect();
-        shield.step(&pos, &goals, &prefs, &mut actions).unwrap();
+        let orders: Vec<ActionOrder> = (0..n).map(|i| prefs(i, pos[i], goals[i])).collect();
+        shield.step(&pos, &goals, &orders, &mut actions).unwrap();
         let outcome = env.step(&actions, &mut rewards).unwrap();
         assert_eq!(outcome.blocked_moves, 0);
         if outcome.done() {
@@ -602,46 +614,19 @@ fn an_evicted_agent_backs_out_through_a_lane_whose_traffic_comes_its_way() {
     }
 }
 
-/// Steps agents (no env: each shield action applied as a move) from `pos`
-/// towards `goals`, each ranking its moves by `prefs`, until `watched`
-/// stands on its goal; the step count, or `None` after 40 steps.
-fn steps_until_home(
-    shield: &mut Shield,
-    mut pos: Vec<Cell>,
-    goals: &[Cell],
-    prefs: impl Fn(usize, Cell) -> ActionOrder,
-    watched: usize,
-) -> Option<u32> {
-    let mut actions = vec![0u8; pos.len()];
-    for t in 0..40 {
-        if pos[watched] == goals[watched] {
-            return Some(t);
-        }
-        let orders: Vec<ActionOrder> = pos.iter().enumerate().map(|(i, &p)| prefs(i, p)).collect();
-        shield.step(&pos, goals, &orders, &mut actions).unwrap();
-        for (p, &a) in pos.iter_mut().zip(&actions) {
-            *p = match a {
-                1 => Cell::new(p.row - 1, p.col),
-                2 => Cell::new(p.row, p.col + 1),
-                3 => Cell::new(p.row + 1, p.col),
-                4 => Cell::new(p.row, p.col - 1),
-                _ => *p,
-            };
-        }
-    }
-    None
-}
-
 #[test]
 fn eviction_hurries_an_agent_that_dawdles_in_an_aisle_others_wait_for() {
-    // A two-wide spine on the left, a dead-end aisle to the right.
-    let grid = Grid::from_rows(&["......", "..@@@@"]).unwrap();
-    // Agent 0 has entered the aisle, bound for its end; agent 1, bound for
-    // the aisle's second cell, waits on the spine for it to pass.
-    let starts = vec![Cell::new(0, 2), Cell::new(1, 1)];
-    let goals = [Cell::new(0, 5), Cell::new(0, 3)];
+    // A two-wide spine on the left, a dead-end aisle to the right. Agent 0
+    // has entered the aisle, bound for its end; agent 1, bound for the
+    // aisle's second cell, waits on the spine for it to pass.
+    let map = toy(
+        "a dawdler in an aisle",
+        &["......", "..@@@@"],
+        [Cell::new(0, 2), Cell::new(1, 1)],
+        [Cell::new(0, 5), Cell::new(0, 3)],
+    );
     // Agent 0's policy would rather stay; agent 1's heads for its goal.
-    let prefs = |i: usize, at: Cell| -> ActionOrder {
+    let prefs = |i: usize, at: Cell, _goal: Cell| -> ActionOrder {
         match (i, at.row, at.col) {
             (0, _, _) => [0, 2, 4, 1, 3],
             (_, 1, _) => [1, 2, 0, 3, 4],
@@ -649,19 +634,23 @@ fn eviction_hurries_an_agent_that_dawdles_in_an_aisle_others_wait_for() {
             _ => [0, 4, 1, 2, 3],
         }
     };
+    // The step at which agent 1 first stands on its goal.
+    let agent_1_home = |shield: &mut Shield| {
+        let (mut t, mut home) = (0u32, None);
+        episode_watched(&map, shield, 0, prefs, |pos| {
+            if home.is_none() && pos[1] == Cell::new(0, 3) {
+                home = Some(t);
+            }
+            t += 1;
+        });
+        home
+    };
     // The order alone keeps agent 1 out while agent 0 stays: the progress
     // fallback moves agent 0 one cell after each 16 steps of waiting.
-    let mut ordered = Shield::new(&grid)
-        .with_progress_fallback(16)
-        .with_dead_end_order();
-    let slow = steps_until_home(&mut ordered, starts.clone(), &goals, prefs, 1);
+    let slow = agent_1_home(&mut ordered_shield(&map.grid));
     assert!(slow.is_none_or(|t| t > 16), "{slow:?}");
     // With eviction agent 0 walks on at once, past agent 1's goal, and
-    // agent 1 follows it in (39 steps without this rule).
-    let mut evicting = Shield::new(&grid)
-        .with_progress_fallback(16)
-        .with_dead_end_order()
-        .with_dead_end_eviction();
-    let fast = steps_until_home(&mut evicting, starts, &goals, prefs, 1);
+    // agent 1 follows it in (38 steps without this rule).
+    let fast = agent_1_home(&mut ordered_shield(&map.grid).with_dead_end_eviction());
     assert_eq!(fast, Some(6));
 }
