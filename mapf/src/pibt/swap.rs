@@ -303,6 +303,12 @@ mod tests {
         if swap {
             gen = gen.with_swap(&setup.dist, &setup.goals);
         }
+        generate(gen, setup, order)
+    }
+
+    /// The step `gen` generates on `setup` with agents in `order`, as
+    /// `(row, column)` pairs.
+    fn generate(mut gen: Generator<'_>, setup: &Setup, order: &[u32]) -> Vec<(usize, usize)> {
         let mut next = Vec::new();
         assert!(gen.generate(&setup.dist, &setup.starts, order, &[], &mut next));
         next.iter()
@@ -386,12 +392,7 @@ mod tests {
         if evict {
             gen = gen.for_eviction(held);
         }
-        let mut next = Vec::new();
-        assert!(gen.generate(&setup.dist, &setup.starts, order, &[], &mut next));
-        next.iter()
-            .map(|&v| setup.topo.cell(v))
-            .map(|c| (c.row, c.col))
-            .collect()
+        generate(gen, setup, order)
     }
 
     #[test]
