@@ -5,13 +5,15 @@ training seeds with its 95 % bootstrap interval, and the paired
 difference that `evict` makes to the shield it is added to (20,000
 resamples of the seeds, seed 1). Run from the repository root:
 
-    python3 docs/results/dead-ends/eviction.py [EVALS_CSV]
+    python3 docs/results/dead-ends/eviction.py [EVALS_CSV_GZ]
 
-Input: eviction-2026-12-06.csv or eviction-b-2026-12-06.csv (columns
-seed, layout, agents, controller, episode_seed, episodes, success), as
-the loops in RESULTS.md write them.
+Input: eviction-2026-12-06.csv.gz, eviction-b-2026-12-06.csv.gz or
+eviction-c-2026-12-06.csv.gz (gzipped CSV, columns seed, layout, agents,
+controller, episode_seed, episodes, success), as the loops in RESULTS.md
+write them; a plain CSV is read as well.
 """
 import csv
+import gzip
 import random
 import sys
 from pathlib import Path
@@ -31,9 +33,10 @@ def boot(xs, n=20000):
 
 
 def main():
-    path = sys.argv[1] if len(sys.argv) > 1 else HERE / "eviction-2026-12-06.csv"
+    path = Path(sys.argv[1]) if len(sys.argv) > 1 else HERE / "eviction-2026-12-06.csv.gz"
     cells = {}
-    for r in csv.DictReader(open(path)):
+    opened = gzip.open(path, "rt") if path.suffix == ".gz" else open(path)
+    for r in csv.DictReader(opened):
         key = (r["layout"], int(r["agents"]), int(r["episode_seed"]), r["controller"])
         cells.setdefault(key, {})[int(r["seed"])] = float(r["success"])
     print("layout,agents,episode_seed,base,evict,seeds,base_mean,base_low,base_high,"
