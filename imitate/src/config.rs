@@ -22,6 +22,30 @@ pub enum Rollout {
     Shielded,
 }
 
+/// Who labels the states a rollout reaches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Teacher {
+    /// The planners of `expert`: their next joint step from the state.
+    #[default]
+    Planner,
+    /// The policy itself through the deployment shield: its preferences
+    /// (its logits under the wall mask) through `shield-lanes=16`
+    /// ([`TEACHER_PATIENCE`]), whose joint move labels each agent, a move
+    /// into a cell occupied at the start of the step labelled "stay" (as
+    /// [`LabelStyle::Wait`]). Where the shield keeps the policy's own first
+    /// choice the label is that choice; where it overrides it (a yield, a
+    /// push, the dead-end order, the lane rule, the progress fallback) the
+    /// label is the shield's move: the raw policy learns what the shield
+    /// does for it. A polish after learning from rewards
+    /// (`expert_first = false`); `expert` and `expert_time` are unused.
+    Shield,
+}
+
+/// The progress fallback's patience of the [`Teacher::Shield`]'s shield:
+/// the evaluation's `shield-lanes=16`.
+pub const TEACHER_PATIENCE: u32 = 16;
+
 /// The patience of the shield's goal settling in
 /// [`Rollout::Shielded`] rollouts: the evaluation's `shield-settle=16`.
 pub const SHIELD_PATIENCE: u32 = 16;
@@ -96,6 +120,9 @@ pub struct ImitationConfig {
     pub window: usize,
     /// How following moves become labels ([`LabelStyle`]).
     pub labels: LabelStyle,
+    /// Who labels the states: the planners of `expert` (the default) or
+    /// the policy through the deployment shield ([`Teacher`]).
+    pub teacher: Teacher,
     /// Threads each gradient step's minibatch is cut across (its windows or
     /// rows in shares, the shares' gradients summed in order: the same step
     /// up to float rounding). 0: the machine's cores; `learner train` gives
@@ -120,6 +147,7 @@ impl Default for ImitationConfig {
             max_rows: 2_000_000,
             window: 32,
             labels: LabelStyle::Split,
+            teacher: Teacher::Planner,
             threads: 0,
         }
     }
@@ -175,6 +203,20 @@ impl ImitationConfig {
         }
         if !(self.lr > 0.0 && self.lr.is_finite()) {
             return bad("lr", "must be positive");
+        }
+        if self.teacher == Teacher::Shield {
+            if self.expert_first {
+                return bad(
+                    "teacher",
+                    "the shield teaches a trained policy: set expert_first = false",
+                );
+            }
+            if self.rollout == Rollout::Shielded {
+                return bad(
+                    "teacher",
+                    "the shield labels the policy's own moves: rollout must be greedy or sampled",
+                );
+            }
         }
         Ok(())
     }

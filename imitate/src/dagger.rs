@@ -16,22 +16,26 @@
 //! ```
 //!
 //! The expert `a*(s)` is a planner's next joint step from `s`
-//! ([`crate::expert`]); states it cannot solve in time get no label. Every
+//! ([`crate::expert`]); states it cannot solve in time get no label. Or,
+//! polishing a trained policy ([`Teacher::Shield`]), the policy's own
+//! preferences in `s` through the deployment shield: `a*(s)` is the joint
+//! move the shield makes of them ([`ShieldTeacher`]). Every
 //! agent's observation is the one the policy sees in training and
 //! execution, so the trained network is an ordinary checkpoint.
 
-use buridan_env::{BatchedEnv, EnvSlot, VecEnv};
+use buridan_env::{BatchedEnv, EnvSlot, VecEnv, NUM_ACTIONS};
 use buridan_mapf::shield::rollout::RolloutShield;
+use buridan_policy::dist::{greedy_head, sample_head};
 use buridan_policy::infer::one_hot_prev;
 use buridan_policy::{ActMode, Inference, Policy, NO_ACTION};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::cloning::Cloner;
-use crate::config::{ImitationConfig, Rollout, SHIELD_PATIENCE};
+use crate::config::{ImitationConfig, Rollout, Teacher, SHIELD_PATIENCE, TEACHER_PATIENCE};
 use crate::dataset::Dataset;
 use crate::error::ImitationError;
-use crate::expert::Expert;
+use crate::expert::{Expert, Labels};
 use crate::windows::{WindowStep, Windows};
 
 /// DAgger's aggregate for one network: labelled rows for a feed-forward
@@ -73,6 +77,11 @@ pub struct RoundReport {
     pub loss: f64,
     /// Agreement with the expert after the round's fit.
     pub accuracy: f64,
+    /// Under [`Teacher::Shield`]: the share of this round's labels that
+    /// are not the rolled-out policy's own action (the shield's
+    /// overrides, before the round's fit); 0 for a planner teacher.
+    #[serde(default)]
+    pub overridden: f64,
     /// Wall seconds of the round.
     pub seconds: f64,
 }
@@ -151,6 +160,8 @@ pub fn dagger<S: EnvSlot>(
         walls: vec![0u8; rows * w],
         executed: vec![0u8; rows * heads],
     });
+    let mut teacher =
+        (cfg.teacher == Teacher::Shield).then(|| ShieldTeacher::new(seed, envs, n, rng.random()));
     // Actions are `[rows, heads]`: one per agent in every mode.
     let (mut actions, mut policy_actions, mut logp) = (
         vec![0u8; rows * heads],
@@ -164,6 +175,7 @@ pub fn dagger<S: EnvSlot>(
     for round in 0..cfg.rounds {
         let t0 = std::time::Instant::now();
         let (calls0, failures0) = (expert.calls, expert.failures);
+        let (mut labelled, mut overridden) = (0u64, 0u64);
         // Round 0 follows the expert (unless `expert_first` is off). A
         // recurrent policy watches it all the same, so that its state is the
         // one it would have after these steps, and keeps its memory from
@@ -205,10 +217,18 @@ pub fn dagger<S: EnvSlot>(
                     )?;
                     policy_actions.copy_from_slice(&s.executed);
                 }
+                if let Some(t) = teacher.as_mut() {
+                    t.label(&*venv, logits, &policy_actions)?;
+                    labelled += (n * envs) as u64;
+                    overridden += t.overridden.iter().filter(|&&o| o).count() as u64;
+                }
             }
             for e in 0..envs {
                 let lo = e * n;
-                let labels = expert.label(venv.envs()[e].env());
+                let labels = match &teacher {
+                    Some(t) => Some(&t.labels[e]),
+                    None => expert.label(venv.envs()[e].env()),
+                };
                 for r in e * per_env..(e + 1) * per_env {
                     // The agents row `r` acts for: one, or all of CTE's.
                     let agents = (r - e * per_env) * heads..(r - e * per_env + 1) * heads;
@@ -288,6 +308,11 @@ pub fn dagger<S: EnvSlot>(
             success_rate,
             loss,
             accuracy,
+            overridden: if labelled == 0 {
+                0.0
+            } else {
+                overridden as f64 / labelled as f64
+            },
             seconds: t0.elapsed().as_secs_f64(),
         };
         tracing::info!(
@@ -298,6 +323,7 @@ pub fn dagger<S: EnvSlot>(
             success = report.success_rate,
             loss = report.loss,
             accuracy = report.accuracy,
+            overridden = report.overridden,
             seconds = report.seconds,
             "imitation round"
         );
@@ -314,4 +340,101 @@ struct Shielded {
     shield: RolloutShield,
     walls: Vec<u8>,
     executed: Vec<u8>,
+}
+
+/// The [`Teacher::Shield`]: the policy's preferences through the
+/// deployment shield (`shield-lanes=16`), one env's joint move as its
+/// labels.
+///
+/// Each step the policy's logits rank every agent's moves under the wall
+/// mask (a move into a neighbour's cell asks it to make way), as the
+/// evaluation's shield ranks them, and the shield — which follows the
+/// rollout's episode, its patience counting the steps the rolled-out
+/// controller makes — resolves them into one joint move. An agent's label
+/// is its move in it, or "stay" where that move enters a cell occupied at
+/// the start of the step (the policy's mask forbids it); a rollout that
+/// follows the teacher (probability `beta`) executes the joint move
+/// itself.
+///
+/// Where the shield keeps the policy's own greedy move, the label is a
+/// draw from the policy's own distribution (under the env's mask), so
+/// that the fit there keeps the distribution (the expected cross-entropy
+/// is the policy's to itself) instead of sharpening it toward its first
+/// choice — a sharper policy leaves the shield's later choices untrained.
+/// Every agent is labelled: labels on the overrides alone pull the policy
+/// away from everything else it does.
+struct ShieldTeacher {
+    shield: RolloutShield,
+    walls: Vec<u8>,
+    first: Vec<u8>,
+    executed: Vec<u8>,
+    /// This step's labels, one per env.
+    labels: Vec<Labels>,
+    /// Per agent, whether the shield's move is not the policy's own.
+    overridden: Vec<bool>,
+    rng: ChaCha8Rng,
+}
+
+impl ShieldTeacher {
+    fn new(seed: u64, envs: usize, agents: usize, draws: u64) -> Self {
+        Self {
+            shield: RolloutShield::new(seed).with_one_way_lanes(TEACHER_PATIENCE),
+            walls: vec![0; envs * agents * NUM_ACTIONS],
+            first: vec![0; envs * agents],
+            executed: vec![0; envs * agents],
+            overridden: vec![false; envs * agents],
+            rng: ChaCha8Rng::seed_from_u64(draws),
+            labels: vec![
+                Labels {
+                    actions: vec![0; agents],
+                    execute: vec![0; agents],
+                };
+                envs
+            ],
+        }
+    }
+
+    /// Labels every env's state from the policy's `logits` (every agent's
+    /// five, env-major and agent-minor, as the rows of a local or central
+    /// policy lay them out) and its greedy actions `own`.
+    fn label<E: BatchedEnv + ?Sized>(
+        &mut self,
+        venv: &E,
+        logits: &[f32],
+        own: &[u8],
+    ) -> Result<(), ImitationError> {
+        self.shield.write_masks(venv, &mut self.walls)?;
+        let moves = logits
+            .chunks(NUM_ACTIONS)
+            .zip(self.walls.chunks(NUM_ACTIONS));
+        for (first, (l, m)) in self.first.iter_mut().zip(moves) {
+            // Staying is always legal, so every agent has a first choice.
+            *first = greedy_head(l, m).map_or(0, |(a, _)| a);
+        }
+        self.shield
+            .joint_move(venv, &self.first, logits, &self.walls, &mut self.executed)?;
+        let n = venv.agents();
+        let env_masks = venv.masks();
+        for (e, labels) in self.labels.iter_mut().enumerate() {
+            for i in 0..n {
+                let k = e * n + i;
+                let a = self.executed[k];
+                labels.execute[i] = a;
+                let moves = k * NUM_ACTIONS..(k + 1) * NUM_ACTIONS;
+                let a = if env_masks[moves.start + a as usize] != 0 {
+                    a
+                } else {
+                    0
+                };
+                self.overridden[k] = a != own[k];
+                labels.actions[i] = if self.overridden[k] {
+                    a
+                } else {
+                    sample_head(&logits[moves.clone()], &env_masks[moves], &mut self.rng)
+                        .map_or(a, |(drawn, _)| drawn)
+                };
+            }
+        }
+        Ok(())
+    }
 }

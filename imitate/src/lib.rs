@@ -37,7 +37,7 @@ pub mod error;
 pub mod expert;
 pub mod windows;
 
-pub use config::{ImitationConfig, LabelStyle, Rollout};
+pub use config::{ImitationConfig, LabelStyle, Rollout, Teacher};
 pub use dagger::{dagger, RoundReport};
 pub use dataset::Dataset;
 pub use error::ImitationError;

@@ -83,8 +83,34 @@ pub struct RolloutShield {
     seed: u64,
     envs: Vec<Option<EnvShield>>,
     prefs: Vec<ActionOrder>,
-    /// The patience of [`Shield::with_goal_settling`], if settling.
-    settling: Option<u32>,
+    kind: Kind,
+}
+
+/// Which shield a [`RolloutShield`] plays through, as the evaluation's
+/// controllers of the same names build it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    /// `shield`: PIBT alone.
+    Plain,
+    /// `shield-settle=K`: goal settling with its progress fallback.
+    Settling(u32),
+    /// `shield-lanes=K`: the progress fallback, dead ends filled from the
+    /// back, one-lane corridors kept one-way.
+    Lanes(u32),
+}
+
+impl Kind {
+    fn build(self, grid: &buridan_env::Grid) -> Shield {
+        let shield = Shield::new(grid);
+        match self {
+            Kind::Plain => shield,
+            Kind::Settling(patience) => shield.with_goal_settling(patience),
+            Kind::Lanes(patience) => shield
+                .with_progress_fallback(patience)
+                .with_dead_end_order()
+                .with_one_way_lanes(),
+        }
+    }
 }
 
 impl RolloutShield {
@@ -95,7 +121,7 @@ impl RolloutShield {
             seed,
             envs: Vec::new(),
             prefs: Vec::new(),
-            settling: None,
+            kind: Kind::Plain,
         }
     }
 
@@ -104,7 +130,18 @@ impl RolloutShield {
     /// `shield-settle=PATIENCE` executes a policy.
     pub fn with_goal_settling(self, patience: u32) -> Self {
         Self {
-            settling: Some(patience),
+            kind: Kind::Settling(patience),
+            ..self
+        }
+    }
+
+    /// This shield with its progress fallback after `patience` steps,
+    /// dead-end aisles filled from the back and one-lane corridors kept
+    /// one-way ([`Shield::with_one_way_lanes`]), as `shield-lanes=PATIENCE`
+    /// executes a policy.
+    pub fn with_one_way_lanes(self, patience: u32) -> Self {
+        Self {
+            kind: Kind::Lanes(patience),
             ..self
         }
     }
@@ -150,7 +187,7 @@ impl RolloutShield {
                 &masks[moves],
                 &mut self.prefs,
             );
-            let shield = shield_for(&mut self.envs[e], self.seed, self.settling, e, env);
+            let shield = shield_for(&mut self.envs[e], self.seed, self.kind, e, env);
             shield
                 .step(
                     &env.positions(),
@@ -169,7 +206,7 @@ impl RolloutShield {
 fn shield_for<'a>(
     slot: &'a mut Option<EnvShield>,
     seed: u64,
-    settling: Option<u32>,
+    kind: Kind,
     e: usize,
     env: &GridEnv,
 ) -> &'a mut Shield {
@@ -179,10 +216,7 @@ fn shield_for<'a>(
     if !current {
         let mut shield = match slot.take() {
             Some(s) if Arc::ptr_eq(&s.map, env.map()) => s.shield,
-            _ => match settling {
-                Some(patience) => Shield::new(&env.map().grid).with_goal_settling(patience),
-                None => Shield::new(&env.map().grid),
-            },
+            _ => kind.build(&env.map().grid),
         };
         // Tie-breaks drawn per episode as the evaluation's shield draws
         // them, from the batch's seed and the env's index.

@@ -129,7 +129,9 @@ pub struct TrainConfig {
     /// trained policy's own rollouts (greedy by default) get the planner's
     /// next steps as labels, DAgger on the states deterministic execution
     /// reaches, before the final checkpoint. With `expert_first = false`
-    /// every round follows the policy. Off by default.
+    /// every round follows the policy; with `teacher = "shield"` the
+    /// policy's own preferences through `shield-lanes=16` label the states
+    /// instead of a planner. Off by default.
     pub polish: Option<ImitationConfig>,
 }
 
