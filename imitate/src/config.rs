@@ -123,6 +123,13 @@ pub struct ImitationConfig {
     /// Who labels the states: the planners of `expert` (the default) or
     /// the policy through the deployment shield ([`Teacher`]).
     pub teacher: Teacher,
+    /// Under [`Teacher::Shield`], the share of the agreeing data kept for
+    /// the fit: a recurrent policy's windows in which the shield overrode
+    /// no step, a feed-forward policy's rows it did not override (each
+    /// kept with this probability; the others always). The overrides
+    /// carry the lesson and the agreeing steps only anchor the policy
+    /// where it is, so a share below 1 buys the fit's time back. 1: all.
+    pub agreeing_share: f64,
     /// Threads each gradient step's minibatch is cut across (its windows or
     /// rows in shares, the shares' gradients summed in order: the same step
     /// up to float rounding). 0: the machine's cores; `learner train` gives
@@ -148,6 +155,7 @@ impl Default for ImitationConfig {
             window: 32,
             labels: LabelStyle::Split,
             teacher: Teacher::Planner,
+            agreeing_share: 1.0,
             threads: 0,
         }
     }
@@ -203,6 +211,9 @@ impl ImitationConfig {
         }
         if !(self.lr > 0.0 && self.lr.is_finite()) {
             return bad("lr", "must be positive");
+        }
+        if !(self.agreeing_share > 0.0 && self.agreeing_share <= 1.0) {
+            return bad("agreeing_share", "must lie in (0, 1]");
         }
         if self.teacher == Teacher::Shield {
             if self.expert_first {

@@ -135,13 +135,13 @@ pub fn dagger<S: EnvSlot>(
     let mut data: Vec<Data> = (0..nets)
         .map(|_| match spec.lstm {
             None => Data::Rows(Dataset::new(d, w, heads, cap)),
-            Some(_) => Data::Windows(Windows::new(
-                d,
-                w,
-                cfg.window,
-                (cap / cfg.window).max(1),
-                rows,
-            )),
+            Some(_) => Data::Windows(
+                Windows::new(d, w, cfg.window, (cap / cfg.window).max(1), rows)
+                    .with_unmarked_share(match cfg.teacher {
+                        Teacher::Shield => cfg.agreeing_share,
+                        Teacher::Planner => 1.0,
+                    }),
+            ),
         })
         .collect();
     let mut cloners = (0..nets)
@@ -232,12 +232,20 @@ pub fn dagger<S: EnvSlot>(
                 for r in e * per_env..(e + 1) * per_env {
                     // The agents row `r` acts for: one, or all of CTE's.
                     let agents = (r - e * per_env) * heads..(r - e * per_env + 1) * heads;
+                    // Under the shield teacher: whether it overrode an agent of the row.
+                    let overridden = teacher
+                        .as_ref()
+                        .is_some_and(|t| t.overridden[lo..lo + n][agents.clone()].contains(&true));
                     let label = labels.map(|l| &l.actions[agents]);
                     let obs = &venv.obs()[r * d..(r + 1) * d];
                     let mask = &venv.masks()[r * w..(r + 1) * w];
                     match (&mut data[spec.net_of_row(r)], &before) {
                         (Data::Rows(labelled), _) => {
-                            if let Some(label) = label {
+                            let kept = teacher.is_none()
+                                || overridden
+                                || cfg.agreeing_share >= 1.0
+                                || rng.random_bool(cfg.agreeing_share);
+                            if let (Some(label), true) = (label, kept) {
                                 labelled.push(obs, mask, label, &mut rng);
                             }
                         }
@@ -254,6 +262,9 @@ pub fn dagger<S: EnvSlot>(
                                 label,
                             };
                             let (h, c) = (&st.h[r * k..(r + 1) * k], &st.c[r * k..(r + 1) * k]);
+                            if overridden {
+                                windows.mark(r);
+                            }
                             windows.push(r, step, h, c, &mut rng);
                         }
                         // Windows are kept for a recurrent policy only,

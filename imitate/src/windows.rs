@@ -56,6 +56,8 @@ pub struct Window {
     pub h0: Vec<f32>,
     /// LSTM cell state before the window `[cells]`.
     pub c0: Vec<f32>,
+    /// Whether [`Windows::mark`] marked one of its steps.
+    pub marked: bool,
 }
 
 impl Window {
@@ -103,6 +105,7 @@ pub struct Windows {
     seen: u64,
     held: Vec<Window>,
     open: Vec<Window>,
+    unmarked_share: f64,
 }
 
 impl Windows {
@@ -118,6 +121,26 @@ impl Windows {
             seen: 0,
             held: Vec::new(),
             open: vec![Window::default(); rows],
+            unmarked_share: 1.0,
+        }
+    }
+
+    /// These windows keeping a full window none of whose steps was
+    /// marked ([`Windows::mark`]) with probability `share` only (1: every
+    /// window, the default).
+    pub fn with_unmarked_share(self, share: f64) -> Self {
+        Self {
+            unmarked_share: share,
+            ..self
+        }
+    }
+
+    /// Marks row `row`'s open window: the step pushed next belongs to it
+    /// (a window opens at its first push, so marking a row with no open
+    /// window marks the window its next step opens).
+    pub fn mark(&mut self, row: usize) {
+        if let Some(o) = self.open.get_mut(row) {
+            o.marked = true;
         }
     }
 
@@ -208,6 +231,9 @@ impl Windows {
         self.seen += 1;
         if full.labelled() == 0 {
             return; // nothing to learn from
+        }
+        if !full.marked && self.unmarked_share < 1.0 && !rng.random_bool(self.unmarked_share) {
+            return;
         }
         if self.held.len() < self.cap {
             self.held.push(full);
@@ -328,5 +354,34 @@ mod tests {
             obs.iter().all(|&x| (x as usize).is_multiple_of(2)),
             "{obs:?}"
         );
+    }
+
+    /// With an unmarked share, every marked window is held and of the
+    /// unmarked ones about that share.
+    #[test]
+    fn unmarked_windows_are_held_at_their_share() {
+        use rand::SeedableRng;
+        let mut w = Windows::new(1, 5, 2, 10_000, 1).with_unmarked_share(0.25);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        for k in 0..4000 {
+            // Every fourth window gets a mark on its second step.
+            if k % 8 == 1 {
+                w.mark(0);
+            }
+            w.push(
+                0,
+                step(&[k as f32], 0.0, false, Some(0)),
+                &[0.0],
+                &[0.0],
+                &mut rng,
+            );
+        }
+        let marked = w.held().iter().filter(|x| x.marked).count();
+        assert_eq!(marked, 500);
+        // Of 1,500 unmarked windows, a quarter: 375 expected (binomial sd 17).
+        let unmarked = w.len() - marked;
+        assert!((325..=425).contains(&unmarked), "{unmarked}");
+        let all = Windows::new(1, 5, 2, 10_000, 1);
+        assert_eq!(all.unmarked_share, 1.0);
     }
 }

@@ -290,22 +290,29 @@ fn first_round(cfg: ImitationConfig) -> RoundReport {
 
 /// [`first_round`] with `cfg`'s own `beta`.
 fn one_round(cfg: ImitationConfig) -> RoundReport {
+    rounds(cfg, 1, None).remove(0)
+}
+
+/// The reports of `n` DAgger rounds of an untrained CTDE policy (recurrent
+/// with `lstm`) on rm-2.1 with 2 agents (8 envs, 4,000 env steps a round),
+/// under `cfg`'s other settings.
+fn rounds(cfg: ImitationConfig, n: usize, lstm: Option<LstmSpec>) -> Vec<RoundReport> {
     let env_cfg = EnvConfig {
         agents: 2,
         seed: 5,
         ..EnvConfig::default()
     };
     let mut venv = VecEnv::new(map("rm-2.1"), env_cfg, 8, ObsKind::Local, 1).unwrap();
-    let policy = Policy::new(ModelSpec::new(Mode::Ctde, 2, venv.obs_dim()), 0).unwrap();
+    let mut spec = ModelSpec::new(Mode::Ctde, 2, venv.obs_dim());
+    spec.lstm = lstm;
+    let policy = Policy::new(spec, 0).unwrap();
     let cfg = ImitationConfig {
-        rounds: 1,
+        rounds: n,
         steps_per_round: 4_000,
         envs: 8,
         ..cfg
     };
-    dagger(&cfg, &policy, &mut venv, 1, &mut |_| {})
-        .unwrap()
-        .remove(0)
+    dagger(&cfg, &policy, &mut venv, 1, &mut |_| {}).unwrap()
 }
 
 /// With `expert_first` off (a polish after learning from rewards) round 0
@@ -359,21 +366,14 @@ fn shielded_rollouts_reach_the_states_a_shielded_policy_meets() {
 fn the_shield_teaches_a_policy_the_moves_it_makes_for_it() {
     let teacher: ImitationConfig =
         toml::from_str("expert_first = false\nteacher = \"shield\"\nepochs = 10").unwrap();
-    let env_cfg = EnvConfig {
-        agents: 2,
-        seed: 5,
-        ..EnvConfig::default()
-    };
-    let mut venv = VecEnv::new(map("rm-2.1"), env_cfg, 8, ObsKind::Local, 1).unwrap();
-    let policy = Policy::new(ModelSpec::new(Mode::Ctde, 2, venv.obs_dim()), 0).unwrap();
-    let cfg = ImitationConfig {
-        rounds: 3,
-        steps_per_round: 4_000,
-        envs: 8,
-        beta: 0.0,
-        ..teacher.clone()
-    };
-    let taught = dagger(&cfg, &policy, &mut venv, 1, &mut |_| {}).unwrap();
+    let taught = rounds(
+        ImitationConfig {
+            beta: 0.0,
+            ..teacher.clone()
+        },
+        3,
+        None,
+    );
     // Measured: the shield overrode 51.7, 39.5 and 30.6 % of the policy's
     // moves in the three rounds, whose greedy rollouts solved 0, 0 and 2 of
     // 40 episodes; following the shield, 5 of 41.
@@ -390,6 +390,40 @@ fn the_shield_teaches_a_policy_the_moves_it_makes_for_it() {
         ..teacher
     });
     assert!(followed.success_rate > 0.08, "{followed:?}");
+}
+
+/// `agreeing_share`: of the windows in which the shield overrode no
+/// step, only that share is fitted; the windows holding an override are
+/// all kept.
+#[test]
+fn the_shield_teacher_fits_a_share_of_the_windows_it_agrees_with() {
+    let teacher: ImitationConfig =
+        toml::from_str("expert_first = false\nteacher = \"shield\"\nrollout = \"greedy\"").unwrap();
+    let lstm = |share: f64| {
+        let cfg = ImitationConfig {
+            beta: 0.0,
+            window: 16,
+            agreeing_share: share,
+            ..teacher.clone()
+        };
+        let cells = LstmSpec {
+            cells: 16,
+            prev_action: true,
+            prev_reward: true,
+        };
+        rounds(cfg, 1, Some(cells)).remove(0)
+    };
+    let (all, share) = (lstm(1.0), lstm(0.1));
+    // The same rollouts (greedy, never following the teacher), fewer
+    // windows held.
+    assert_eq!(all.overridden, share.overridden);
+    assert!(share.rows < all.rows && share.rows > 0, "{all:?} {share:?}");
+    let bad = ImitationConfig {
+        agreeing_share: 0.0,
+        ..teacher
+    };
+    let err = bad.validate().unwrap_err().to_string();
+    assert!(err.starts_with("agreeing_share:"), "{err}");
 }
 
 /// The shield teaches a trained policy, on the states it reaches itself.
