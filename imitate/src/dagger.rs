@@ -175,7 +175,7 @@ pub fn dagger<S: EnvSlot>(
     for round in 0..cfg.rounds {
         let t0 = std::time::Instant::now();
         let (calls0, failures0) = (expert.calls, expert.failures);
-        let (mut labelled, mut overridden) = (0u64, 0u64);
+        let (mut taught, mut overrides) = (0u64, 0u64);
         // Round 0 follows the expert (unless `expert_first` is off). A
         // recurrent policy watches it all the same, so that its state is the
         // one it would have after these steps, and keeps its memory from
@@ -219,8 +219,8 @@ pub fn dagger<S: EnvSlot>(
                 }
                 if let Some(t) = teacher.as_mut() {
                     t.label(&*venv, logits, &policy_actions)?;
-                    labelled += (n * envs) as u64;
-                    overridden += t.overridden.iter().filter(|&&o| o).count() as u64;
+                    taught += (n * envs) as u64;
+                    overrides += t.overridden.iter().filter(|&&o| o).count() as u64;
                 }
             }
             for e in 0..envs {
@@ -319,10 +319,10 @@ pub fn dagger<S: EnvSlot>(
             success_rate,
             loss,
             accuracy,
-            overridden: if labelled == 0 {
+            overridden: if taught == 0 {
                 0.0
             } else {
-                overridden as f64 / labelled as f64
+                overrides as f64 / taught as f64
             },
             seconds: t0.elapsed().as_secs_f64(),
         };
