@@ -33,11 +33,12 @@ pub enum Teacher {
     /// (its logits under the wall mask) through `shield-lanes=16`
     /// ([`TEACHER_PATIENCE`]), whose joint move labels each agent, a move
     /// into a cell occupied at the start of the step labelled "stay" (as
-    /// [`LabelStyle::Wait`]). Where the shield keeps the policy's own first
-    /// choice the label is that choice; where it overrides it (a yield, a
-    /// push, the dead-end order, the lane rule, the progress fallback) the
-    /// label is the shield's move: the raw policy learns what the shield
-    /// does for it. A polish after learning from rewards
+    /// [`LabelStyle::Wait`]). Where the shield overrides the policy's own
+    /// move in the rollout (a yield, a push, the dead-end order, the lane
+    /// rule, the progress fallback) the label is the shield's move: the raw
+    /// policy learns what the shield does for it; where it keeps it, the
+    /// label is a draw from the policy's own distribution, which anchors
+    /// the policy without sharpening it. A polish after learning from rewards
     /// (`expert_first = false`); `expert` and `expert_time` are unused.
     Shield,
 }

@@ -367,8 +367,9 @@ struct Shielded {
 /// follows the teacher (probability `beta`) executes the joint move
 /// itself.
 ///
-/// Where the shield keeps the policy's own greedy move, the label is a
-/// draw from the policy's own distribution (under the env's mask), so
+/// Where the shield keeps the policy's own move in the rollout (its
+/// greedy move in greedy rollouts), the label is a draw from the policy's
+/// own distribution (under the env's mask), so
 /// that the fit there keeps the distribution (the expected cross-entropy
 /// is the policy's to itself) instead of sharpening it toward its first
 /// choice — a sharper policy leaves the shield's later choices untrained.
