@@ -100,9 +100,11 @@ pub(super) fn hurry_the_awaited(
     let Fleet { topo, cur, goals } = fleet;
     let mut awaited = vec![false; cur.len()];
     for i in (0..cur.len()).filter(|&i| holding.get(i).copied().unwrap_or(false)) {
-        let mouth = dead_ends.mouth(goals[i]);
+        let Some(mouth) = dead_ends.mouth(goals[i]) else {
+            continue;
+        };
         for j in bound_deeper(dead_ends, cur, goals, i) {
-            if mouth.is_some() && dead_ends.mouth(cur[j]) == mouth {
+            if dead_ends.mouth(cur[j]) == Some(mouth) {
                 awaited[j] = true;
             }
         }
