@@ -54,7 +54,7 @@ pub struct TrainArgs {
     /// `--set t_max=N` overrides).
     #[arg(long)]
     pub rules: Option<Rules>,
-    /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it. Without one: the default recipe (PPO with the 64-cell LSTM, warm-started by imitating LaCAM and OD-A*, the path and intent features and shaping, until the greedy policy solves 99 % of 200 held-out episodes or its training success has held 99 % for 200k env steps, at most 1M; the book's recipe chapter)
+    /// A TOML run configuration (`TrainConfig`; examples in `learner/configs/`); flags override it. Without one: the default recipe (PPO with the 64-cell LSTM, warm-started by imitating LaCAM and OD-A*, the path and intent features and shaping, until the greedy policy solves 99 % of 200 held-out episodes (and of 1,000 more) or its training success has held 99 % for 100k env steps, at most 1M; then polished by its shield; the book's recipe chapter)
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Env-step budget: the most a run trains (the recipe's `[stop]` rule
@@ -76,8 +76,9 @@ pub struct TrainArgs {
     /// Override any configuration key, e.g. `--set ppo.lr=5e-4 --set hidden=[256,256]`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub overrides: Vec<String>,
-    /// Skip the imitation phase the recipe or the config asks for: learn
-    /// from rewards alone from the first step.
+    /// Skip the imitation phases the recipe or the config asks for (the
+    /// planners' lesson before learning from rewards, the shield's polish
+    /// after it): learn from rewards alone.
     #[arg(long)]
     pub no_imitation: bool,
     /// Ignore the `[stop]` rule of the recipe or the config: train for the
@@ -376,6 +377,20 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
         eprintln!(
             "  finalists: the kept weights solved {} of {} final held-out episodes (finalists.csv)",
             r.solved, r.episodes
+        );
+    }
+    if let Some(p) = &summary.polish_replay {
+        eprintln!(
+            "  polish (polish.csv): {} of them solved, {} through shield-lanes=16 (before: {}, {}): {}",
+            p.solved,
+            p.shielded,
+            p.kept_solved,
+            p.kept_shielded,
+            if p.polished_kept {
+                "polished weights kept"
+            } else {
+                "the finalist kept"
+            }
         );
     }
     for t in &summary.time_to_target {

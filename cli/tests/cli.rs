@@ -204,6 +204,8 @@ fn without_a_config_the_recipe_imitates_first_unless_told_not_to() {
     let recipe = buridan_learner::train::TrainConfig::recipe();
     assert!(cfg.model.lstm && cfg.imitation.is_some());
     assert_eq!(cfg.imitation, recipe.imitation);
+    assert_eq!(cfg.polish, recipe.polish);
+    assert!(cfg.polish.is_some());
     // The recipe stops once learned, unless told to use its whole budget.
     assert_eq!(cfg.run.stop, recipe.run.stop);
     assert!(cfg.run.stop.is_some());
@@ -217,11 +219,11 @@ fn without_a_config_the_recipe_imitates_first_unless_told_not_to() {
     let stop = train::resolve_config(&mixed).unwrap().run.stop.unwrap();
     assert_eq!(
         (stop.success, stop.hold, stop.greedy),
-        (0.99, 200_000, None)
+        (0.99, 100_000, None)
     );
     args.no_imitation = true;
     let cfg = train::resolve_config(&args).unwrap();
-    assert!(cfg.model.lstm && cfg.imitation.is_none());
+    assert!(cfg.model.lstm && cfg.imitation.is_none() && cfg.polish.is_none());
     // It also skips a config's imitation.
     let config =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../learner/configs/impala-ctde-rm-2.2.toml");

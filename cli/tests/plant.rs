@@ -78,9 +78,14 @@ fn train_on_the_plant_then_evaluate_its_checkpoint() {
     );
     let mut recipe = args.clone();
     recipe.no_imitation = false;
+    let resolved = train::resolve_config(&recipe).unwrap();
     assert!(
-        train::resolve_config(&recipe).unwrap().imitation.is_none(),
+        resolved.imitation.is_none(),
         "the recipe's imitation (of grid planners) is left out"
+    );
+    assert!(
+        resolved.polish.is_none(),
+        "the recipe's polish (by a grid shield) is left out"
     );
     // Without `t_max`: the plant file's T_max, whatever --rules says.
     let mut plain = args.clone();

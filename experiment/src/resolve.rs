@@ -39,7 +39,7 @@ pub struct RunArgs {
     pub resume: Option<PathBuf>,
     /// `KEY=VALUE` overrides.
     pub overrides: Vec<String>,
-    /// Leave out the imitation phase.
+    /// Leave out the imitation phases (`[imitation]` and `[polish]`).
     pub no_imitation: bool,
     /// Ignore the `[stop]` rule: train for the whole step budget.
     pub no_stop: bool,
@@ -203,6 +203,7 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
     }
     if args.no_imitation {
         cfg.imitation = None;
+        cfg.polish = None;
     }
     if args.no_stop {
         cfg.run.stop = None;
@@ -225,9 +226,13 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
         if !set_keys.iter().any(|k| k == "shaping") {
             cfg.shaping = 0.0;
         }
-        // Its imitation asks grid planners for labels.
+        // Its imitation asks grid planners for labels, its polish a grid
+        // shield.
         if !set_keys.iter().any(|k| k.starts_with("imitation")) {
             cfg.imitation = None;
+        }
+        if !set_keys.iter().any(|k| k.starts_with("polish")) {
+            cfg.polish = None;
         }
         // Plant episodes only truncate: no success for `[stop]` to hold.
         if !set_keys.iter().any(|k| k.starts_with("stop")) {

@@ -713,6 +713,84 @@ fn the_final_replay_overrules_the_order_of_the_checks() {
     assert!(bench.holds_the_imitated_weights());
 }
 
+/// With finalists a check's pass ends the run only if the same weights
+/// reach the level on the final episodes: the imitated weights pass and
+/// are confirmed (all 12 final episodes, booked in `greedy.csv`); fresh
+/// weights reach nothing there; a check that fails is not replayed.
+#[test]
+fn a_pass_stands_only_if_the_final_episodes_confirm_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bench = ProbeBench::new(dir.path(), two_finalists());
+    assert!(bench.check(0, true));
+    assert!(!bench.check(1, false));
+    let rows = greedy_records(dir.path());
+    let seen: Vec<_> = rows.iter().map(|r| (r.solved, r.confirmed)).collect();
+    assert_eq!(seen, [(8, Some(12)), (0, None)]);
+    bench.policy.copy_from(&bench.fresh).unwrap();
+    assert_eq!(
+        bench.probe.confirm(&bench.policy, &bench.ground).unwrap(),
+        (false, Some(0))
+    );
+    bench.policy.copy_from(&bench.imitated).unwrap();
+    assert_eq!(
+        bench.probe.confirm(&bench.policy, &bench.ground).unwrap(),
+        (true, Some(12))
+    );
+}
+
+/// A polish is kept only if its weights solve more of the final
+/// held-out episodes than the finalist it started from (and no fewer
+/// through `shield-lanes=16`): a "polish" that left the fresh weights
+/// (none solved) gives the imitated finalist back; one that left the
+/// imitated weights over a fresh finalist is kept.
+#[test]
+fn a_polish_is_kept_only_if_it_solves_more_final_episodes_than_its_finalist() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bench = ProbeBench::new(dir.path(), two_finalists());
+    bench.check(0, true);
+    bench.check(1, true);
+    let (_, replay) = bench.restore_best();
+    let replay = replay.expect("two finalists replayed");
+    let before = bench.policy.weights(1).unwrap();
+    bench.policy.copy_from(&bench.fresh).unwrap();
+    let judged = bench
+        .probe
+        .judge_polish(&bench.policy, &bench.ground, &replay, &before)
+        .unwrap();
+    assert_eq!(
+        (
+            judged.episodes,
+            judged.solved,
+            judged.kept_solved,
+            judged.polished_kept
+        ),
+        (12, 0, 12, false)
+    );
+    assert_eq!(judged.kept_shielded, 12, "the imitated finalist, shielded");
+    assert!(
+        bench.holds_the_imitated_weights(),
+        "the finalist's weights are back"
+    );
+
+    let fresh_finalist = buridan_learner::train::stop::FinalRecord {
+        solved: 0,
+        ..replay
+    };
+    let before = bench.fresh.weights(1).unwrap();
+    let judged = bench
+        .probe
+        .judge_polish(&bench.policy, &bench.ground, &fresh_finalist, &before)
+        .unwrap();
+    assert_eq!(
+        (judged.solved, judged.shielded, judged.polished_kept),
+        (12, 12, true)
+    );
+    assert!(
+        bench.holds_the_imitated_weights(),
+        "the polished weights stay"
+    );
+}
+
 #[test]
 fn a_run_under_execution_delays_trains_and_keeps_them_in_its_config() {
     buridan_policy::threads::pin_threads(1);

@@ -249,6 +249,24 @@ impl CsvLog {
         })
     }
 
+    /// Opens `path` for appending rows of `T`, creating it if needed; a
+    /// file written by an older version with fewer columns (a run resumed
+    /// after an upgrade) is first rewritten under `T`'s header, its rows
+    /// kept and the new columns at their defaults, so the file stays one
+    /// table.
+    pub fn append_upgrading<T>(path: &Path) -> Result<Self, MetricsError>
+    where
+        T: Default + Serialize + serde::de::DeserializeOwned,
+    {
+        if std::fs::metadata(path).is_ok_and(|m| m.len() > 0) {
+            upgrade_header::<T>(path).map_err(|source| MetricsError {
+                path: path.to_path_buf(),
+                source,
+            })?;
+        }
+        Self::append(path)
+    }
+
     /// Writes one row and flushes.
     pub fn write<T: Serialize>(&mut self, row: &T) -> Result<(), MetricsError> {
         let failed = |source: csv::Error| MetricsError {
@@ -273,14 +291,8 @@ pub struct MetricsWriter {
 impl MetricsWriter {
     /// Opens (appending) or creates `path`.
     pub fn open(path: &Path) -> Result<Self, MetricsError> {
-        if std::fs::metadata(path).is_ok_and(|m| m.len() > 0) {
-            upgrade_header(path).map_err(|source| MetricsError {
-                path: path.to_path_buf(),
-                source,
-            })?;
-        }
         Ok(Self {
-            log: CsvLog::append(path)?,
+            log: CsvLog::append_upgrading::<MetricsRow>(path)?,
         })
     }
 
@@ -290,11 +302,10 @@ impl MetricsWriter {
     }
 }
 
-/// The header `metrics.csv` has today: the [`MetricsRow`] field names.
-fn current_header() -> csv::StringRecord {
+/// The header a CSV of `T` rows has today: `T`'s field names.
+fn current_header<T: Default + Serialize>() -> csv::StringRecord {
     let mut w = csv::Writer::from_writer(Vec::new());
-    w.serialize(MetricsRow::default())
-        .expect("a default row serialises");
+    w.serialize(T::default()).expect("a default row serialises");
     let bytes = w.into_inner().expect("writing to memory");
     csv::Reader::from_reader(bytes.as_slice())
         .headers()
@@ -305,12 +316,15 @@ fn current_header() -> csv::StringRecord {
 /// Rewrites `path` under the current header if its header differs (rows
 /// read by column name; columns it lacks take their defaults). Written to a
 /// temporary file first and renamed over, so a failure leaves the old file.
-fn upgrade_header(path: &Path) -> Result<(), csv::Error> {
+fn upgrade_header<T>(path: &Path) -> Result<(), csv::Error>
+where
+    T: Default + Serialize + serde::de::DeserializeOwned,
+{
     let mut reader = csv::Reader::from_path(path)?;
-    if *reader.headers()? == current_header() {
+    if *reader.headers()? == current_header::<T>() {
         return Ok(());
     }
-    let rows: Vec<MetricsRow> = reader.deserialize().collect::<Result<_, _>>()?;
+    let rows: Vec<T> = reader.deserialize().collect::<Result<_, _>>()?;
     let tmp = path.with_extension("csv.upgrade");
     let mut w = csv::Writer::from_path(&tmp)?;
     for row in &rows {
@@ -391,6 +405,11 @@ pub struct Summary {
     /// final held-out episodes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub kept_replay: Option<super::stop::FinalRecord>,
+    /// With `[polish]` after `[stop.greedy.finalists]`: the polished and
+    /// the kept weights' replays on the same final held-out episodes, and
+    /// whether the run kept the polished ones.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polish_replay: Option<super::stop::PolishReplay>,
     /// Directory of the final checkpoint.
     pub final_checkpoint: PathBuf,
 }
@@ -422,7 +441,7 @@ mod tests {
         .unwrap();
         drop(w);
         let text = std::fs::read_to_string(&path).unwrap();
-        let header = current_header();
+        let header = current_header::<MetricsRow>();
         assert_eq!(
             text.lines().next().unwrap(),
             header.iter().collect::<Vec<_>>().join(",")
@@ -442,5 +461,36 @@ mod tests {
         let before = std::fs::read_to_string(&path).unwrap();
         drop(MetricsWriter::open(&path).unwrap());
         assert_eq!(std::fs::read_to_string(&path).unwrap(), before);
+    }
+
+    /// `greedy.csv` of a run written before checks booked their
+    /// confirmation: reopened, it gains the column, its rows kept.
+    #[test]
+    fn an_older_greedy_log_gains_the_new_column_on_resume() {
+        use crate::train::stop::GreedyRecord;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("greedy.csv");
+        let old =
+            "update,env_steps,wall_seconds,episodes,solved,seconds\n3,12000,4.5,200,197,0.2\n";
+        std::fs::write(&path, old).unwrap();
+        let mut log = CsvLog::append_upgrading::<GreedyRecord>(&path).unwrap();
+        log.write(&GreedyRecord {
+            update: 4,
+            solved: 199,
+            confirmed: Some(990),
+            ..Default::default()
+        })
+        .unwrap();
+        drop(log);
+        let rows: Vec<GreedyRecord> = csv::Reader::from_path(&path)
+            .unwrap()
+            .deserialize()
+            .collect::<Result<_, _>>()
+            .unwrap();
+        let seen: Vec<_> = rows
+            .iter()
+            .map(|r| (r.update, r.solved, r.confirmed))
+            .collect();
+        assert_eq!(seen, [(3, 197, None), (4, 199, Some(990))]);
     }
 }

@@ -428,7 +428,13 @@ impl Run {
         let reason = result?;
         finished?;
         let kept = self.keep_best()?;
+        let mut polish_replay = None;
         if let Some(polish) = &self.cfg.polish {
+            let kept_replay = kept.and_then(|(_, replay)| replay);
+            let before = match kept_replay {
+                Some(_) => Some(self.policy.weights(self.state.updates)?),
+                None => None,
+            };
             imitate(
                 &self.cfg,
                 polish,
@@ -437,6 +443,9 @@ impl Run {
                 &self.policy,
                 &self.out,
             )?;
+            if let (Some(replay), Some(before)) = (kept_replay, before) {
+                polish_replay = self.judge_polish(&replay, &before)?;
+            }
         }
         let final_dir = checkpoint::final_dir(&self.out);
         self.save_checkpoint(&final_dir)?;
@@ -445,6 +454,7 @@ impl Run {
         let summary = Summary {
             kept_check: kept.map(|(check, _)| check),
             kept_replay: kept.and_then(|(_, replay)| replay),
+            polish_replay,
             ..self.summary(final_dir, reason)
         };
         let json = serde_json::to_value(&summary).unwrap_or(serde_json::Value::Null);
@@ -719,6 +729,22 @@ impl Run {
         Ok(kept)
     }
 
+    /// Keeps the polished weights only if they solve more of the final
+    /// held-out episodes than the kept finalist (`replay`), else puts
+    /// `before` back ([`stop::GreedyProbe::judge_polish`]).
+    fn judge_polish(
+        &self,
+        replay: &stop::FinalRecord,
+        before: &Weights,
+    ) -> Result<Option<stop::PolishReplay>, TrainError> {
+        let (Some(probe), Some(ground)) = (&self.greedy, self.greedy_ground()) else {
+            return Ok(None);
+        };
+        probe
+            .judge_polish(&self.policy, &ground, replay, before)
+            .map(Some)
+    }
+
     /// Whether the `stop_return` (and `stop_len`) goal holds over a full window.
     fn goal_reached(&self) -> bool {
         let Some(goal) = self.cfg.run.stop_return else {
@@ -771,6 +797,7 @@ impl Run {
             greedy_check: self.greedy.as_ref().and_then(|g| g.last()),
             kept_check: None,
             kept_replay: None,
+            polish_replay: None,
             final_checkpoint,
         }
     }

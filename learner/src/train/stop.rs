@@ -38,12 +38,21 @@
 //! the same episodes for every finalist); the run keeps the finalist
 //! that solves the most of them (on a tie, the better check, then the
 //! earlier). Each replay is a row of `finalists.csv` ([`FinalRecord`]).
+//! The final episodes also guard the stop: with finalists a check that
+//! reaches its level ends the run only if the same weights reach it on
+//! the final episodes too ([`GreedyProbe::confirm`]; `greedy.csv`'s
+//! `confirmed`), so a check passed by luck does not end a run early.
+//! And they judge a `[polish]` after the run: the polished weights are
+//! kept only if they solve more of them than the kept finalist, and no
+//! fewer through `shield-lanes=16` ([`GreedyProbe::judge_polish`]).
 
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
 use buridan_env::{seed, EnvConfig, Map};
+use buridan_imitate::config::TEACHER_PATIENCE;
+use buridan_mapf::shield::rollout::RolloutShield;
 use buridan_policy::{ActMode, Policy, Weights};
 use serde::{Deserialize, Serialize};
 
@@ -108,8 +117,9 @@ fn check_level(success: f64, err: &'static str) -> Result<(), &'static str> {
 
 /// A greedy evaluation on held-out episodes between updates, TOML
 /// `[stop.greedy]`: the run stops once the share of `episodes` episodes
-/// the greedy policy solves reaches `success`; with `keep_best` its final
-/// checkpoint holds the checked weights that solved the most.
+/// the greedy policy solves reaches `success` (with `finalists`, once the
+/// same weights reach it on the final episodes too); with `keep_best` its
+/// final checkpoint holds the checked weights that solved the most.
 ///
 /// ```
 /// use buridan_learner::train::stop::{Finalists, GreedyCheck};
@@ -151,6 +161,8 @@ pub struct GreedyCheck {
 /// `[stop.greedy.finalists]`: the `count` checks that solved the most
 /// held-out episodes are each replayed on the same `episodes` further
 /// held-out episodes, and the run keeps the one that solves the most.
+/// The same final episodes confirm a check's pass before it stops the
+/// run and judge a `[polish]` ([`GreedyProbe::judge_polish`]).
 ///
 /// ```
 /// use buridan_learner::train::stop::Finalists;
@@ -253,7 +265,7 @@ impl GreedyProbe {
             done: 0,
             last: None,
             best: Vec::new(),
-            log: CsvLog::append(&out.join(GREEDY_FILE))?,
+            log: CsvLog::append_upgrading::<GreedyRecord>(&out.join(GREEDY_FILE))?,
             out: out.to_path_buf(),
         })
     }
@@ -335,6 +347,81 @@ impl GreedyProbe {
         Ok(Some((*check, Some(replay))))
     }
 
+    /// Judges a `[polish]` that followed [`Self::restore_best`]: replays
+    /// the polished weights in `policy` and the kept ones, `before`, on the
+    /// same final held-out episodes as `kept`, the kept finalist's replay,
+    /// raw and through the shield the polish learned from
+    /// (`shield-lanes=16`), and keeps the polished weights only if they
+    /// solve more raw and no fewer through the shield; otherwise puts
+    /// `before` back. The polish fits the policy to moves other than
+    /// those it was chosen for, and what that does depends on the layout
+    /// and the run: this way a run ends no worse on its final held-out
+    /// episodes than its kept finalist, deployed either way.
+    pub fn judge_polish(
+        &self,
+        policy: &Policy,
+        ground: &Ground,
+        kept: &FinalRecord,
+        before: &Weights,
+    ) -> Result<PolishReplay, TrainError> {
+        let started = Instant::now();
+        let (n, seed) = (kept.episodes, seed::greedy_final(ground.env.seed));
+        let (solved, _) = solve_greedily(policy, ground, n, seed)?;
+        let (shielded, _) = solve_shielded(policy, ground, n, seed)?;
+        let polished = policy.weights(0)?;
+        policy.set_weights(before)?;
+        let (kept_shielded, _) = solve_shielded(policy, ground, n, seed)?;
+        let polished_kept = solved > kept.solved && shielded >= kept_shielded;
+        if polished_kept {
+            policy.set_weights(&polished)?;
+        }
+        let replay = PolishReplay {
+            episodes: n,
+            solved,
+            kept_solved: kept.solved,
+            shielded,
+            kept_shielded,
+            polished_kept,
+            seconds: started.elapsed().as_secs_f64(),
+        };
+        tracing::info!(
+            solved,
+            shielded,
+            kept_solved = kept.solved,
+            kept_shielded,
+            "the polished weights solved {solved} (through the shield {shielded}) of {n} final held-out episodes, the kept finalist {} ({kept_shielded}): {}",
+            kept.solved,
+            if polished_kept { "keeping the polished weights" } else { "keeping the finalist" }
+        );
+        Ok(replay)
+    }
+
+    /// With `finalists`: replays the weights in `policy` on the final
+    /// held-out episodes; whether they reach the check's level there too,
+    /// and how many they solved (`None` without finalists, which then
+    /// confirm every pass). A check that passed by luck would end the run
+    /// early; [`Self::run`] lets a pass stand only if it is confirmed.
+    pub fn confirm(
+        &self,
+        policy: &Policy,
+        ground: &Ground,
+    ) -> Result<(bool, Option<usize>), TrainError> {
+        let Some(f) = self.check.finalists else {
+            return Ok((true, None));
+        };
+        let seed = seed::greedy_final(ground.env.seed);
+        let (solved, _) = solve_greedily(policy, ground, f.episodes, seed)?;
+        let stands = self.check.passes(solved, f.episodes);
+        tracing::info!(
+            solved,
+            episodes = f.episodes,
+            "the pass replayed on the final held-out episodes: {solved} of {} solved, {}",
+            f.episodes,
+            if stands { "confirmed" } else { "not confirmed" }
+        );
+        Ok((stands, Some(solved)))
+    }
+
     /// [`GreedyProbe::run`] on the weights a run starts from (`keep_best`):
     /// a candidate to keep, and the next check still follows the first
     /// update.
@@ -360,6 +447,19 @@ impl GreedyProbe {
         self.done += 1;
         let n = self.check.episodes;
         let (solved, seconds) = solve_greedily(policy, ground, n, seed)?;
+        tracing::info!(
+            env_steps = at.env_steps,
+            solved,
+            episodes = n,
+            seconds,
+            "greedy check on held-out episodes: {solved} of {n} solved"
+        );
+        let mut passed = self.check.passes(solved, n);
+        let mut confirmed = None;
+        if passed && self.check.finalists.is_some() {
+            let (stands, solved_final) = self.confirm(policy, ground)?;
+            (passed, confirmed) = (stands, solved_final);
+        }
         let record = GreedyRecord {
             update: at.update,
             env_steps: at.env_steps,
@@ -367,14 +467,8 @@ impl GreedyProbe {
             episodes: n,
             solved,
             seconds,
+            confirmed,
         };
-        tracing::info!(
-            env_steps = record.env_steps,
-            solved,
-            episodes = n,
-            seconds = record.seconds,
-            "greedy check on held-out episodes: {solved} of {n} solved"
-        );
         self.log.write(&record)?;
         self.last = Some(record);
         if self.check.keep_best {
@@ -387,7 +481,7 @@ impl GreedyProbe {
                 self.best.truncate(room);
             }
         }
-        Ok(self.check.passes(solved, n))
+        Ok(passed)
     }
 }
 
@@ -412,8 +506,31 @@ fn solve_greedily(
     Ok((solved, started.elapsed().as_secs_f64()))
 }
 
+/// [`solve_greedily`] through the shield a `[polish]` learns from
+/// (`shield-lanes=16`, [`TEACHER_PATIENCE`]), its tie-breaks from the
+/// episode seed.
+fn solve_shielded(
+    policy: &Policy,
+    ground: &Ground,
+    n: usize,
+    seed: u64,
+) -> Result<(usize, f64), TrainError> {
+    let started = Instant::now();
+    let env = EnvConfig {
+        seed,
+        ..ground.env.clone()
+    };
+    let shield = RolloutShield::new(seed).with_one_way_lanes(TEACHER_PATIENCE);
+    let map = ground.map.clone();
+    let episodes =
+        rollout::rollout_through(policy, map, env, n, n, ActMode::Greedy, seed, Some(shield))
+            .map_err(|source| TrainError::GreedyCheck { source })?;
+    let solved = episodes.iter().filter(|e| e.success).count();
+    Ok((solved, started.elapsed().as_secs_f64()))
+}
+
 /// One greedy check of a run, a row of `greedy.csv`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct GreedyRecord {
     /// Updates done when the check ran.
     pub update: u64,
@@ -427,6 +544,11 @@ pub struct GreedyRecord {
     pub solved: usize,
     /// Seconds the check took.
     pub seconds: f64,
+    /// With `[stop.greedy.finalists]`, for a check that reached the
+    /// level: of the final held-out episodes, the ones the same weights
+    /// solved (the run stops only if they reach the level too).
+    #[serde(default)]
+    pub confirmed: Option<usize>,
 }
 
 /// One finalist's replay on the final held-out episodes, a row of
@@ -443,6 +565,26 @@ pub struct FinalRecord {
     /// Of these, the ones it solved.
     pub solved: usize,
     /// Seconds the replay took.
+    pub seconds: f64,
+}
+
+/// The replay that judged a run's `[polish]` ([`GreedyProbe::judge_polish`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PolishReplay {
+    /// Final held-out episodes played (the finalists' episodes).
+    pub episodes: usize,
+    /// Of these, the ones the polished weights solved.
+    pub solved: usize,
+    /// The ones the kept finalist solved, before the polish.
+    pub kept_solved: usize,
+    /// The ones the polished weights solved through `shield-lanes=16`.
+    pub shielded: usize,
+    /// The ones the kept finalist solved through `shield-lanes=16`.
+    pub kept_shielded: usize,
+    /// Whether the run kept the polished weights (more solved raw, no
+    /// fewer through the shield).
+    pub polished_kept: bool,
+    /// Seconds the three replays took.
     pub seconds: f64,
 }
 

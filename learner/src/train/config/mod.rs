@@ -5,7 +5,7 @@ use std::path::Path;
 
 use buridan_env::replay::ReplayConfig;
 use buridan_env::{ObsFeatures, Rules, Starts};
-use buridan_imitate::ImitationConfig;
+use buridan_imitate::{ImitationConfig, Teacher};
 use buridan_policy::{ActMode, LstmSpec, Mode, ModelSpec, ValueHead};
 use serde::{Deserialize, Serialize};
 
@@ -162,40 +162,55 @@ impl Default for TrainConfig {
 
 impl TrainConfig {
     /// The default recipe: what `learner train --map LAYOUT` runs without a
-    /// config. PPO-CTDE with the dissertation's 64-cell LSTM, warm-started
-    /// by imitation: DAgger on the planners' next steps (4 rounds of 20k env
-    /// steps labelled by LaCAM, then OD-A\*, 10 ms per call), then PPO with
-    /// the comparison settings (lr 1e-3, 12 epochs, clip 0.05, entropy
-    /// 0.001, batch = minibatch = 4000), the path and intent features and
-    /// potential-based shaping 0.05; the update on the run's share of the
-    /// cores (all of them alone, one each for two runs of a study:
-    /// [`crate::train::cores`]). PPO runs until the greedy policy solves
-    /// 99 % of 200 held-out episodes (checked every 20k env steps,
-    /// `[stop.greedy]`) or the training success has stayed at 99 % or more
-    /// for 200k env steps (`[stop]`), at most 1M env steps, and keeps the
-    /// checked weights that solved the most held-out episodes, the imitated
-    /// ones among them (`keep_best`): of the 4 best checks, the one whose
-    /// weights solve the most of 1,000 further held-out episodes
-    /// (`[stop.greedy.finalists]`).
+    /// config. PPO-CTDE with the dissertation's 64-cell LSTM, in three
+    /// phases:
+    ///
+    /// 1. **Imitation**: DAgger on the planners' next steps (4 rounds of
+    ///    20k env steps labelled by LaCAM, then OD-A\*, 10 ms per call).
+    /// 2. **PPO** with the comparison settings (lr 1e-3, 12 epochs, clip
+    ///    0.05, entropy 0.001, batch = minibatch = 4000), the path and
+    ///    intent features and potential-based shaping 0.05; the update on
+    ///    the run's share of the cores (all of them alone, one each for two
+    ///    runs of a study: [`crate::train::cores`]). It runs until the
+    ///    greedy policy solves 99 % of 200 held-out episodes (checked every
+    ///    20k env steps, `[stop.greedy]`) or the training success has stayed
+    ///    at 99 % or more for 100k env steps (`[stop]`), at most 1M env
+    ///    steps, and keeps the checked weights that solved the most
+    ///    held-out episodes, the imitated ones among them (`keep_best`): of
+    ///    the 4 best checks, the one whose weights solve the most of 1,000
+    ///    further held-out episodes (`[stop.greedy.finalists]`).
+    /// 3. **Polish** by the deployment shield (`[polish]`,
+    ///    [`Teacher::Shield`](buridan_imitate::Teacher::Shield)): 4 DAgger
+    ///    rounds of the kept policy's greedy rollouts labelled with the
+    ///    joint move `shield-lanes=16` makes of its preferences (β 0.05,
+    ///    10 epochs, half of the windows without an override fitted). The
+    ///    polished weights are kept only if they solve more of the 1,000
+    ///    final held-out episodes than the kept finalist, and no fewer
+    ///    through `shield-lanes=16`
+    ///    ([`super::stop::GreedyProbe::judge_polish`]).
     ///
     /// Chosen by measurement: the book's recipe chapter and
-    /// `docs/results/recipe-lstm-imitation*/RESULTS.md` give its figures per
+    /// `docs/results/recipe-stop/RESULTS.md` give its figures per
     /// layout (10 seeds each) and the feed-forward IMPALA recipe it
     /// replaced, kept as `learner/configs/recipe-impala-feedforward.toml`.
     ///
     /// ```
     /// use buridan_learner::train::{Algo, TrainConfig};
+    /// use buridan_imitate::Teacher;
     /// let r = TrainConfig::recipe();
     /// assert_eq!(r.algorithm.algo(), Algo::Ppo);
     /// assert!(r.model.lstm && r.features.path && r.features.intent && r.shaping > 0.0);
     /// let imitation = r.imitation.as_ref().unwrap();
     /// assert_eq!((imitation.rounds, imitation.expert.as_slice()), (4, &["lacam".to_string(), "od-astar".into()][..]));
-    /// assert_eq!(r.run.stop.map(|s| (s.success, s.hold)), Some((0.99, 200_000)));
+    /// assert_eq!(r.run.stop.map(|s| (s.success, s.hold)), Some((0.99, 100_000)));
     /// let greedy = r.run.stop.and_then(|s| s.greedy).unwrap();
     /// assert_eq!((greedy.success, greedy.episodes, greedy.every), (0.99, 200, 20_000));
     /// assert!(greedy.keep_best);
     /// assert_eq!(greedy.finalists.map(|f| (f.count, f.episodes)), Some((4, 1000)));
     /// assert_eq!(r.algorithm.ppo().unwrap().update_threads, 0, "the run's share of the cores");
+    /// let polish = r.polish.as_ref().unwrap();
+    /// assert_eq!((polish.teacher, polish.rounds, polish.epochs), (Teacher::Shield, 4, 10));
+    /// assert_eq!((polish.beta, polish.agreeing_share, polish.expert_first), (0.05, 0.5, false));
     /// r.validate().unwrap();
     /// ```
     pub fn recipe() -> Self {
@@ -211,7 +226,7 @@ impl TrainConfig {
                 steps: 1_000_000,
                 stop: Some(StopRule {
                     success: 0.99,
-                    hold: 200_000,
+                    hold: 100_000,
                     greedy: Some(GreedyCheck {
                         success: 0.99,
                         episodes: 200,
@@ -233,6 +248,15 @@ impl TrainConfig {
                 expert: vec!["lacam".into(), "od-astar".into()],
                 expert_time: 0.01,
                 rounds: 4,
+                ..ImitationConfig::default()
+            }),
+            polish: Some(ImitationConfig {
+                teacher: Teacher::Shield,
+                expert_first: false,
+                rounds: 4,
+                beta: 0.05,
+                epochs: 10,
+                agreeing_share: 0.5,
                 ..ImitationConfig::default()
             }),
             ..Self::default()
