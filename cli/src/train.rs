@@ -381,15 +381,12 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
     }
     if let Some(p) = &summary.polish_replay {
         eprintln!(
-            "  polish (polish.csv): {} of them solved, {} through shield-lanes=16 (before: {}, {}): {}",
+            "  polish (polish.csv): the polished weights solved {} of them: {}",
             p.solved,
-            p.shielded,
-            p.kept_solved,
-            p.kept_shielded,
             if p.polished_kept {
-                "polished weights kept"
+                "kept"
             } else {
-                "the finalist kept"
+                "not more, the finalist kept"
             }
         );
     }

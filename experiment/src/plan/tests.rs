@@ -147,12 +147,14 @@ fn a_method_without_a_config_trains_the_default_recipe() {
         })
         .unwrap();
     assert!(cell.config.is_some());
-    // It trains the recipe for its whole budget: everything but `[stop]`
-    // and the update's threads (one per run then; the run's share of the
-    // cores now, which is one for each of a study's two runs at a time).
-    assert!(cfg.run.stop.is_some());
+    // It trains the recipe for its whole budget: everything but `[stop]`,
+    // the `[polish]` that joined after it, and the update's threads (one
+    // per run then; the run's share of the cores now, which is one for
+    // each of a study's two runs at a time).
+    assert!(cfg.run.stop.is_some() && cfg.polish.is_some());
     let mut whole_budget = cfg;
     whole_budget.run.stop = None;
+    whole_budget.polish = None;
     let mut shipped = cell.config_in(Path::new("out")).unwrap();
     let ppo = shipped.algorithm.ppo_mut().unwrap();
     assert_eq!(ppo.update_threads, 1);

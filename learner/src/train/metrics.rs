@@ -405,9 +405,9 @@ pub struct Summary {
     /// final held-out episodes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub kept_replay: Option<super::stop::FinalRecord>,
-    /// With `[polish]` after `[stop.greedy.finalists]`: the polished and
-    /// the kept weights' replays on the same final held-out episodes, and
-    /// whether the run kept the polished ones.
+    /// With `[polish]` after `[stop.greedy.finalists]`: the polished
+    /// weights' replay on the same final held-out episodes, and whether
+    /// the run kept them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub polish_replay: Option<super::stop::PolishReplay>,
     /// Directory of the final checkpoint.

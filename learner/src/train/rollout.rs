@@ -5,7 +5,6 @@ use std::sync::Arc;
 
 use buridan_actor::CollectError;
 use buridan_env::{BatchedEnv, EnvConfig, EpisodeStats, Map, VecEnv};
-use buridan_mapf::shield::rollout::RolloutShield;
 use buridan_policy::{ActMode, Inference, Policy};
 
 /// Plays episodes 0, 1, …, `episodes` − 1 of `env`'s seed with `policy`
@@ -33,38 +32,6 @@ pub fn rollout(
     mode: ActMode,
     seed: u64,
 ) -> Result<Vec<EpisodeStats>, CollectError> {
-    rollout_through(policy, map, env, episodes, num_envs, mode, seed, None)
-}
-
-/// [`rollout`], through `shield` if given: the policy acts under wall
-/// masks and the env executes the shield's joint move of its choices (its
-/// recurrent state is fed the choices, as the evaluation's shielded
-/// controllers feed it), as `shield-lanes=16:checkpoint:DIR` plays a
-/// policy with `RolloutShield::new(seed).with_one_way_lanes(16)`.
-///
-/// ```
-/// use buridan_env::{EnvConfig, Map, Starts};
-/// use buridan_learner::train::rollout::rollout_through;
-/// use buridan_mapf::shield::rollout::RolloutShield;
-/// use buridan_policy::{ActMode, ModelSpec, Mode, Policy};
-/// let map = std::sync::Arc::new(Map::load("rm-1.1").unwrap());
-/// let env = EnvConfig { agents: 2, starts: Starts::Fixed, t_max: 20, ..EnvConfig::default() };
-/// let policy = Policy::new(ModelSpec::new(Mode::Ctde, 2, 129), 0).unwrap();
-/// let shield = RolloutShield::new(0).with_one_way_lanes(16);
-/// let eps = rollout_through(&policy, map, env, 3, 2, ActMode::Greedy, 0, Some(shield)).unwrap();
-/// assert_eq!(eps.len(), 3);
-/// ```
-#[allow(clippy::too_many_arguments)]
-pub fn rollout_through(
-    policy: &Policy,
-    map: Arc<Map>,
-    env: EnvConfig,
-    episodes: usize,
-    num_envs: usize,
-    mode: ActMode,
-    seed: u64,
-    mut shield: Option<RolloutShield>,
-) -> Result<Vec<EpisodeStats>, CollectError> {
     let kind = policy.spec().mode.obs_kind();
     let mut venv = VecEnv::new(map, env, num_envs.max(1), kind, 1)?;
     let rows = venv.rows();
@@ -74,25 +41,11 @@ pub fn rollout_through(
     let mut logp = vec![0f32; rows];
     let mut row_rewards = vec![0f32; rows];
     let mut row_done = vec![0u8; rows];
-    let (mut wall_masks, mut executed) = match shield {
-        Some(_) => (vec![0u8; venv.masks().len()], vec![0u8; rows * heads]),
-        None => (Vec::new(), Vec::new()),
-    };
     let mut out = Vec::with_capacity(episodes);
     let wanted = episodes as u64;
     while out.len() < episodes {
-        match &mut shield {
-            Some(shield) => {
-                shield.write_masks(&venv, &mut wall_masks)?;
-                let logits = inf.act(venv.obs(), &wall_masks, mode, &mut actions, &mut logp)?;
-                shield.joint_move(&venv, &actions, logits, &wall_masks, &mut executed)?;
-                venv.step(&executed)?;
-            }
-            None => {
-                inf.act(venv.obs(), venv.masks(), mode, &mut actions, &mut logp)?;
-                venv.step(&actions)?;
-            }
-        }
+        inf.act(venv.obs(), venv.masks(), mode, &mut actions, &mut logp)?;
+        venv.step(&actions)?;
         if let Some(st) = inf.state_mut() {
             venv.write_row_rewards(&mut row_rewards);
             venv.write_row_done(&mut row_done);

@@ -43,16 +43,14 @@
 //! the final episodes too ([`GreedyProbe::confirm`]; `greedy.csv`'s
 //! `confirmed`), so a check passed by luck does not end a run early.
 //! And they judge a `[polish]` after the run: the polished weights are
-//! kept only if they solve more of them than the kept finalist, and no
-//! fewer through `shield-lanes=16` ([`GreedyProbe::judge_polish`]).
+//! kept only if they solve more of them than the kept finalist
+//! ([`GreedyProbe::judge_polish`]).
 
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
 use buridan_env::{seed, EnvConfig, Map};
-use buridan_imitate::config::TEACHER_PATIENCE;
-use buridan_mapf::shield::rollout::RolloutShield;
 use buridan_policy::{ActMode, Policy, Weights};
 use serde::{Deserialize, Serialize};
 
@@ -348,15 +346,13 @@ impl GreedyProbe {
     }
 
     /// Judges a `[polish]` that followed [`Self::restore_best`]: replays
-    /// the polished weights in `policy` and the kept ones, `before`, on the
-    /// same final held-out episodes as `kept`, the kept finalist's replay,
-    /// raw and through the shield the polish learned from
-    /// (`shield-lanes=16`), and keeps the polished weights only if they
-    /// solve more raw and no fewer through the shield; otherwise puts
-    /// `before` back. The polish fits the policy to moves other than
-    /// those it was chosen for, and what that does depends on the layout
-    /// and the run: this way a run ends no worse on its final held-out
-    /// episodes than its kept finalist, deployed either way.
+    /// the polished weights in `policy` on the same final held-out
+    /// episodes as `kept`, the kept finalist's replay, and keeps them only
+    /// if they solve more; otherwise puts `before` (the kept weights)
+    /// back. The polish fits the policy to moves other than those it was
+    /// chosen for, and what that does to the greedy policy depends on the
+    /// layout and the run: this way a run ends no worse on its final
+    /// held-out episodes than its kept finalist.
     pub fn judge_polish(
         &self,
         policy: &Policy,
@@ -364,36 +360,28 @@ impl GreedyProbe {
         kept: &FinalRecord,
         before: &Weights,
     ) -> Result<PolishReplay, TrainError> {
-        let started = Instant::now();
-        let (n, seed) = (kept.episodes, seed::greedy_final(ground.env.seed));
-        let (solved, _) = solve_greedily(policy, ground, n, seed)?;
-        let (shielded, _) = solve_shielded(policy, ground, n, seed)?;
-        let polished = policy.weights(0)?;
-        policy.set_weights(before)?;
-        let (kept_shielded, _) = solve_shielded(policy, ground, n, seed)?;
-        let polished_kept = solved > kept.solved && shielded >= kept_shielded;
-        if polished_kept {
-            policy.set_weights(&polished)?;
+        let seed = seed::greedy_final(ground.env.seed);
+        let (solved, seconds) = solve_greedily(policy, ground, kept.episodes, seed)?;
+        let polished_kept = solved > kept.solved;
+        if !polished_kept {
+            policy.set_weights(before)?;
         }
-        let replay = PolishReplay {
-            episodes: n,
-            solved,
-            kept_solved: kept.solved,
-            shielded,
-            kept_shielded,
-            polished_kept,
-            seconds: started.elapsed().as_secs_f64(),
-        };
         tracing::info!(
             solved,
-            shielded,
             kept_solved = kept.solved,
-            kept_shielded,
-            "the polished weights solved {solved} (through the shield {shielded}) of {n} final held-out episodes, the kept finalist {} ({kept_shielded}): {}",
+            episodes = kept.episodes,
+            "the polished weights solved {solved} of {} final held-out episodes, the kept finalist {}: {}",
+            kept.episodes,
             kept.solved,
             if polished_kept { "keeping the polished weights" } else { "keeping the finalist" }
         );
-        Ok(replay)
+        Ok(PolishReplay {
+            episodes: kept.episodes,
+            solved,
+            kept_solved: kept.solved,
+            polished_kept,
+            seconds,
+        })
     }
 
     /// With `finalists`: replays the weights in `policy` on the final
@@ -506,29 +494,6 @@ fn solve_greedily(
     Ok((solved, started.elapsed().as_secs_f64()))
 }
 
-/// [`solve_greedily`] through the shield a `[polish]` learns from
-/// (`shield-lanes=16`, [`TEACHER_PATIENCE`]), its tie-breaks from the
-/// episode seed.
-fn solve_shielded(
-    policy: &Policy,
-    ground: &Ground,
-    n: usize,
-    seed: u64,
-) -> Result<(usize, f64), TrainError> {
-    let started = Instant::now();
-    let env = EnvConfig {
-        seed,
-        ..ground.env.clone()
-    };
-    let shield = RolloutShield::new(seed).with_one_way_lanes(TEACHER_PATIENCE);
-    let map = ground.map.clone();
-    let episodes =
-        rollout::rollout_through(policy, map, env, n, n, ActMode::Greedy, seed, Some(shield))
-            .map_err(|source| TrainError::GreedyCheck { source })?;
-    let solved = episodes.iter().filter(|e| e.success).count();
-    Ok((solved, started.elapsed().as_secs_f64()))
-}
-
 /// One greedy check of a run, a row of `greedy.csv`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct GreedyRecord {
@@ -577,14 +542,9 @@ pub struct PolishReplay {
     pub solved: usize,
     /// The ones the kept finalist solved, before the polish.
     pub kept_solved: usize,
-    /// The ones the polished weights solved through `shield-lanes=16`.
-    pub shielded: usize,
-    /// The ones the kept finalist solved through `shield-lanes=16`.
-    pub kept_shielded: usize,
-    /// Whether the run kept the polished weights (more solved raw, no
-    /// fewer through the shield).
+    /// Whether the run kept the polished weights (they solved more).
     pub polished_kept: bool,
-    /// Seconds the three replays took.
+    /// Seconds the replay took.
     pub seconds: f64,
 }
 

@@ -185,8 +185,7 @@ impl TrainConfig {
     ///    joint move `shield-lanes=16` makes of its preferences (β 0.05,
     ///    10 epochs, half of the windows without an override fitted). The
     ///    polished weights are kept only if they solve more of the 1,000
-    ///    final held-out episodes than the kept finalist, and no fewer
-    ///    through `shield-lanes=16`
+    ///    final held-out episodes than the kept finalist
     ///    ([`super::stop::GreedyProbe::judge_polish`]).
     ///
     /// Chosen by measurement: the book's recipe chapter and

@@ -1,0 +1,50 @@
+#!/usr/bin/env python3
+"""The recipe polished by its own shield (2026-12-07, second session):
+per variant and column, the mean over the training seeds with its 95 %
+bootstrap interval (20,000 resamples of the seeds, seed 1). Run from the
+repository root:
+
+    python3 docs/results/recipe-stop/polished-recipe.py
+
+Reads main-job-c-2026-12-07.csv beside this file: one row per variant and
+training seed, with the run's env steps, why it stopped, the wall time of
+the whole `learner train` command alone on the machine, the kept
+finalist's and the polished weights' replays on the 1,000 final held-out
+episodes (raw and through `shield-lanes=16`), whether the polish was kept,
+and the final checkpoint's success in % on the seed-42 protocol (raw
+greedy, `shield-lanes=16`, the PIBT shield, sampled) and on 1,000
+development episodes of seed 7 (raw greedy, `shield-lanes=16`).
+"""
+import csv
+import random
+from pathlib import Path
+
+HERE = Path(__file__).parent
+DATA = HERE / "main-job-c-2026-12-07.csv"
+N = 20000
+COLUMNS = ["command_wall", "raw", "lanes", "shield", "sampled", "dev_raw", "dev_lanes"]
+
+
+def boot(xs):
+    rng = random.Random(1)
+    ms = sorted(sum(rng.choice(xs) for _ in xs) / len(xs) for _ in range(N))
+    return ms[int(0.025 * N)], ms[int(0.975 * N)]
+
+
+def main():
+    rows = list(csv.DictReader(open(DATA)))
+    print("variant,column,seeds,mean,low,high,min,max")
+    for variant in dict.fromkeys(r["variant"] for r in rows):
+        mine = [r for r in rows if r["variant"] == variant]
+        for col in COLUMNS:
+            xs = [float(r[col]) for r in mine if r[col]]
+            if not xs:
+                continue
+            lo, hi = boot(xs)
+            print(f"{variant},{col},{len(xs)},{sum(xs) / len(xs):.2f},{lo:.2f},{hi:.2f},{min(xs):.1f},{max(xs):.1f}")
+        kept = sum(r["polished_kept"] == "True" for r in mine)
+        print(f"{variant},polish_kept,{len(mine)},{kept},,,,")
+
+
+if __name__ == "__main__":
+    main()
