@@ -415,7 +415,8 @@ impl Run {
 
     /// The learner loop: publish weights, gather a train batch from
     /// `exchange`, update, repeat until `cfg.steps` env steps; then the
-    /// `[polish]` rounds if configured, the final checkpoint and
+    /// `[polish]` rounds if configured (with finalists, kept only if they
+    /// solve more of the final held-out episodes), the final checkpoint and
     /// `summary.json`. Always calls
     /// [`Exchange::finish`]; an actor's failure is returned with its cause.
     pub fn learn(
