@@ -132,15 +132,18 @@ pub fn dagger<S: EnvSlot>(
     let mut expert = Expert::new(cfg);
     let nets = policy.nets().len();
     let cap = (cfg.max_rows / nets).max(1);
+    // The share of the data the shield teacher agrees with that is fitted
+    // (a planner's labels are all kept).
+    let agreeing_share = match cfg.teacher {
+        Teacher::Shield => cfg.agreeing_share,
+        Teacher::Planner => 1.0,
+    };
     let mut data: Vec<Data> = (0..nets)
         .map(|_| match spec.lstm {
             None => Data::Rows(Dataset::new(d, w, heads, cap)),
             Some(_) => Data::Windows(
                 Windows::new(d, w, cfg.window, (cap / cfg.window).max(1), rows)
-                    .with_unmarked_share(match cfg.teacher {
-                        Teacher::Shield => cfg.agreeing_share,
-                        Teacher::Planner => 1.0,
-                    }),
+                    .with_unmarked_share(agreeing_share),
             ),
         })
         .collect();
@@ -241,10 +244,9 @@ pub fn dagger<S: EnvSlot>(
                     let mask = &venv.masks()[r * w..(r + 1) * w];
                     match (&mut data[spec.net_of_row(r)], &before) {
                         (Data::Rows(labelled), _) => {
-                            let kept = teacher.is_none()
-                                || overridden
-                                || cfg.agreeing_share >= 1.0
-                                || rng.random_bool(cfg.agreeing_share);
+                            let kept = overridden
+                                || agreeing_share >= 1.0
+                                || rng.random_bool(agreeing_share);
                             if let (Some(label), true) = (label, kept) {
                                 labelled.push(obs, mask, label, &mut rng);
                             }

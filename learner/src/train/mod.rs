@@ -429,13 +429,13 @@ impl Run {
         let reason = result?;
         finished?;
         let kept = self.keep_best()?;
+        let kept_replay = kept.and_then(|(_, replay)| replay);
         let mut polish_replay = None;
         if let Some(polish) = &self.cfg.polish {
-            let kept_replay = kept.and_then(|(_, replay)| replay);
-            let before = match kept_replay {
-                Some(_) => Some(self.policy.weights(self.state.updates)?),
-                None => None,
-            };
+            // The kept finalist's weights, for the judgement after the polish.
+            let before = kept_replay
+                .map(|_| self.policy.weights(self.state.updates))
+                .transpose()?;
             imitate(
                 &self.cfg,
                 polish,
@@ -454,7 +454,7 @@ impl Run {
         tracing::info!(reason = %reason, env_steps = self.state.env_steps, "training stopped");
         let summary = Summary {
             kept_check: kept.map(|(check, _)| check),
-            kept_replay: kept.and_then(|(_, replay)| replay),
+            kept_replay,
             polish_replay,
             ..self.summary(final_dir, reason)
         };

@@ -310,13 +310,12 @@ impl GreedyProbe {
             }
             return Ok(Some((*first, None)));
         };
-        let seed = seed::greedy_final(ground.env.seed);
         let n = finalists.episodes;
         let mut log = CsvLog::append(&self.out.join(FINALISTS_FILE))?;
         let mut kept: Option<(usize, FinalRecord)> = None;
         for (k, (check, weights)) in self.best.iter().enumerate() {
             policy.set_weights(weights)?;
-            let (solved, seconds) = solve_greedily(policy, ground, n, seed)?;
+            let (solved, seconds) = solve_final(policy, ground, n)?;
             let record = FinalRecord {
                 update: check.update,
                 check_solved: check.solved,
@@ -360,8 +359,7 @@ impl GreedyProbe {
         kept: &FinalRecord,
         before: &Weights,
     ) -> Result<PolishReplay, TrainError> {
-        let seed = seed::greedy_final(ground.env.seed);
-        let (solved, seconds) = solve_greedily(policy, ground, kept.episodes, seed)?;
+        let (solved, seconds) = solve_final(policy, ground, kept.episodes)?;
         let polished_kept = solved > kept.solved;
         if !polished_kept {
             policy.set_weights(before)?;
@@ -397,8 +395,7 @@ impl GreedyProbe {
         let Some(f) = self.check.finalists else {
             return Ok((true, None));
         };
-        let seed = seed::greedy_final(ground.env.seed);
-        let (solved, _) = solve_greedily(policy, ground, f.episodes, seed)?;
+        let (solved, _) = solve_final(policy, ground, f.episodes)?;
         let stands = self.check.passes(solved, f.episodes);
         tracing::info!(
             solved,
@@ -442,12 +439,11 @@ impl GreedyProbe {
             seconds,
             "greedy check on held-out episodes: {solved} of {n} solved"
         );
-        let mut passed = self.check.passes(solved, n);
-        let mut confirmed = None;
-        if passed && self.check.finalists.is_some() {
-            let (stands, solved_final) = self.confirm(policy, ground)?;
-            (passed, confirmed) = (stands, solved_final);
-        }
+        let (passed, confirmed) = if self.check.passes(solved, n) {
+            self.confirm(policy, ground)?
+        } else {
+            (false, None)
+        };
         let record = GreedyRecord {
             update: at.update,
             env_steps: at.env_steps,
@@ -492,6 +488,13 @@ fn solve_greedily(
         .map_err(|source| TrainError::GreedyCheck { source })?;
     let solved = episodes.iter().filter(|e| e.success).count();
     Ok((solved, started.elapsed().as_secs_f64()))
+}
+
+/// [`solve_greedily`] on the first `n` of the final held-out episodes
+/// ([`seed::greedy_final`] of the run's seed): the same episodes for
+/// every finalist, a pass's confirmation and a polish's judgement.
+fn solve_final(policy: &Policy, ground: &Ground, n: usize) -> Result<(usize, f64), TrainError> {
+    solve_greedily(policy, ground, n, seed::greedy_final(ground.env.seed))
 }
 
 /// One greedy check of a run, a row of `greedy.csv`.

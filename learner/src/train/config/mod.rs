@@ -172,8 +172,9 @@ impl TrainConfig {
     ///    intent features and potential-based shaping 0.05; the update on
     ///    the run's share of the cores (all of them alone, one each for two
     ///    runs of a study: [`crate::train::cores`]). It runs until the
-    ///    greedy policy solves 99 % of 200 held-out episodes (checked every
-    ///    20k env steps, `[stop.greedy]`) or the training success has stayed
+    ///    greedy policy solves 99 % of 200 held-out episodes and of the
+    ///    1,000 final ones (checked every 20k env steps, `[stop.greedy]`)
+    ///    or the training success has stayed
     ///    at 99 % or more for 100k env steps (`[stop]`), at most 1M env
     ///    steps, and keeps the checked weights that solved the most
     ///    held-out episodes, the imitated ones among them (`keep_best`): of
