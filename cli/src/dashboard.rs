@@ -194,6 +194,10 @@ impl Progress for DashboardProgress<'_> {
         });
     }
 
+    fn on_stopped(&mut self, reason: buridan_learner::train::StopReason) {
+        self.inner.on_stopped(reason);
+    }
+
     fn on_checkpoint(&mut self, dir: &Path) {
         self.inner.on_checkpoint(dir);
         let (lock, cv) = &*self.queue;

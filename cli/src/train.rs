@@ -14,7 +14,7 @@ use crate::dashboard::{DashboardProgress, Live};
 use crate::signals::{stop_when_stdin_closes, watch_signals};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use buridan_learner::train::{Algo, MetricsRow, Progress, Summary, TrainConfig};
+use buridan_learner::train::{Algo, MetricsRow, Progress, StopReason, Summary, TrainConfig};
 
 /// Arguments of `learner train`.
 #[derive(Debug, Clone, clap::Args)]
@@ -220,8 +220,21 @@ impl Progress for TerminalProgress {
         tracing::info!(dir = %dir.display(), "checkpoint");
     }
 
+    fn on_stopped(&mut self, reason: StopReason) {
+        // The bar stops here: its rate and ETA would decay through the
+        // final replays and the polish, which log their own lines.
+        let message = format!("{}  stopped: {reason}", self.bar.message());
+        self.bar.abandon_with_message(message);
+        tracing::info!(
+            %reason,
+            "updates stopped; choosing the kept weights, then the polish if configured"
+        );
+    }
+
     fn on_finish(&mut self, _summary: &Summary) {
-        self.bar.finish();
+        if !self.bar.is_finished() {
+            self.bar.finish();
+        }
     }
 }
 
@@ -381,8 +394,10 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
     }
     if let Some(p) = &summary.polish_replay {
         eprintln!(
-            "  polish (polish.csv): the polished weights solved {} of them: {}",
+            "  polish (polish.csv): the polished weights solved {} of them, {} through shield-lanes=16 (the finalist {}): {}",
             p.solved,
+            p.shielded,
+            p.kept_shielded,
             if p.polished_kept {
                 "kept"
             } else {
@@ -404,4 +419,33 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// When the updates stop the bar finishes, its last statistics kept
+    /// and the reason added: the final replays and the polish that follow
+    /// neither move it nor feed its rate and ETA.
+    #[test]
+    fn the_bar_finishes_when_the_updates_stop() {
+        let mut progress = TerminalProgress::new(1_000, true);
+        let row = MetricsRow {
+            env_steps: 400,
+            success_rate: 0.5,
+            ..MetricsRow::default()
+        };
+        progress.on_update(&row);
+        assert!(!progress.bar.is_finished());
+        progress.on_stopped(StopReason::Learned);
+        assert!(progress.bar.is_finished());
+        let message = progress.bar.message();
+        assert!(message.contains("success  50.0%"), "{message}");
+        assert!(
+            message.ends_with("stopped: the training success held its target"),
+            "{message}"
+        );
+        assert_eq!(progress.bar.position(), 400);
+    }
 }

@@ -547,6 +547,43 @@ fn keep_best_checks_the_imitated_weights_first_and_keeps_the_best_check() {
     assert_eq!(summary.kept_check, best, "{rows:?}");
 }
 
+/// `keep_best`: weights that pass their check before the first update
+/// (the imitated policy solves rm-1.1) stop the run after one train batch,
+/// which they play, whatever that update does: a learning rate that wrecks
+/// the policy in one update leaves the run's training episodes and its
+/// final checkpoint those of the imitated weights (on rm-1.1 the recipe's
+/// first PPO update once left a greedy policy that solved none of 200
+/// held-out episodes, and the training episodes after it lowered the run's
+/// return).
+#[test]
+fn a_run_that_starts_learned_stops_after_one_batch_and_keeps_its_start() {
+    use buridan_learner::train::StopReason;
+    let mut cfg = imitating_rm_1_1_to_a_greedy_stop(true);
+    cfg.algorithm.ppo_mut().unwrap().lr = 0.5;
+    let dir = tempfile::tempdir().unwrap();
+    let summary = train(&cfg, dir.path(), &mut Record::default()).unwrap();
+    assert_eq!(summary.stop_reason, StopReason::Greedy, "{summary:?}");
+    assert_eq!(summary.updates, 1, "{summary:?}");
+    assert!(summary.success_rate >= 0.9, "{summary:?}");
+    let rows = greedy_records(dir.path());
+    assert_eq!((rows[0].update, rows[0].solved), (0, 8), "{rows:?}");
+    assert_eq!(summary.kept_check, Some(rows[0]), "{rows:?}");
+    let kept = Policy::load(&dir.path().join("checkpoints/final")).unwrap();
+    let map = std::sync::Arc::new(buridan_env::Map::load("rm-1.1").unwrap());
+    let env = buridan_learner::train::env_config(&cfg, 42);
+    let episodes = buridan_learner::train::rollout::rollout(
+        &kept,
+        map,
+        env,
+        8,
+        8,
+        buridan_policy::ActMode::Greedy,
+        42,
+    )
+    .unwrap();
+    assert!(episodes.iter().all(|e| e.success), "{episodes:?}");
+}
+
 /// What the probe tests play with: the imitated rm-1.1 policy (solves
 /// every held-out episode), a fresh one (solves none), a policy to load
 /// either into, the map and its env, and a probe on `check` writing into
@@ -739,9 +776,11 @@ fn a_pass_stands_only_if_the_final_episodes_confirm_it() {
 }
 
 /// A polish is kept only if its weights solve more of the final
-/// held-out episodes than the finalist it started from: a "polish" that
-/// left the fresh weights (none solved) gives the imitated finalist back;
-/// one that left the imitated weights over a fresh finalist is kept.
+/// held-out episodes than the finalist it started from, raw and through
+/// `shield-lanes=16` together: a "polish" that left the fresh weights
+/// (none solved raw; the shield's progress fallback walks some home) gives
+/// the imitated finalist back; one that left the imitated weights over a
+/// fresh finalist is kept.
 #[test]
 fn a_polish_is_kept_only_if_it_solves_more_final_episodes_than_its_finalist() {
     let dir = tempfile::tempdir().unwrap();
@@ -750,21 +789,27 @@ fn a_polish_is_kept_only_if_it_solves_more_final_episodes_than_its_finalist() {
     bench.check(1, true);
     let (_, replay) = bench.restore_best();
     let replay = replay.expect("two finalists replayed");
-    let before = bench.policy.weights(1).unwrap();
+    let before = bench
+        .probe
+        .unpolished(&bench.policy, &bench.ground, replay, 1)
+        .unwrap();
+    assert_eq!((before.kept.solved, before.shielded), (12, 12));
     bench.policy.copy_from(&bench.fresh).unwrap();
     let judged = bench
         .probe
-        .judge_polish(&bench.policy, &bench.ground, &replay, &before)
+        .judge_polish(&bench.policy, &bench.ground, &before)
         .unwrap();
     assert_eq!(
         (
             judged.episodes,
             judged.solved,
             judged.kept_solved,
+            judged.kept_shielded,
             judged.polished_kept
         ),
-        (12, 0, 12, false)
+        (12, 0, 12, 12, false)
     );
+    assert!(judged.shielded < 12, "{judged:?}");
     assert!(
         bench.holds_the_imitated_weights(),
         "the finalist's weights are back"
@@ -774,12 +819,21 @@ fn a_polish_is_kept_only_if_it_solves_more_final_episodes_than_its_finalist() {
         solved: 0,
         ..replay
     };
-    let before = bench.fresh.weights(1).unwrap();
+    bench.policy.copy_from(&bench.fresh).unwrap();
+    let before = bench
+        .probe
+        .unpolished(&bench.policy, &bench.ground, fresh_finalist, 1)
+        .unwrap();
+    assert_eq!(before.shielded, judged.shielded, "the same plays");
+    bench.policy.copy_from(&bench.imitated).unwrap();
     let judged = bench
         .probe
-        .judge_polish(&bench.policy, &bench.ground, &fresh_finalist, &before)
+        .judge_polish(&bench.policy, &bench.ground, &before)
         .unwrap();
-    assert_eq!((judged.solved, judged.polished_kept), (12, true));
+    assert_eq!(
+        (judged.solved, judged.shielded, judged.polished_kept),
+        (12, 12, true)
+    );
     assert!(
         bench.holds_the_imitated_weights(),
         "the polished weights stay"

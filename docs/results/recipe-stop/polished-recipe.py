@@ -1,5 +1,7 @@
 #!/usr/bin/env python3
-"""The recipe polished by its own shield (2026-12-07, second session):
+"""The recipe polished by its own shield (2026-12-07, second session;
+variant `judged`: the polish judged raw and through the shield, third
+session):
 per variant and column, the mean over the training seeds with its 95 %
 bootstrap interval (20,000 resamples of the seeds, seed 1). Run from the
 repository root:

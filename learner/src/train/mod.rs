@@ -85,6 +85,9 @@ pub trait Progress {
     fn on_exchange(&mut self, _status: &ExchangeStatus) {}
     /// A checkpoint was written.
     fn on_checkpoint(&mut self, _dir: &Path) {}
+    /// The updates ended (`reason`); the choice of the kept weights and a
+    /// `[polish]`, where configured, follow before [`Progress::on_finish`].
+    fn on_stopped(&mut self, _reason: StopReason) {}
     /// Training finished.
     fn on_finish(&mut self, _summary: &Summary) {}
 }
@@ -416,7 +419,7 @@ impl Run {
     /// The learner loop: publish weights, gather a train batch from
     /// `exchange`, update, repeat until `cfg.steps` env steps; then the
     /// `[polish]` rounds if configured (with finalists, kept only if they
-    /// solve more of the final held-out episodes), the final checkpoint and
+    /// solve more of the final held-out episodes, raw and shielded), the final checkpoint and
     /// `summary.json`. Always calls
     /// [`Exchange::finish`]; an actor's failure is returned with its cause.
     pub fn learn(
@@ -428,24 +431,36 @@ impl Run {
         let finished = exchange.finish(result.is_ok());
         let reason = result?;
         finished?;
+        progress.on_stopped(reason);
         let kept = self.keep_best()?;
         let kept_replay = kept.and_then(|(_, replay)| replay);
         let mut polish_replay = None;
         if let Some(polish) = &self.cfg.polish {
-            // The kept finalist's weights, for the judgement after the polish.
-            let before = kept_replay
-                .map(|_| self.policy.weights(self.state.updates))
-                .transpose()?;
-            imitate(
-                &self.cfg,
-                polish,
-                Phase::Polish,
-                &self.layouts,
-                &self.policy,
-                &self.out,
-            )?;
-            if let (Some(replay), Some(before)) = (kept_replay, before) {
-                polish_replay = self.judge_polish(&replay, &before)?;
+            // The kept finalist, for the judgement after the polish.
+            let before = match kept_replay {
+                Some(replay) => self.unpolished(replay)?,
+                None => None,
+            };
+            let perfect = before
+                .as_ref()
+                .is_some_and(|b| b.kept.solved == b.kept.episodes && b.shielded == b.kept.episodes);
+            if perfect {
+                tracing::info!(
+                    "the kept finalist solves every final held-out episode, raw and shielded: \
+                     no polish can do better, none made"
+                );
+            } else {
+                imitate(
+                    &self.cfg,
+                    polish,
+                    Phase::Polish,
+                    &self.layouts,
+                    &self.policy,
+                    &self.out,
+                )?;
+                if let Some(before) = before {
+                    polish_replay = self.judge_polish(&before)?;
+                }
             }
         }
         let final_dir = checkpoint::final_dir(&self.out);
@@ -484,11 +499,13 @@ impl Run {
         let mut since = (self.wall_offset, self.state.env_steps);
         let _learning = cores::Learning::start();
         let keeps_best = self.greedy.as_ref().is_some_and(|g| g.keeps_best());
-        if keeps_best && self.state.env_steps < self.cfg.run.steps {
-            // A candidate to keep, not a stop: a run reports at least one
-            // train batch of its own episodes.
-            self.greedy_check(Check::First)?;
-        }
+        // A candidate to keep; its pass (confirmed) stops the run after one
+        // train batch, whose episodes the weights it starts from play: a
+        // run reports episodes of its own, and an update of a policy that
+        // has learned can only lose what it knows.
+        let started_learned = keeps_best
+            && self.state.env_steps < self.cfg.run.steps
+            && self.greedy_check(Check::First)?;
         self.publish(exchange)?;
         while self.state.env_steps < self.cfg.run.steps {
             let Some(batch) = self.gather_batch(exchange)? else {
@@ -522,7 +539,7 @@ impl Run {
             if learned {
                 return Ok(StopReason::Learned);
             }
-            if self.greedy_check(Check::IfDue)? {
+            if started_learned || self.greedy_check(Check::IfDue)? {
                 return Ok(StopReason::Greedy);
             }
         }
@@ -730,20 +747,32 @@ impl Run {
         Ok(kept)
     }
 
-    /// Keeps the polished weights only if they solve more of the final
-    /// held-out episodes than the kept finalist (`replay`), else puts
-    /// `before` back ([`stop::GreedyProbe::judge_polish`]).
-    fn judge_polish(
+    /// The kept finalist (`replay`) as the polish is judged against it
+    /// ([`stop::GreedyProbe::unpolished`]); `None` without greedy checks.
+    fn unpolished(
         &self,
-        replay: &stop::FinalRecord,
-        before: &Weights,
-    ) -> Result<Option<stop::PolishReplay>, TrainError> {
+        replay: stop::FinalRecord,
+    ) -> Result<Option<stop::Unpolished>, TrainError> {
         let (Some(probe), Some(ground)) = (&self.greedy, self.greedy_ground()) else {
             return Ok(None);
         };
         probe
-            .judge_polish(&self.policy, &ground, replay, before)
+            .unpolished(&self.policy, &ground, replay, self.state.updates)
             .map(Some)
+    }
+
+    /// Keeps the polished weights only if they solve more of the final
+    /// held-out episodes, raw and shielded together, than the kept
+    /// finalist (`before`), else puts its weights back
+    /// ([`stop::GreedyProbe::judge_polish`]).
+    fn judge_polish(
+        &self,
+        before: &stop::Unpolished,
+    ) -> Result<Option<stop::PolishReplay>, TrainError> {
+        let (Some(probe), Some(ground)) = (&self.greedy, self.greedy_ground()) else {
+            return Ok(None);
+        };
+        probe.judge_polish(&self.policy, &ground, before).map(Some)
     }
 
     /// Whether the `stop_return` (and `stop_len`) goal holds over a full window.

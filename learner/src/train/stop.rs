@@ -19,10 +19,12 @@
 //!
 //! With `keep_best = true` the checks also choose what the run keeps: the
 //! weights the run starts from (after imitation, before the first update)
-//! are checked first (a candidate, not a stop: the run trains at least one
-//! batch, so it reports episodes of its own), the weights after its last
-//! update are checked when
-//! it ends, and the final checkpoint holds the checked weights that solved
+//! are checked first (a candidate; if they pass, confirmed, the run stops
+//! after one train batch, which they play: a run reports episodes of its
+//! own, and the first PPO update of a policy that has already learned can
+//! only lose what it knows — on rm-1.1 one left a greedy policy that solved
+//! none of 200 held-out episodes), the weights after its last update are
+//! checked when it ends, and the final checkpoint holds the checked weights that solved
 //! the most held-out episodes (the earlier on a tie: the first PPO updates
 //! can blur what sampling does while the greedy policy still solves as
 //! many). Whatever the updates in
@@ -43,14 +45,19 @@
 //! the final episodes too ([`GreedyProbe::confirm`]; `greedy.csv`'s
 //! `confirmed`), so a check passed by luck does not end a run early.
 //! And they judge a `[polish]` after the run: the polished weights are
-//! kept only if they solve more of them than the kept finalist
-//! ([`GreedyProbe::judge_polish`]).
+//! kept only if they solve more of them than the kept finalist, counting
+//! the raw greedy plays and the plays through the deployment shield
+//! `shield-lanes=16` together ([`GreedyProbe::judge_polish`]): the polish
+//! fits the raw policy to what the shield does for it, and a polish that
+//! gains raw episodes by losing shielded ones is no gain to a deployment.
 
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
 use buridan_env::{seed, EnvConfig, Map};
+use buridan_imitate::config::TEACHER_PATIENCE;
+use buridan_mapf::shield::rollout::RolloutShield;
 use buridan_policy::{ActMode, Policy, Weights};
 use serde::{Deserialize, Serialize};
 
@@ -344,41 +351,68 @@ impl GreedyProbe {
         Ok(Some((*check, Some(replay))))
     }
 
-    /// Judges a `[polish]` that followed [`Self::restore_best`]: replays
-    /// the polished weights in `policy` on the same final held-out
-    /// episodes as `kept`, the kept finalist's replay, and keeps them only
-    /// if they solve more; otherwise puts `before` (the kept weights)
-    /// back. The polish fits the policy to moves other than those it was
-    /// chosen for, and what that does to the greedy policy depends on the
-    /// layout and the run: this way a run ends no worse on its final
+    /// What a `[polish]` that follows [`Self::restore_best`] is judged
+    /// against: the kept finalist's raw replay `kept`, the same final
+    /// held-out episodes played by the weights in `policy` (the kept
+    /// finalist's, those of update `update`) through the deployment shield,
+    /// and those weights.
+    pub fn unpolished(
+        &self,
+        policy: &Policy,
+        ground: &Ground,
+        kept: FinalRecord,
+        update: u64,
+    ) -> Result<Unpolished, TrainError> {
+        let (shielded, _) = solve_final_shielded(policy, ground, kept.episodes)?;
+        Ok(Unpolished {
+            kept,
+            shielded,
+            weights: policy.weights(update)?,
+        })
+    }
+
+    /// Judges a `[polish]`: replays the polished weights in `policy` on
+    /// the final held-out episodes of `before`, raw and through the
+    /// deployment shield `shield-lanes=16`, and keeps them only if they
+    /// solve more of them, both plays counted together, than the kept
+    /// finalist did; otherwise puts `before`'s weights back. The polish
+    /// fits the policy to moves other than those it was chosen for, and
+    /// what that does to the greedy policy, raw or shielded, depends on
+    /// the layout and the run: this way a run ends no worse on its final
     /// held-out episodes than its kept finalist.
     pub fn judge_polish(
         &self,
         policy: &Policy,
         ground: &Ground,
-        kept: &FinalRecord,
-        before: &Weights,
+        before: &Unpolished,
     ) -> Result<PolishReplay, TrainError> {
-        let (solved, seconds) = solve_final(policy, ground, kept.episodes)?;
-        let polished_kept = solved > kept.solved;
+        let started = Instant::now();
+        let n = before.kept.episodes;
+        let (solved, _) = solve_final(policy, ground, n)?;
+        let (shielded, _) = solve_final_shielded(policy, ground, n)?;
+        let polished_kept = solved + shielded > before.kept.solved + before.shielded;
         if !polished_kept {
-            policy.set_weights(before)?;
+            policy.set_weights(&before.weights)?;
         }
         tracing::info!(
             solved,
-            kept_solved = kept.solved,
-            episodes = kept.episodes,
-            "the polished weights solved {solved} of {} final held-out episodes, the kept finalist {}: {}",
-            kept.episodes,
-            kept.solved,
+            shielded,
+            kept_solved = before.kept.solved,
+            kept_shielded = before.shielded,
+            episodes = n,
+            "the polished weights solved {solved} raw and {shielded} shielded of {n} final held-out episodes, the kept finalist {} and {}: {}",
+            before.kept.solved,
+            before.shielded,
             if polished_kept { "keeping the polished weights" } else { "keeping the finalist" }
         );
         Ok(PolishReplay {
-            episodes: kept.episodes,
+            episodes: n,
             solved,
-            kept_solved: kept.solved,
+            kept_solved: before.kept.solved,
+            shielded,
+            kept_shielded: before.shielded,
             polished_kept,
-            seconds,
+            seconds: started.elapsed().as_secs_f64(),
         })
     }
 
@@ -409,7 +443,8 @@ impl GreedyProbe {
 
     /// [`GreedyProbe::run`] on the weights a run starts from (`keep_best`):
     /// a candidate to keep, and the next check still follows the first
-    /// update.
+    /// update. Whether they passed (confirmed): the run then stops after
+    /// its first train batch.
     pub fn run_first(
         &mut self,
         policy: &Policy,
@@ -431,7 +466,7 @@ impl GreedyProbe {
         let seed = seed::greedy_check(ground.env.seed, self.done);
         self.done += 1;
         let n = self.check.episodes;
-        let (solved, seconds) = solve_greedily(policy, ground, n, seed)?;
+        let (solved, seconds) = solve_greedily(policy, ground, n, seed, None)?;
         tracing::info!(
             env_steps = at.env_steps,
             solved,
@@ -470,13 +505,14 @@ impl GreedyProbe {
 }
 
 /// Plays `n` episodes of `ground` greedily, all at once, from episode
-/// seed `seed`: how many it solved, and the seconds that took. What a
-/// check and a finalist's replay play.
+/// seed `seed`, through `shield` where given: how many it solved, and the
+/// seconds that took. What a check and a finalist's replay play.
 fn solve_greedily(
     policy: &Policy,
     ground: &Ground,
     n: usize,
     seed: u64,
+    shield: Option<RolloutShield>,
 ) -> Result<(usize, f64), TrainError> {
     let started = Instant::now();
     let env = EnvConfig {
@@ -484,7 +520,7 @@ fn solve_greedily(
         ..ground.env.clone()
     };
     let map = ground.map.clone();
-    let episodes = rollout::rollout(policy, map, env, n, n, ActMode::Greedy, seed)
+    let episodes = rollout::rollout_through(policy, map, env, n, n, ActMode::Greedy, seed, shield)
         .map_err(|source| TrainError::GreedyCheck { source })?;
     let solved = episodes.iter().filter(|e| e.success).count();
     Ok((solved, started.elapsed().as_secs_f64()))
@@ -494,7 +530,20 @@ fn solve_greedily(
 /// ([`seed::greedy_final`] of the run's seed): the same episodes for
 /// every finalist, a pass's confirmation and a polish's judgement.
 fn solve_final(policy: &Policy, ground: &Ground, n: usize) -> Result<(usize, f64), TrainError> {
-    solve_greedily(policy, ground, n, seed::greedy_final(ground.env.seed))
+    solve_greedily(policy, ground, n, seed::greedy_final(ground.env.seed), None)
+}
+
+/// [`solve_final`] through the deployment shield, `shield-lanes=16`
+/// ([`RolloutShield::with_one_way_lanes`] with the shield teacher's
+/// patience), tie-breaks drawn from the final episodes' seed.
+fn solve_final_shielded(
+    policy: &Policy,
+    ground: &Ground,
+    n: usize,
+) -> Result<(usize, f64), TrainError> {
+    let seed = seed::greedy_final(ground.env.seed);
+    let shield = RolloutShield::new(seed).with_one_way_lanes(TEACHER_PATIENCE);
+    solve_greedily(policy, ground, n, seed, Some(shield))
 }
 
 /// One greedy check of a run, a row of `greedy.csv`.
@@ -536,18 +585,38 @@ pub struct FinalRecord {
     pub seconds: f64,
 }
 
+/// The kept finalist a `[polish]` is judged against
+/// ([`GreedyProbe::unpolished`]).
+pub struct Unpolished {
+    /// Its raw replay on the final held-out episodes.
+    pub kept: FinalRecord,
+    /// Of the same episodes, the ones it solved through the deployment
+    /// shield.
+    pub shielded: usize,
+    /// Its weights, put back if the polish does not do better.
+    pub weights: Weights,
+}
+
 /// The replay that judged a run's `[polish]` ([`GreedyProbe::judge_polish`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PolishReplay {
     /// Final held-out episodes played (the finalists' episodes).
     pub episodes: usize,
-    /// Of these, the ones the polished weights solved.
+    /// Of these, the ones the polished weights solved (raw greedy).
     pub solved: usize,
     /// The ones the kept finalist solved, before the polish.
     pub kept_solved: usize,
-    /// Whether the run kept the polished weights (they solved more).
+    /// The ones the polished weights solved through `shield-lanes=16`
+    /// (0 in summaries written before the shielded judgement).
+    #[serde(default)]
+    pub shielded: usize,
+    /// The ones the kept finalist solved through `shield-lanes=16`.
+    #[serde(default)]
+    pub kept_shielded: usize,
+    /// Whether the run kept the polished weights (raw and shielded
+    /// together, they solved more).
     pub polished_kept: bool,
-    /// Seconds the replay took.
+    /// Seconds the replays of the polished weights took.
     pub seconds: f64,
 }
 

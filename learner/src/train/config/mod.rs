@@ -186,7 +186,8 @@ impl TrainConfig {
     ///    joint move `shield-lanes=16` makes of its preferences (β 0.05,
     ///    10 epochs, half of the windows without an override fitted). The
     ///    polished weights are kept only if they solve more of the 1,000
-    ///    final held-out episodes than the kept finalist
+    ///    final held-out episodes than the kept finalist, raw and through
+    ///    `shield-lanes=16` counted together
     ///    ([`super::stop::GreedyProbe::judge_polish`]).
     ///
     /// Chosen by measurement: the book's recipe chapter and
