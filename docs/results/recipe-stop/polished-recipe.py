@@ -2,7 +2,8 @@
 """The recipe polished by its own shield (2026-12-07, second session;
 variant `judged`: the polish judged raw and through the shield, third
 session; `judged-d`, the same runs on the fourth session's machine, and
-`fast`, their variant with stop.hold=60000 and polish.epochs=5):
+`fast`, their variant with stop.hold=60000 and polish.epochs=5;
+`rounds-6x5`, polish.rounds=6 and polish.epochs=5, no wall times):
 per variant and column, the mean over the training seeds with its 95 %
 bootstrap interval (20,000 resamples of the seeds, seed 1). Run from the
 repository root:
