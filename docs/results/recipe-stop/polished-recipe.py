@@ -18,8 +18,9 @@ episodes (raw and through `shield-lanes=16`), whether the polish was kept,
 and the final checkpoint's success in % on the seed-42 protocol (raw
 greedy, `shield-lanes=16`, the PIBT shield, sampled) and on 1,000
 development episodes of seed 7 (raw greedy, `shield-lanes=16`). Then the
-same for layouts-polished-2026-12-07.csv (the study's runs on the other
-comparison layouts, seed-42 protocol only), per layout.
+same for layouts-polished-2026-12-07.csv and layouts-judged-2026-12-07.csv
+(the study's runs on the other comparison layouts with the polished and
+the judged recipe, seed-42 protocol only), per layout.
 """
 import csv
 import random
@@ -27,7 +28,10 @@ from pathlib import Path
 
 HERE = Path(__file__).parent
 DATA = HERE / "main-job-c-2026-12-07.csv"
-LAYOUTS = HERE / "layouts-polished-2026-12-07.csv"
+LAYOUTS = {
+    "polished": HERE / "layouts-polished-2026-12-07.csv",
+    "judged": HERE / "layouts-judged-2026-12-07.csv",
+}
 N = 20000
 COLUMNS = ["command_wall", "raw", "lanes", "shield", "sampled", "dev_raw", "dev_lanes"]
 
@@ -51,14 +55,15 @@ def main():
             print(f"{variant},{col},{len(xs)},{sum(xs) / len(xs):.2f},{lo:.2f},{hi:.2f},{min(xs):.1f},{max(xs):.1f}")
         kept = sum(r["polished_kept"] == "True" for r in mine)
         print(f"{variant},polish_kept,{len(mine)},{kept},,,,")
-    rows = list(csv.DictReader(open(LAYOUTS)))
-    print("layout,column,seeds,mean,low,high,min,max")
-    for layout in dict.fromkeys(r["layout"] for r in rows):
-        mine = [r for r in rows if r["layout"] == layout]
-        for col in ["raw", "lanes", "shield", "sampled"]:
-            xs = [float(r[col]) for r in mine]
-            lo, hi = boot(xs)
-            print(f"{layout},{col},{len(xs)},{sum(xs) / len(xs):.2f},{lo:.2f},{hi:.2f},{min(xs):.1f},{max(xs):.1f}")
+    print("recipe,layout,column,seeds,mean,low,high,min,max")
+    for recipe, path in LAYOUTS.items():
+        rows = list(csv.DictReader(open(path)))
+        for layout in dict.fromkeys(r["layout"] for r in rows):
+            mine = [r for r in rows if r["layout"] == layout]
+            for col in ["raw", "lanes", "shield", "sampled"]:
+                xs = [float(r[col]) for r in mine]
+                lo, hi = boot(xs)
+                print(f"{recipe},{layout},{col},{len(xs)},{sum(xs) / len(xs):.2f},{lo:.2f},{hi:.2f},{min(xs):.1f},{max(xs):.1f}")
 
 
 if __name__ == "__main__":
