@@ -383,6 +383,9 @@ pub fn run(args: &StudyArgs) -> Result<StudyOutcome> {
     crate::heartbeat::watch(&total);
     let stop = Arc::new(AtomicBool::new(false));
     watch_signals(stop.clone());
+    // Each run's threads fixed for its whole life: its numbers then do not
+    // depend on what the run beside it is doing.
+    buridan_learner::train::cores::plan_runs(x.parallel);
     let queue = Mutex::new(todo.iter().collect::<VecDeque<_>>());
     let failures = Mutex::new(Vec::new());
     std::thread::scope(|s| {

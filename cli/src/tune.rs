@@ -199,11 +199,15 @@ pub fn run(args: &TuneArgs) -> Result<StudyState> {
     let display =
         (!args.quiet).then(|| Arc::new(TrialBars(multi.clone())) as Arc<dyn TrialDisplay>);
     let runner: Box<dyn TrialRunner> = match args.runner {
-        RunnerKind::Thread => Box::new(LearnerRunner {
-            base: base.clone(),
-            eval,
-            display,
-        }),
+        RunnerKind::Thread => {
+            // Trials in threads share the cores by plan, as a study's runs.
+            buridan_learner::train::cores::plan_runs(config.parallel);
+            Box::new(LearnerRunner {
+                base: base.clone(),
+                eval,
+                display,
+            })
+        }
         RunnerKind::Process => {
             let exe = match &args.learner_exe {
                 Some(exe) => exe.clone(),

@@ -8,6 +8,34 @@ use std::sync::OnceLock;
 
 static RUNS_LEARNING: AtomicUsize = AtomicUsize::new(0);
 
+/// Runs this process trains at once by plan ([`plan_runs`]); 0 without.
+static RUNS_PLANNED: AtomicUsize = AtomicUsize::new(0);
+
+/// Declares that this process trains up to `runs` runs at once (a study's
+/// or a tuner's `parallel`): from now on every run's share is the cores
+/// divided by `runs` for its whole life, whatever the other runs are
+/// doing at the moment. A run's update cuts its batch into as many shares
+/// as it has threads, and float sums depend on the cut: with a share that
+/// followed the runs learning at each moment, a run of a study got more
+/// threads whenever its neighbour was evaluating or done, and its numbers
+/// depended on the neighbour's timing. With a plan they depend only on
+/// the run's seed and the machine's cores.
+///
+/// ```
+/// use buridan_learner::train::cores::{self, Learning};
+/// cores::plan_runs(2);
+/// let alone = Learning::start();
+/// let planned = cores::share();
+/// let other = Learning::start();
+/// assert_eq!(cores::share(), planned, "a neighbour starting changes nothing");
+/// drop(other);
+/// assert_eq!(cores::share(), planned, "nor one that stops");
+/// drop(alone);
+/// ```
+pub fn plan_runs(runs: usize) {
+    RUNS_PLANNED.store(runs, Ordering::SeqCst);
+}
+
 /// Marks one run as learning for as long as it lives.
 ///
 /// ```
@@ -36,13 +64,17 @@ impl Drop for Learning {
 }
 
 /// This run's share of the machine's cores: the cores divided among the
-/// runs learning now, at least 1.
+/// runs learning now (with [`plan_runs`], among the planned runs, or more
+/// if more are learning), at least 1.
 pub fn share() -> usize {
     // Asked once: on Linux the answer reads the cgroup's CPU quota from
     // files, and every PPO update asks for its share.
     static CORES: OnceLock<usize> = OnceLock::new();
     let cores = *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    share_of(cores, RUNS_LEARNING.load(Ordering::SeqCst))
+    let runs = RUNS_LEARNING
+        .load(Ordering::SeqCst)
+        .max(RUNS_PLANNED.load(Ordering::SeqCst));
+    share_of(cores, runs)
 }
 
 /// The threads an `update_threads` setting (`[ppo]`, `[impala]`) asks for:
