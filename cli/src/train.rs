@@ -388,8 +388,8 @@ pub fn report(args: &TrainArgs, cfg: &TrainConfig, summary: &Summary) -> Result<
     }
     if let Some(r) = &summary.kept_replay {
         eprintln!(
-            "  finalists: the kept weights solved {} raw and {} through shield-lanes=16 of {} final held-out episodes (finalists.csv)",
-            r.solved, r.shielded, r.episodes
+            "  finalists: the kept weights solved {} of {} final held-out episodes (finalists.csv)",
+            r.solved, r.episodes
         );
     }
     if let Some(p) = &summary.polish_replay {

@@ -717,15 +717,7 @@ fn finalists_are_replayed_on_the_final_episodes_and_the_best_replay_is_kept() {
         "the earlier of two equal replays"
     );
     let replay = replay.expect("two finalists replayed");
-    assert_eq!(
-        (
-            replay.update,
-            replay.solved,
-            replay.shielded,
-            replay.episodes
-        ),
-        (1, 12, 12, 12)
-    );
+    assert_eq!((replay.update, replay.solved, replay.episodes), (1, 12, 12));
     assert!(bench.holds_the_imitated_weights());
     let rows: Vec<FinalRecord> = csv::Reader::from_path(dir.path().join(FINALISTS_FILE))
         .unwrap()
@@ -734,20 +726,17 @@ fn finalists_are_replayed_on_the_final_episodes_and_the_best_replay_is_kept() {
         .unwrap();
     let seen: Vec<_> = rows
         .iter()
-        .map(|r| (r.update, r.check_solved, r.solved, r.shielded))
+        .map(|r| (r.update, r.check_solved, r.solved))
         .collect();
-    assert_eq!(seen, [(1, 8, 12, 12), (3, 8, 12, 12)], "{rows:?}");
+    assert_eq!(seen, [(1, 8, 12), (3, 8, 12)], "{rows:?}");
 }
 
 /// The replay, not the check, decides among finalists: the imitated
 /// weights checked on episodes cut to one step (none solvable) tie with
 /// the fresh weights' earlier check, and the replay on whole episodes
 /// keeps them, where the checks alone would keep the earlier, fresh ones.
-/// Each row books the raw and the shielded plays (the fresh weights solve
-/// none raw; the shield's progress fallback walks some home).
 #[test]
 fn the_final_replay_overrules_the_order_of_the_checks() {
-    use buridan_learner::train::stop::{FinalRecord, FINALISTS_FILE};
     let dir = tempfile::tempdir().unwrap();
     let mut bench = ProbeBench::new(dir.path(), two_finalists());
     assert!(!bench.check(0, false));
@@ -757,19 +746,8 @@ fn the_final_replay_overrules_the_order_of_the_checks() {
     bench.ground.env = whole;
     let (kept, replay) = bench.restore_best();
     assert_eq!((kept.update, kept.solved), (1, 0), "the imitated weights");
-    assert_eq!(replay.map(|r| (r.solved, r.shielded)), Some((12, 12)));
+    assert_eq!(replay.map(|r| r.solved), Some(12));
     assert!(bench.holds_the_imitated_weights());
-    let rows: Vec<FinalRecord> = csv::Reader::from_path(dir.path().join(FINALISTS_FILE))
-        .unwrap()
-        .deserialize()
-        .collect::<Result<_, _>>()
-        .unwrap();
-    let [fresh, imitated] = rows.as_slice() else {
-        panic!("two finalists: {rows:?}")
-    };
-    assert_eq!((fresh.update, fresh.solved), (0, 0));
-    assert!(fresh.shielded < 12, "{fresh:?}");
-    assert_eq!(replay, Some(*imitated));
 }
 
 /// With finalists a check's pass ends the run only if the same weights
@@ -805,15 +783,17 @@ fn a_pass_stands_only_if_the_final_episodes_confirm_it() {
 /// fresh finalist is kept.
 #[test]
 fn a_polish_is_kept_only_if_it_solves_more_final_episodes_than_its_finalist() {
-    use buridan_learner::train::stop::Unpolished;
     let dir = tempfile::tempdir().unwrap();
     let mut bench = ProbeBench::new(dir.path(), two_finalists());
     bench.check(0, true);
     bench.check(1, true);
     let (_, replay) = bench.restore_best();
     let replay = replay.expect("two finalists replayed");
-    let before = Unpolished::new(&bench.policy, replay, 1).unwrap();
-    assert_eq!((before.kept.solved, before.kept.shielded), (12, 12));
+    let before = bench
+        .probe
+        .unpolished(&bench.policy, &bench.ground, replay, 1)
+        .unwrap();
+    assert_eq!((before.kept.solved, before.shielded), (12, 12));
     bench.policy.copy_from(&bench.fresh).unwrap();
     let judged = bench
         .probe
@@ -835,14 +815,16 @@ fn a_polish_is_kept_only_if_it_solves_more_final_episodes_than_its_finalist() {
         "the finalist's weights are back"
     );
 
-    // The fresh weights as the finalist, with their own replay.
     let fresh_finalist = buridan_learner::train::stop::FinalRecord {
-        solved: judged.solved,
-        shielded: judged.shielded,
+        solved: 0,
         ..replay
     };
     bench.policy.copy_from(&bench.fresh).unwrap();
-    let before = Unpolished::new(&bench.policy, fresh_finalist, 1).unwrap();
+    let before = bench
+        .probe
+        .unpolished(&bench.policy, &bench.ground, fresh_finalist, 1)
+        .unwrap();
+    assert_eq!(before.shielded, judged.shielded, "the same plays");
     bench.policy.copy_from(&bench.imitated).unwrap();
     let judged = bench
         .probe

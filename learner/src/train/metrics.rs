@@ -493,39 +493,4 @@ mod tests {
             ]
         );
     }
-
-    /// `finalists.csv` of a run written before finalists were replayed
-    /// through the shield: reopened, it gains `shielded` (0 for its rows).
-    #[test]
-    fn an_older_finalists_log_gains_the_shielded_column() {
-        use crate::train::stop::FinalRecord;
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("finalists.csv");
-        std::fs::write(
-            &path,
-            "update,check_solved,episodes,solved,seconds\n81,196,1000,967,2.5\n",
-        )
-        .unwrap();
-        let mut log = CsvLog::append_upgrading::<FinalRecord>(&path).unwrap();
-        log.write(&FinalRecord {
-            update: 86,
-            check_solved: 197,
-            episodes: 1000,
-            solved: 970,
-            shielded: 998,
-            seconds: 5.0,
-        })
-        .unwrap();
-        drop(log);
-        let text = std::fs::read_to_string(&path).unwrap();
-        let lines: Vec<_> = text.lines().collect();
-        assert_eq!(
-            lines,
-            [
-                "update,check_solved,episodes,solved,shielded,seconds",
-                "81,196,1000,967,0,2.5",
-                "86,197,1000,970,998,5.0",
-            ]
-        );
-    }
 }

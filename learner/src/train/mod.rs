@@ -438,16 +438,12 @@ impl Run {
         if let Some(polish) = &self.cfg.polish {
             // The kept finalist, for the judgement after the polish.
             let before = match kept_replay {
-                Some(replay) => Some(stop::Unpolished::new(
-                    &self.policy,
-                    replay,
-                    self.state.updates,
-                )?),
+                Some(replay) => self.unpolished(replay)?,
                 None => None,
             };
             let perfect = before
                 .as_ref()
-                .is_some_and(|b| b.kept.both() == 2 * b.kept.episodes);
+                .is_some_and(|b| b.kept.solved == b.kept.episodes && b.shielded == b.kept.episodes);
             if perfect {
                 tracing::info!(
                     "the kept finalist solves every final held-out episode, raw and shielded: \
@@ -749,6 +745,20 @@ impl Run {
             );
         }
         Ok(kept)
+    }
+
+    /// The kept finalist (`replay`) as the polish is judged against it
+    /// ([`stop::GreedyProbe::unpolished`]); `None` without greedy checks.
+    fn unpolished(
+        &self,
+        replay: stop::FinalRecord,
+    ) -> Result<Option<stop::Unpolished>, TrainError> {
+        let (Some(probe), Some(ground)) = (&self.greedy, self.greedy_ground()) else {
+            return Ok(None);
+        };
+        probe
+            .unpolished(&self.policy, &ground, replay, self.state.updates)
+            .map(Some)
     }
 
     /// Keeps the polished weights only if they solve more of the final

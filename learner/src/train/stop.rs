@@ -37,11 +37,9 @@
 //! ([`Finalists`]) keeps the `count` best checked weights and, when the
 //! run ends, replays each of them on one more set of `episodes` held-out
 //! episodes (a stream of its own, [`buridan_env::seed::greedy_final`],
-//! the same episodes for every finalist), raw and through the deployment
-//! shield `shield-lanes=16`; the run keeps the finalist that solves the
-//! most of them, both plays counted together (on a tie, the better check,
-//! then the earlier). Each replay is a row of `finalists.csv`
-//! ([`FinalRecord`]).
+//! the same episodes for every finalist); the run keeps the finalist
+//! that solves the most of them (on a tie, the better check, then the
+//! earlier). Each replay is a row of `finalists.csv` ([`FinalRecord`]).
 //! The final episodes also guard the stop: with finalists a check that
 //! reaches its level ends the run only if the same weights reach it on
 //! the final episodes too ([`GreedyProbe::confirm`]; `greedy.csv`'s
@@ -158,8 +156,7 @@ pub struct GreedyCheck {
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub keep_best: bool,
     /// With `keep_best`: replay the best few checked weights on more
-    /// held-out episodes when the run ends, raw and through
-    /// `shield-lanes=16`, and keep the best of them,
+    /// held-out episodes when the run ends and keep the best of them,
     /// TOML `[stop.greedy.finalists]`. Off by default; the recipe replays 4 on 1,000 episodes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub finalists: Option<Finalists>,
@@ -168,9 +165,7 @@ pub struct GreedyCheck {
 /// The final choice among a run's best checked weights, TOML
 /// `[stop.greedy.finalists]`: the `count` checks that solved the most
 /// held-out episodes are each replayed on the same `episodes` further
-/// held-out episodes, raw greedy and through the deployment shield
-/// `shield-lanes=16`, and the run keeps the one that solves the most,
-/// both plays counted together ([`FinalRecord::both`]).
+/// held-out episodes, and the run keeps the one that solves the most.
 /// The same final episodes confirm a check's pass before it stops the
 /// run and judge a `[polish]` ([`GreedyProbe::judge_polish`]).
 ///
@@ -304,11 +299,10 @@ impl GreedyProbe {
     /// their check (`None` without `keep_best` or before any check;
     /// `policy` is then left as it is). With `finalists` and more than one
     /// candidate, first replays each candidate on the final held-out
-    /// episodes of `ground` ([`seed::greedy_final`] of its run seed), raw
-    /// and through `shield-lanes=16`, books the replays in
-    /// `finalists.csv` and keeps the one that solved the most, both plays
-    /// counted together (the earlier candidate on a tie); the replay is
-    /// returned beside the check.
+    /// episodes of `ground` ([`seed::greedy_final`] of its run seed),
+    /// books the replays in `finalists.csv` and keeps the one that solved
+    /// the most (the earlier candidate on a tie); the replay is returned
+    /// beside the check.
     pub fn restore_best(
         &self,
         policy: &Policy,
@@ -324,35 +318,30 @@ impl GreedyProbe {
             return Ok(Some((*first, None)));
         };
         let n = finalists.episodes;
-        let mut log = CsvLog::append_upgrading::<FinalRecord>(&self.out.join(FINALISTS_FILE))?;
+        let mut log = CsvLog::append(&self.out.join(FINALISTS_FILE))?;
         let mut kept: Option<(usize, FinalRecord)> = None;
         for (k, (check, weights)) in self.best.iter().enumerate() {
             policy.set_weights(weights)?;
-            let started = Instant::now();
-            let (solved, _) = solve_final(policy, ground, n)?;
-            let (shielded, _) = solve_final_shielded(policy, ground, n)?;
+            let (solved, seconds) = solve_final(policy, ground, n)?;
             let record = FinalRecord {
                 update: check.update,
                 check_solved: check.solved,
                 episodes: n,
                 solved,
-                shielded,
-                seconds: started.elapsed().as_secs_f64(),
+                seconds,
             };
             tracing::info!(
                 update = record.update,
                 solved = record.solved,
-                shielded = record.shielded,
                 episodes = n,
-                "finalist {} (check: {} of {}) solved {} raw and {} shielded of {n} final held-out episodes",
+                "finalist {} (check: {} of {}) solved {} of {n} final held-out episodes",
                 k + 1,
                 check.solved,
                 check.episodes,
-                record.solved,
-                record.shielded
+                record.solved
             );
             log.write(&record)?;
-            if kept.is_none_or(|(_, best)| record.both() > best.both()) {
+            if kept.is_none_or(|(_, best)| record.solved > best.solved) {
                 kept = Some((k, record));
             }
         }
@@ -360,6 +349,26 @@ impl GreedyProbe {
         let (check, weights) = &self.best[k];
         policy.set_weights(weights)?;
         Ok(Some((*check, Some(replay))))
+    }
+
+    /// What a `[polish]` that follows [`Self::restore_best`] is judged
+    /// against: the kept finalist's raw replay `kept`, the same final
+    /// held-out episodes played by the weights in `policy` (the kept
+    /// finalist's, those of update `update`) through the deployment shield,
+    /// and those weights.
+    pub fn unpolished(
+        &self,
+        policy: &Policy,
+        ground: &Ground,
+        kept: FinalRecord,
+        update: u64,
+    ) -> Result<Unpolished, TrainError> {
+        let (shielded, _) = solve_final_shielded(policy, ground, kept.episodes)?;
+        Ok(Unpolished {
+            kept,
+            shielded,
+            weights: policy.weights(update)?,
+        })
     }
 
     /// Judges a `[polish]`: replays the polished weights in `policy` on
@@ -381,7 +390,7 @@ impl GreedyProbe {
         let n = before.kept.episodes;
         let (solved, _) = solve_final(policy, ground, n)?;
         let (shielded, _) = solve_final_shielded(policy, ground, n)?;
-        let polished_kept = solved + shielded > before.kept.both();
+        let polished_kept = solved + shielded > before.kept.solved + before.shielded;
         if !polished_kept {
             policy.set_weights(&before.weights)?;
         }
@@ -389,11 +398,11 @@ impl GreedyProbe {
             solved,
             shielded,
             kept_solved = before.kept.solved,
-            kept_shielded = before.kept.shielded,
+            kept_shielded = before.shielded,
             episodes = n,
             "the polished weights solved {solved} raw and {shielded} shielded of {n} final held-out episodes, the kept finalist {} and {}: {}",
             before.kept.solved,
-            before.kept.shielded,
+            before.shielded,
             if polished_kept { "keeping the polished weights" } else { "keeping the finalist" }
         );
         Ok(PolishReplay {
@@ -401,7 +410,7 @@ impl GreedyProbe {
             solved,
             kept_solved: before.kept.solved,
             shielded,
-            kept_shielded: before.kept.shielded,
+            kept_shielded: before.shielded,
             polished_kept,
             seconds: started.elapsed().as_secs_f64(),
         })
@@ -561,7 +570,7 @@ pub struct GreedyRecord {
 
 /// One finalist's replay on the final held-out episodes, a row of
 /// `finalists.csv`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct FinalRecord {
     /// The finalist: the weights of this update (its check is the row of
     /// `greedy.csv` with the same update).
@@ -570,47 +579,22 @@ pub struct FinalRecord {
     pub check_solved: usize,
     /// Final held-out episodes played (the same for every finalist).
     pub episodes: usize,
-    /// Of these, the ones it solved raw (greedy).
+    /// Of these, the ones it solved.
     pub solved: usize,
-    /// The ones it solved through `shield-lanes=16` (0 in rows written
-    /// before finalists were replayed shielded).
-    #[serde(default)]
-    pub shielded: usize,
-    /// Seconds the replays took.
+    /// Seconds the replay took.
     pub seconds: f64,
 }
 
-impl FinalRecord {
-    /// What ranks finalists and judges a polish: the final held-out
-    /// episodes solved raw and through the shield, counted together.
-    ///
-    /// ```
-    /// use buridan_learner::train::stop::FinalRecord;
-    /// let r = FinalRecord { update: 3, check_solved: 198, episodes: 1000, solved: 968, shielded: 997, seconds: 1.0 };
-    /// assert_eq!(r.both(), 1965);
-    /// ```
-    pub fn both(&self) -> usize {
-        self.solved + self.shielded
-    }
-}
-
-/// The kept finalist a `[polish]` is judged against.
+/// The kept finalist a `[polish]` is judged against
+/// ([`GreedyProbe::unpolished`]).
 pub struct Unpolished {
-    /// Its replay on the final held-out episodes, raw and shielded.
+    /// Its raw replay on the final held-out episodes.
     pub kept: FinalRecord,
+    /// Of the same episodes, the ones it solved through the deployment
+    /// shield.
+    pub shielded: usize,
     /// Its weights, put back if the polish does not do better.
     pub weights: Weights,
-}
-
-impl Unpolished {
-    /// The kept finalist whose replay is `kept`, with the weights in
-    /// `policy` (its own, those of update `update`).
-    pub fn new(policy: &Policy, kept: FinalRecord, update: u64) -> Result<Self, TrainError> {
-        Ok(Self {
-            kept,
-            weights: policy.weights(update)?,
-        })
-    }
 }
 
 /// The replay that judged a run's `[polish]` ([`GreedyProbe::judge_polish`]).

@@ -179,8 +179,7 @@ impl TrainConfig {
     ///    steps, and keeps the checked weights that solved the most
     ///    held-out episodes, the imitated ones among them (`keep_best`): of
     ///    the 4 best checks, the one whose weights solve the most of 1,000
-    ///    further held-out episodes, raw and through `shield-lanes=16`
-    ///    counted together (`[stop.greedy.finalists]`).
+    ///    further held-out episodes (`[stop.greedy.finalists]`).
     /// 3. **Polish** by the deployment shield (`[polish]`,
     ///    [`Teacher::Shield`](buridan_imitate::Teacher::Shield)): 4 DAgger
     ///    rounds of the kept policy's greedy rollouts labelled with the
