@@ -20,7 +20,11 @@ greedy, `shield-lanes=16`, the PIBT shield, sampled) and on 1,000
 development episodes of seed 7 (raw greedy, `shield-lanes=16`). Then the
 same for layouts-polished-2026-12-07.csv and layouts-judged-2026-12-07.csv
 (the study's runs on the other comparison layouts with the polished and
-the judged recipe, seed-42 protocol only), per layout.
+the judged recipe, seed-42 protocol only), per layout; `judged-20` pools
+the judged recipe's rm-2.2 seeds 0-9 with seeds 10-19
+(layouts-judged-more-2026-12-07.csv, fifth session), `finalists-both` is
+the fifth session's reverted variant on rm-3.1
+(finalists-both-2026-12-07.csv).
 """
 import csv
 import random
@@ -29,8 +33,16 @@ from pathlib import Path
 HERE = Path(__file__).parent
 DATA = HERE / "main-job-c-2026-12-07.csv"
 LAYOUTS = {
-    "polished": HERE / "layouts-polished-2026-12-07.csv",
-    "judged": HERE / "layouts-judged-2026-12-07.csv",
+    "polished": [HERE / "layouts-polished-2026-12-07.csv"],
+    "judged": [HERE / "layouts-judged-2026-12-07.csv"],
+    # The fifth session: rm-2.2 on seeds 10-19 too, pooled with seeds 0-9.
+    "judged-20": [
+        HERE / "layouts-judged-2026-12-07.csv",
+        HERE / "layouts-judged-more-2026-12-07.csv",
+    ],
+    # The fifth session's variant (commit 21652945, reverted): finalists
+    # ranked by their raw and shielded replays together, rm-3.1.
+    "finalists-both": [HERE / "finalists-both-2026-12-07.csv"],
 }
 N = 20000
 COLUMNS = ["command_wall", "raw", "lanes", "shield", "sampled", "dev_raw", "dev_lanes"]
@@ -56,8 +68,8 @@ def main():
         kept = sum(r["polished_kept"] == "True" for r in mine)
         print(f"{variant},polish_kept,{len(mine)},{kept},,,,")
     print("recipe,layout,column,seeds,mean,low,high,min,max")
-    for recipe, path in LAYOUTS.items():
-        rows = list(csv.DictReader(open(path)))
+    for recipe, paths in LAYOUTS.items():
+        rows = [r for path in paths for r in csv.DictReader(open(path))]
         for layout in dict.fromkeys(r["layout"] for r in rows):
             mine = [r for r in rows if r["layout"] == layout]
             for col in ["raw", "lanes", "shield", "sampled"]:
