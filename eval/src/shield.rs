@@ -83,6 +83,7 @@ pub struct ShieldController {
     dead_end_order: bool,
     dead_end_eviction: bool,
     one_way_lanes: bool,
+    stepping_aside: bool,
     shield: Option<Shield>,
     prefs: Vec<ActionOrder>,
     /// Agent-steps of this episode whose action was not the policy's
@@ -119,6 +120,7 @@ impl ShieldController {
             dead_end_order: false,
             dead_end_eviction: false,
             one_way_lanes: false,
+            stepping_aside: false,
             shield: None,
             prefs: Vec::with_capacity(agents),
             overridden: 0,
@@ -168,6 +170,14 @@ impl ShieldController {
         self
     }
 
+    /// The same controller whose shield makes pushed agents step out of
+    /// their pusher's way ([`Shield::with_stepping_aside`]; the option
+    /// `aside` of `shield[…]:checkpoint:DIR`).
+    pub fn with_stepping_aside(mut self) -> Self {
+        self.stepping_aside = true;
+        self
+    }
+
     /// The shield this controller plays through, for `grid`.
     fn new_shield(&self, grid: &buridan_env::Grid) -> Shield {
         let mut shield = Shield::new(grid);
@@ -185,6 +195,9 @@ impl ShieldController {
         if self.one_way_lanes {
             shield = shield.with_one_way_lanes();
         }
+        if self.stepping_aside {
+            shield = shield.with_stepping_aside();
+        }
         shield
     }
 }
@@ -201,7 +214,8 @@ impl Controller for ShieldController {
             "shield"
         };
         let evict = if self.dead_end_eviction { "-evict" } else { "" };
-        let shield = format!("{shield}{evict}");
+        let aside = if self.stepping_aside { "-aside" } else { "" };
+        let shield = format!("{shield}{evict}{aside}");
         match self.patience {
             None => format!("{}+{shield}", self.policy.name()),
             Some(k) => format!("{}+{shield}={k}", self.policy.name()),

@@ -32,18 +32,22 @@ fn shield() -> impl Strategy<Value = Shield> {
         any::<bool>(),
         any::<bool>(),
         any::<bool>(),
+        any::<bool>(),
     )
-        .prop_map(|(policy, env, fallback, ordered, evict, lanes)| Shield {
-            policy,
-            ranking: if env { Ranking::Env } else { Ranking::Walls },
-            fallback: fallback.map(|(patience, goal_settling)| Fallback {
-                patience,
-                goal_settling,
-            }),
-            dead_end_order: ordered,
-            dead_end_eviction: evict,
-            one_way_lanes: lanes,
-        })
+        .prop_map(
+            |(policy, env, fallback, ordered, evict, lanes, aside)| Shield {
+                policy,
+                ranking: if env { Ranking::Env } else { Ranking::Walls },
+                fallback: fallback.map(|(patience, goal_settling)| Fallback {
+                    patience,
+                    goal_settling,
+                }),
+                dead_end_order: ordered,
+                dead_end_eviction: evict,
+                one_way_lanes: lanes,
+                stepping_aside: aside,
+            },
+        )
 }
 
 fn controller() -> impl Strategy<Value = Controller> {
@@ -181,6 +185,16 @@ fn todays_names_keep_their_meaning() {
             Controller::Shield(Shield {
                 dead_end_order: true,
                 one_way_lanes: true,
+                ..shield_over("runs/a")
+            }),
+        ),
+        (
+            "shield[patience=16,ordered,lanes,aside]:checkpoint:runs/a",
+            Controller::Shield(Shield {
+                fallback: fallback(16, false),
+                dead_end_order: true,
+                one_way_lanes: true,
+                stepping_aside: true,
                 ..shield_over("runs/a")
             }),
         ),

@@ -143,6 +143,9 @@ pub struct Shield {
     /// step; no swap pulls it.
     holding: Vec<bool>,
     lanes: Option<Lanes>,
+    /// Whether pushed agents step out of their pusher's way
+    /// ([`Shield::with_stepping_aside`]).
+    aside: bool,
     /// Each agent's distance table to its goal, kept while the fallback or
     /// the lane rule needs it.
     dist: GoalDistances,
@@ -173,6 +176,7 @@ impl Shield {
             urgent: Vec::new(),
             holding: Vec::new(),
             lanes: None,
+            aside: false,
             dist: GoalDistances::default(),
         }
     }
@@ -400,6 +404,41 @@ impl Shield {
         self
     }
 
+    /// A shield whose pushed agents step out of their pusher's way: an
+    /// agent pushed off its cell tries last the moves that lead onto the
+    /// pusher's shortest path onward and bring it no closer to its own goal
+    /// (see `Generator::with_stepping_aside` in [`crate::pibt`]). Without
+    /// it, an agent resting on its goal by a lane's mouth, pushed by one
+    /// bound into the lane, steps into the lane (its policy's choice), then
+    /// back onto its goal, and the two trade places forever.
+    ///
+    /// ```
+    /// use buridan_env::{Cell, Grid};
+    /// use buridan_mapf::shield::Shield;
+    /// // A one-lane row ending in a 2 x 2 room on the right. Agent 1 rests
+    /// // on its goal at the lane's mouth (1, 4); agent 0 above it is bound
+    /// // for the lane's far end (1, 0).
+    /// let grid = Grid::from_rows(&["@@@@..", "......"]).unwrap();
+    /// let (pos, goals) = ([Cell::new(0, 4), Cell::new(1, 4)], [Cell::new(1, 0), Cell::new(1, 4)]);
+    /// // Agent 0 heads down; agent 1 would rather stay, then go left.
+    /// let prefs = [[3, 4, 0, 2, 1], [0, 4, 1, 2, 3]];
+    /// // Agent 0's priority grows while it is off its goal; by the third
+    /// // step it outranks agent 1 and pushes it.
+    /// let pushed = |mut shield: Shield| {
+    ///     let mut actions = [9; 2];
+    ///     for _ in 0..3 {
+    ///         shield.step(&pos, &goals, &prefs, &mut actions).unwrap();
+    ///     }
+    ///     actions[1]
+    /// };
+    /// assert_eq!(pushed(Shield::new(&grid)), 4, "into the lane");
+    /// assert_eq!(pushed(Shield::new(&grid).with_stepping_aside()), 2, "aside, to the right");
+    /// ```
+    pub fn with_stepping_aside(mut self) -> Self {
+        self.aside = true;
+        self
+    }
+
     /// Starts an episode with `agents` agents: priorities restart from
     /// tie-breakers in `[0, 1)` drawn from `tie_seed` (distinct seeds per
     /// episode give each episode its own fixed order among equals).
@@ -476,7 +515,7 @@ impl Shield {
                     }
                 }
             }
-            if self.fallback.is_some() || self.lanes.is_some() {
+            if self.fallback.is_some() || self.lanes.is_some() || self.aside {
                 let new_goal = self.dist.update(&self.grid, agent, goals[agent]);
                 if let Some(f) = &mut self.fallback {
                     let at = self.cur[agent];
@@ -538,6 +577,9 @@ impl Shield {
             ConflictModel::ENV_EXECUTABLE,
             self.tie_seed ^ self.steps,
         );
+        if self.aside {
+            gen = gen.with_stepping_aside(&self.dist.table);
+        }
         // Stalled agents also back away and pull where two of them must
         // pass in a lane (LaCAM3's swap, see [`crate::pibt`]).
         if let Some(f) = self.fallback.as_ref().filter(|f| f.stalled.contains(&true)) {

@@ -108,6 +108,9 @@ impl Controller {
                     if s.one_way_lanes {
                         shield = shield.with_one_way_lanes();
                     }
+                    if s.stepping_aside {
+                        shield = shield.with_stepping_aside();
+                    }
                     Ok::<_, PolicyLoadError>(shield)
                 };
                 load()?;

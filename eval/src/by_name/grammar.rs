@@ -184,6 +184,8 @@ pub struct Shield {
     pub dead_end_eviction: bool,
     /// One-lane corridors are kept one-way.
     pub one_way_lanes: bool,
+    /// Pushed agents step out of their pusher's way.
+    pub stepping_aside: bool,
 }
 
 impl Shield {
@@ -196,6 +198,7 @@ impl Shield {
             dead_end_order: false,
             dead_end_eviction: false,
             one_way_lanes: false,
+            stepping_aside: false,
         }
     }
 
@@ -204,7 +207,7 @@ impl Shield {
     fn named_form(&self) -> Option<&'static str> {
         let settle = self.fallback.is_some_and(|f| f.goal_settling);
         let (o, l) = (self.dead_end_order, self.one_way_lanes);
-        if self.dead_end_eviction {
+        if self.dead_end_eviction || self.stepping_aside {
             return None;
         }
         Some(match (self.ranking, settle, o, l) {
@@ -418,6 +421,9 @@ impl fmt::Display for Controller {
                         if s.one_way_lanes {
                             options.push("lanes".into());
                         }
+                        if s.stepping_aside {
+                            options.push("aside".into());
+                        }
                         write!(f, "shield[{}]", options.join(","))?;
                     }
                 }
@@ -435,7 +441,7 @@ impl fmt::Display for Controller {
 }
 
 /// The forms of the grammar, as the error lists them.
-pub const FORMS: &str = "PLANNER (ma-astar, od-astar, od-astar-soc, cbs, pibt, lacam, lacam-star, lacam-star-makespan, pp, or several joined by '+'), random, lifelong-pibt, checkpoint:DIR, shield:checkpoint:DIR, shield[OPTION,...]:checkpoint:DIR (options env, patience=K, settle, ordered, evict, lanes), shield=K:, shield-env[=K]:, shield-ordered[=K]:, shield-lanes[=K]:, shield-settle=K:, sampled:CONTROLLER, rescue[=PLANNER]:CONTROLLER, lookahead[=PLANNER]:CONTROLLER, backstop[=PLANNER]:CONTROLLER or pace[=PLANNER]:CONTROLLER";
+pub const FORMS: &str = "PLANNER (ma-astar, od-astar, od-astar-soc, cbs, pibt, lacam, lacam-star, lacam-star-makespan, pp, or several joined by '+'), random, lifelong-pibt, checkpoint:DIR, shield:checkpoint:DIR, shield[OPTION,...]:checkpoint:DIR (options env, patience=K, settle, ordered, evict, lanes, aside), shield=K:, shield-env[=K]:, shield-ordered[=K]:, shield-lanes[=K]:, shield-settle=K:, sampled:CONTROLLER, rescue[=PLANNER]:CONTROLLER, lookahead[=PLANNER]:CONTROLLER, backstop[=PLANNER]:CONTROLLER or pace[=PLANNER]:CONTROLLER";
 
 /// What is wrong with a controller's text.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -714,6 +720,7 @@ fn shield_options(options: &str) -> Result<Shield, Problem> {
             "ordered" => &mut shield.dead_end_order,
             "evict" => &mut shield.dead_end_eviction,
             "lanes" => &mut shield.one_way_lanes,
+            "aside" => &mut shield.stepping_aside,
             _ => {
                 let Some(value) = option.strip_prefix("patience=") else {
                     return Err(twice());

@@ -66,6 +66,9 @@ pub(crate) struct Generator<'a> {
     /// Writes to `occ_next` and `next` during this call, as (cell, its
     /// previous holder, agent, its previous cell), to undo a failed push.
     undo: Vec<(u32, u32, u32, u32)>,
+    /// Distance tables to each agent's goal where pushed agents step out
+    /// of their pusher's way ([`Generator::with_stepping_aside`]).
+    aside: Option<&'a [Vec<u32>]>,
 }
 
 impl<'a> Generator<'a> {
@@ -80,6 +83,40 @@ impl<'a> Generator<'a> {
             touched: Vec::new(),
             swap: None,
             undo: Vec::new(),
+            aside: None,
+        }
+    }
+
+    /// Pushed agents step out of their pusher's way: an agent pushed by
+    /// `p` tries last the moves onto `p`'s way onward (a cell one step
+    /// closer to `p`'s goal than its own) that bring it no closer to its
+    /// own goal, whatever its preference order says. Pushed ahead along
+    /// the pusher's way it is pushed again at the next step, and where the
+    /// way runs into a lane it is pushed the lane's length (or, at its
+    /// goal by the lane's mouth, steps back onto the goal and is pushed
+    /// again, forever); stepping aside at the branching cell lets the
+    /// pusher by. `dist[agent][cell]`: the distance tables to the goals.
+    pub fn with_stepping_aside(mut self, dist: &'a [Vec<u32>]) -> Self {
+        self.aside = Some(dist);
+        self
+    }
+
+    /// Whether `i`, at `here` and pushed by `by`, would step onto `by`'s
+    /// way onward by entering `v` without coming closer to its own goal
+    /// (see [`Generator::with_stepping_aside`]).
+    fn in_the_way(&self, i: u32, by: u32, here: u32, v: u32) -> bool {
+        let Some(dist) = self.aside else {
+            return false;
+        };
+        if by == NONE || v == here {
+            return false;
+        }
+        match (dist.get(by as usize), dist.get(i as usize)) {
+            (Some(theirs), Some(mine)) => {
+                theirs[v as usize] < theirs[here as usize]
+                    && mine[v as usize] >= mine[here as usize]
+            }
+            _ => false,
         }
     }
 
@@ -162,25 +199,33 @@ impl<'a> Generator<'a> {
         }
         // Plan in priority order: PIBT from every agent still undecided.
         for &i in order {
-            if self.next[i as usize] == NONE && !self.pibt(pref, i, cur) {
+            if self.next[i as usize] == NONE && !self.pibt(pref, i, NONE, cur) {
                 return false;
             }
         }
         true
     }
 
-    /// PIBT for `i`: reserve a cell for `t + 1`, pushing undecided holders.
-    /// On failure `i` stays (and reports `false` to the agent that pushed it).
-    fn pibt<P: Preference>(&mut self, pref: &P, i: u32, cur: &[u32]) -> bool {
+    /// PIBT for `i`, pushed by `by` ([`NONE`]: by nobody): reserve a cell
+    /// for `t + 1`, pushing undecided holders. On failure `i` stays (and
+    /// reports `false` to the agent that pushed it).
+    fn pibt<P: Preference>(&mut self, pref: &P, i: u32, by: u32, cur: &[u32]) -> bool {
         let here = cur[i as usize];
-        // 1. Candidates: the neighbours and `here`, by preference; ties go
-        // to cells free at `t`, then at random.
+        // 1. Candidates: the neighbours and `here`, by preference (moves
+        // onto the pusher's way last where agents step aside); ties go to
+        // cells free at `t`, then at random.
         let mut cands = [(0u32, 0u32, 0u32, NONE); 5];
         let mut k = 0;
         for (action, &v) in self.topo.moves(here).iter().enumerate() {
             if v != NONE {
                 let busy = u32::from(self.occ_now[v as usize] != NONE && v != here);
-                cands[k] = (pref.key(i, action, v), busy, self.rng.next(), v);
+                let key = pref.key(i, action, v);
+                let key = if self.in_the_way(i, by, here, v) {
+                    key.saturating_add(1 << 24)
+                } else {
+                    key
+                };
+                cands[k] = (key, busy, self.rng.next(), v);
                 k += 1;
             }
         }
@@ -241,7 +286,7 @@ impl<'a> Generator<'a> {
             self.reserve(i, v);
             let j = self.occ_now[v as usize];
             let undecided = j != NONE && j != i && self.next[j as usize] == NONE;
-            if undecided && !self.pibt(pref, j, cur) {
+            if undecided && !self.pibt(pref, j, i, cur) {
                 let free = self.occ_next[here as usize];
                 if chains && (free == NONE || chained) {
                     // `j` could not leave: if `i` may wait (nobody pushes
@@ -251,7 +296,7 @@ impl<'a> Generator<'a> {
                     self.rollback(mark);
                     self.reserve(i, here);
                     self.block(v);
-                    if self.pibt(pref, j, cur) {
+                    if self.pibt(pref, j, i, cur) {
                         return true;
                     }
                     self.rollback(mark);
@@ -301,7 +346,7 @@ impl<'a> Generator<'a> {
             return self.next[j as usize] != v;
         }
         self.block(v);
-        self.pibt(pref, j, cur)
+        self.pibt(pref, j, i, cur)
     }
 
     /// The final check of a generated step against the rules.
