@@ -509,7 +509,7 @@ impl fmt::Display for Problem {
             ),
             Problem::ShieldOption { option } => write!(
                 f,
-                "shield option '{option}' is unknown or given twice (expected env, patience=K, settle, ordered, evict, lanes)"
+                "shield option '{option}' is unknown or given twice (expected env, patience=K, settle, ordered, evict, lanes, aside)"
             ),
             Problem::Label { label } => write!(
                 f,
