@@ -22,9 +22,11 @@ same for layouts-polished-2026-12-07.csv and layouts-judged-2026-12-07.csv
 (the study's runs on the other comparison layouts with the polished and
 the judged recipe, seed-42 protocol only), per layout; `judged-20` pools
 the judged recipe's rm-2.2 seeds 0-9 with seeds 10-19
-(layouts-judged-more-2026-12-07.csv, fifth session), `finalists-both` is
-the fifth session's reverted variant on rm-3.1
-(finalists-both-2026-12-07.csv).
+(layouts-judged-more-2026-12-07.csv, fifth session) and rm-3.1's seeds
+0-9 with seeds 10-19 (rm-3.1-more-2026-12-07.csv, sixth session, which
+also has the column `aside`: `shield[patience=16,ordered,lanes,aside]`;
+alone as `rm-3.1-more`), `finalists-both` is the fifth session's
+reverted variant on rm-3.1 (finalists-both-2026-12-07.csv).
 """
 import csv
 import random
@@ -39,7 +41,11 @@ LAYOUTS = {
     "judged-20": [
         HERE / "layouts-judged-2026-12-07.csv",
         HERE / "layouts-judged-more-2026-12-07.csv",
+        HERE / "rm-3.1-more-2026-12-07.csv",
     ],
+    # The sixth session: rm-3.1 on seeds 10-19, also through
+    # shield[patience=16,ordered,lanes,aside] (column aside).
+    "rm-3.1-more": [HERE / "rm-3.1-more-2026-12-07.csv"],
     # The fifth session's variant (commit 21652945, reverted): finalists
     # ranked by their raw and shielded replays together, rm-3.1.
     "finalists-both": [HERE / "finalists-both-2026-12-07.csv"],
@@ -72,8 +78,10 @@ def main():
         rows = [r for path in paths for r in csv.DictReader(open(path))]
         for layout in dict.fromkeys(r["layout"] for r in rows):
             mine = [r for r in rows if r["layout"] == layout]
-            for col in ["raw", "lanes", "shield", "sampled"]:
-                xs = [float(r[col]) for r in mine]
+            for col in ["raw", "lanes", "shield", "sampled", "aside"]:
+                xs = [float(r[col]) for r in mine if r.get(col)]
+                if not xs:
+                    continue
                 lo, hi = boot(xs)
                 print(f"{recipe},{layout},{col},{len(xs)},{sum(xs) / len(xs):.2f},{lo:.2f},{hi:.2f},{min(xs):.1f},{max(xs):.1f}")
 
