@@ -146,8 +146,8 @@ pub struct Shield {
     /// Whether pushed agents step out of their pusher's way
     /// ([`Shield::with_stepping_aside`]).
     aside: bool,
-    /// Each agent's distance table to its goal, kept while the fallback or
-    /// the lane rule needs it.
+    /// Each agent's distance table to its goal, kept while the fallback,
+    /// the lane rule or stepping aside needs it.
     dist: GoalDistances,
 }
 

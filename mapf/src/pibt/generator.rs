@@ -43,6 +43,11 @@ impl Preference for Vec<Vec<u32>> {
     }
 }
 
+/// Added to a pushed agent's key for a move onto its pusher's way
+/// ([`Generator::with_stepping_aside`]): above every key of a preference
+/// order (ranks 0–4) and every distance on a grid of fewer than 2²⁴ cells.
+const IN_THE_WAY: u32 = 1 << 24;
+
 /// Marks a cell nobody may enter at `t + 1` (being cleared, see
 /// [`Generator::clear_way`]).
 const BLOCKED: u32 = NONE - 1;
@@ -221,7 +226,7 @@ impl<'a> Generator<'a> {
                 let busy = u32::from(self.occ_now[v as usize] != NONE && v != here);
                 let key = pref.key(i, action, v);
                 let key = if self.in_the_way(i, by, here, v) {
-                    key.saturating_add(1 << 24)
+                    key.saturating_add(IN_THE_WAY)
                 } else {
                     key
                 };
