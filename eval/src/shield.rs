@@ -72,18 +72,104 @@ impl std::str::FromStr for Ranking {
     }
 }
 
+/// The shield's progress fallback: an agent that has not come closer to
+/// its goal for `patience` steps follows its shortest path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Fallback {
+    /// Steps without progress before the fallback takes an agent over.
+    pub patience: u32,
+    /// Only an agent's first arrival on its goal counts as progress, so
+    /// that one stepping on and off its goal settles on it.
+    pub goal_settling: bool,
+}
+
+/// What the shield does beyond PIBT's one step: one value for the
+/// controller grammar's `shield[…]` options and [`ShieldController`].
+///
+/// ```
+/// use buridan_eval::shield::{Fallback, ShieldOptions};
+/// let lanes = ShieldOptions {
+///     fallback: Some(Fallback { patience: 16, goal_settling: false }),
+///     dead_end_order: true,
+///     one_way_lanes: true,
+///     ..ShieldOptions::default()
+/// };
+/// assert_eq!(lanes.label(), "shield-lanes=16");
+/// assert_eq!(ShieldOptions { stepping_aside: true, ..lanes }.label(), "shield-lanes-aside=16");
+/// ```
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ShieldOptions {
+    /// Which of the policy's distributions ranks the moves.
+    pub ranking: Ranking,
+    /// The progress fallback, if any ([`Shield::with_progress_fallback`],
+    /// [`Shield::with_goal_settling`]).
+    pub fallback: Option<Fallback>,
+    /// Dead-end aisles are filled from the back
+    /// ([`Shield::with_dead_end_order`]).
+    pub dead_end_order: bool,
+    /// Agents in a dead end's way back out of it
+    /// ([`Shield::with_dead_end_eviction`]).
+    pub dead_end_eviction: bool,
+    /// One-lane corridors are kept one-way ([`Shield::with_one_way_lanes`]).
+    pub one_way_lanes: bool,
+    /// Pushed agents step out of their pusher's way
+    /// ([`Shield::with_stepping_aside`]).
+    pub stepping_aside: bool,
+}
+
+impl ShieldOptions {
+    /// The shield with these options, for `grid`.
+    pub fn shield(&self, grid: &buridan_env::Grid) -> Shield {
+        let mut shield = Shield::new(grid);
+        match self.fallback {
+            Some(f) if f.goal_settling => shield = shield.with_goal_settling(f.patience),
+            Some(f) => shield = shield.with_progress_fallback(f.patience),
+            None => {}
+        }
+        if self.dead_end_order {
+            shield = shield.with_dead_end_order();
+        }
+        if self.dead_end_eviction {
+            shield = shield.with_dead_end_eviction();
+        }
+        if self.one_way_lanes {
+            shield = shield.with_one_way_lanes();
+        }
+        if self.stepping_aside {
+            shield = shield.with_stepping_aside();
+        }
+        shield
+    }
+
+    /// The short label of these options in a controller's name
+    /// (`shield-lanes=16`, `shield-settle-evict-aside=16`): the strongest
+    /// of lanes, order and settling, then each further option.
+    pub fn label(&self) -> String {
+        let settle = self.fallback.is_some_and(|f| f.goal_settling);
+        let base = if self.one_way_lanes {
+            "shield-lanes"
+        } else if self.dead_end_order {
+            "shield-ordered"
+        } else if settle {
+            "shield-settle"
+        } else {
+            "shield"
+        };
+        let evict = if self.dead_end_eviction { "-evict" } else { "" };
+        let aside = if self.stepping_aside { "-aside" } else { "" };
+        match self.fallback {
+            None => format!("{base}{evict}{aside}"),
+            Some(f) => format!("{base}{evict}{aside}={}", f.patience),
+        }
+    }
+}
+
 /// A trained policy whose actions pass through the collision shield (see
 /// the [module docs](self)).
 pub struct ShieldController {
     policy: PolicyController,
-    ranking: Ranking,
     seed: u64,
-    patience: Option<u32>,
-    goal_settling: bool,
-    dead_end_order: bool,
-    dead_end_eviction: bool,
-    one_way_lanes: bool,
-    stepping_aside: bool,
+    options: ShieldOptions,
     shield: Option<Shield>,
     prefs: Vec<ActionOrder>,
     /// Agent-steps of this episode whose action was not the policy's
@@ -113,14 +199,11 @@ impl ShieldController {
     ) -> Result<Self, PolicyLoadError> {
         Ok(Self {
             policy: PolicyController::load(checkpoint, agents, act_mode, seed)?,
-            ranking,
             seed,
-            patience: None,
-            goal_settling: false,
-            dead_end_order: false,
-            dead_end_eviction: false,
-            one_way_lanes: false,
-            stepping_aside: false,
+            options: ShieldOptions {
+                ranking,
+                ..ShieldOptions::default()
+            },
             shield: None,
             prefs: Vec::with_capacity(agents),
             overridden: 0,
@@ -128,11 +211,21 @@ impl ShieldController {
         })
     }
 
+    /// The same controller with every option of `options` (its ranking
+    /// included).
+    pub fn with_options(mut self, options: ShieldOptions) -> Self {
+        self.options = options;
+        self
+    }
+
     /// The same controller whose shield lets an agent that has not come
     /// closer to its goal for `patience` steps follow its shortest path
     /// ([`Shield::with_progress_fallback`]; `shield=K:checkpoint:DIR`).
     pub fn with_progress_fallback(mut self, patience: u32) -> Self {
-        self.patience = Some(patience);
+        self.options.fallback = Some(Fallback {
+            patience,
+            goal_settling: false,
+        });
         self
     }
 
@@ -141,8 +234,10 @@ impl ShieldController {
     /// and off its goal settles on it ([`Shield::with_goal_settling`];
     /// `shield-settle=K:checkpoint:DIR`).
     pub fn with_goal_settling(mut self, patience: u32) -> Self {
-        self.patience = Some(patience);
-        self.goal_settling = true;
+        self.options.fallback = Some(Fallback {
+            patience,
+            goal_settling: true,
+        });
         self
     }
 
@@ -150,7 +245,7 @@ impl ShieldController {
     /// back ([`Shield::with_dead_end_order`];
     /// `shield-ordered[=K]:checkpoint:DIR`).
     pub fn with_dead_end_order(mut self) -> Self {
-        self.dead_end_order = true;
+        self.options.dead_end_order = true;
         self
     }
 
@@ -158,7 +253,7 @@ impl ShieldController {
     /// end entered in the wrong order ([`Shield::with_dead_end_eviction`];
     /// the option `evict` of `shield[…]:checkpoint:DIR`).
     pub fn with_dead_end_eviction(mut self) -> Self {
-        self.dead_end_eviction = true;
+        self.options.dead_end_eviction = true;
         self
     }
 
@@ -166,7 +261,7 @@ impl ShieldController {
     /// ([`Shield::with_one_way_lanes`]; `shield-lanes[=K]:checkpoint:DIR`,
     /// which also fills dead-end aisles from the back).
     pub fn with_one_way_lanes(mut self) -> Self {
-        self.one_way_lanes = true;
+        self.options.one_way_lanes = true;
         self
     }
 
@@ -174,52 +269,14 @@ impl ShieldController {
     /// their pusher's way ([`Shield::with_stepping_aside`]; the option
     /// `aside` of `shield[…]:checkpoint:DIR`).
     pub fn with_stepping_aside(mut self) -> Self {
-        self.stepping_aside = true;
+        self.options.stepping_aside = true;
         self
-    }
-
-    /// The shield this controller plays through, for `grid`.
-    fn new_shield(&self, grid: &buridan_env::Grid) -> Shield {
-        let mut shield = Shield::new(grid);
-        match self.patience {
-            Some(k) if self.goal_settling => shield = shield.with_goal_settling(k),
-            Some(k) => shield = shield.with_progress_fallback(k),
-            None => {}
-        }
-        if self.dead_end_order {
-            shield = shield.with_dead_end_order();
-        }
-        if self.dead_end_eviction {
-            shield = shield.with_dead_end_eviction();
-        }
-        if self.one_way_lanes {
-            shield = shield.with_one_way_lanes();
-        }
-        if self.stepping_aside {
-            shield = shield.with_stepping_aside();
-        }
-        shield
     }
 }
 
 impl Controller for ShieldController {
     fn name(&self) -> String {
-        let shield = if self.one_way_lanes {
-            "shield-lanes"
-        } else if self.dead_end_order {
-            "shield-ordered"
-        } else if self.goal_settling {
-            "shield-settle"
-        } else {
-            "shield"
-        };
-        let evict = if self.dead_end_eviction { "-evict" } else { "" };
-        let aside = if self.stepping_aside { "-aside" } else { "" };
-        let shield = format!("{shield}{evict}{aside}");
-        match self.patience {
-            None => format!("{}+{shield}", self.policy.name()),
-            Some(k) => format!("{}+{shield}={k}", self.policy.name()),
-        }
+        format!("{}+{}", self.policy.name(), self.options.label())
     }
 
     fn obs_features(&self) -> buridan_env::ObsFeatures {
@@ -235,7 +292,7 @@ impl Controller for ShieldController {
         // A fixed order among equals per episode, independent of which
         // evaluation thread plays it.
         let ties = seed::shield_ties(self.seed, env.episode());
-        let mut shield = self.new_shield(&env.map().grid);
+        let mut shield = self.options.shield(&env.map().grid);
         shield.begin_episode(env.agents(), ties);
         self.shield = Some(shield);
         self.overridden = 0;
@@ -243,7 +300,7 @@ impl Controller for ShieldController {
     }
 
     fn act(&mut self, env: &GridEnv, actions: &mut [u8]) {
-        let mask = match self.ranking {
+        let mask = match self.options.ranking {
             Ranking::Walls => MaskKind::Walls,
             Ranking::Env => MaskKind::Env,
         };
@@ -255,7 +312,7 @@ impl Controller for ShieldController {
         preference_orders(d.actions, d.logits, d.masks, &mut self.prefs);
         let shield = match self.shield.take() {
             Some(shield) => shield,
-            None => self.new_shield(&env.map().grid),
+            None => self.options.shield(&env.map().grid),
         };
         let shield = self.shield.insert(shield);
         if shield

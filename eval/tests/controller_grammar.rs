@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use buridan_eval::by_name::{
     Act, Controller, Fallback, Labelled, Net, NetKind, PlannerKind, Policy, Portfolio, Problem,
-    Shield, FORMS,
+    Shield, ShieldOptions, FORMS,
 };
 use buridan_eval::shield::Ranking;
 use proptest::prelude::*;
@@ -37,15 +37,17 @@ fn shield() -> impl Strategy<Value = Shield> {
         .prop_map(
             |(policy, env, fallback, ordered, evict, lanes, aside)| Shield {
                 policy,
-                ranking: if env { Ranking::Env } else { Ranking::Walls },
-                fallback: fallback.map(|(patience, goal_settling)| Fallback {
-                    patience,
-                    goal_settling,
-                }),
-                dead_end_order: ordered,
-                dead_end_eviction: evict,
-                one_way_lanes: lanes,
-                stepping_aside: aside,
+                options: ShieldOptions {
+                    ranking: if env { Ranking::Env } else { Ranking::Walls },
+                    fallback: fallback.map(|(patience, goal_settling)| Fallback {
+                        patience,
+                        goal_settling,
+                    }),
+                    dead_end_order: ordered,
+                    dead_end_eviction: evict,
+                    one_way_lanes: lanes,
+                    stepping_aside: aside,
+                },
             },
         )
 }
@@ -104,6 +106,13 @@ fn shield_over(dir: &str) -> Shield {
     Shield::over(ckpt(dir, Act::Greedy))
 }
 
+fn shield_with(dir: &str, options: ShieldOptions) -> Shield {
+    Shield {
+        options,
+        ..shield_over(dir)
+    }
+}
+
 /// Every form of today means what it meant, and displays as it is written.
 #[test]
 fn todays_names_keep_their_meaning() {
@@ -136,74 +145,101 @@ fn todays_names_keep_their_meaning() {
         ),
         (
             "shield-env:checkpoint:runs/a",
-            Controller::Shield(Shield {
-                ranking: Ranking::Env,
-                ..shield_over("runs/a")
-            }),
+            Controller::Shield(shield_with(
+                "runs/a",
+                ShieldOptions {
+                    ranking: Ranking::Env,
+                    ..ShieldOptions::default()
+                },
+            )),
         ),
         (
             "shield=16:checkpoint:runs/a",
-            Controller::Shield(Shield {
-                fallback: fallback(16, false),
-                ..shield_over("runs/a")
-            }),
+            Controller::Shield(shield_with(
+                "runs/a",
+                ShieldOptions {
+                    fallback: fallback(16, false),
+                    ..ShieldOptions::default()
+                },
+            )),
         ),
         (
             "shield-env=8:checkpoint:runs/a",
-            Controller::Shield(Shield {
-                ranking: Ranking::Env,
-                fallback: fallback(8, false),
-                ..shield_over("runs/a")
-            }),
+            Controller::Shield(shield_with(
+                "runs/a",
+                ShieldOptions {
+                    ranking: Ranking::Env,
+                    fallback: fallback(8, false),
+                    ..ShieldOptions::default()
+                },
+            )),
         ),
         (
             "shield-ordered:checkpoint:runs/a",
-            Controller::Shield(Shield {
-                dead_end_order: true,
-                ..shield_over("runs/a")
-            }),
+            Controller::Shield(shield_with(
+                "runs/a",
+                ShieldOptions {
+                    dead_end_order: true,
+                    ..ShieldOptions::default()
+                },
+            )),
         ),
         (
             "shield-ordered=16:checkpoint:runs/a",
-            Controller::Shield(Shield {
-                fallback: fallback(16, false),
-                dead_end_order: true,
-                ..shield_over("runs/a")
-            }),
+            Controller::Shield(shield_with(
+                "runs/a",
+                ShieldOptions {
+                    fallback: fallback(16, false),
+                    dead_end_order: true,
+                    ..ShieldOptions::default()
+                },
+            )),
         ),
         (
             "shield-lanes=16:checkpoint:runs/a",
-            Controller::Shield(Shield {
-                fallback: fallback(16, false),
-                dead_end_order: true,
-                one_way_lanes: true,
-                ..shield_over("runs/a")
-            }),
+            Controller::Shield(shield_with(
+                "runs/a",
+                ShieldOptions {
+                    fallback: fallback(16, false),
+                    dead_end_order: true,
+                    one_way_lanes: true,
+                    ..ShieldOptions::default()
+                },
+            )),
         ),
         (
             "shield-lanes:checkpoint:runs/a",
-            Controller::Shield(Shield {
-                dead_end_order: true,
-                one_way_lanes: true,
-                ..shield_over("runs/a")
-            }),
+            Controller::Shield(shield_with(
+                "runs/a",
+                ShieldOptions {
+                    dead_end_order: true,
+                    one_way_lanes: true,
+                    ..ShieldOptions::default()
+                },
+            )),
         ),
         (
             "shield[patience=16,ordered,lanes,aside]:checkpoint:runs/a",
-            Controller::Shield(Shield {
-                fallback: fallback(16, false),
-                dead_end_order: true,
-                one_way_lanes: true,
-                stepping_aside: true,
-                ..shield_over("runs/a")
-            }),
+            Controller::Shield(shield_with(
+                "runs/a",
+                ShieldOptions {
+                    fallback: fallback(16, false),
+                    dead_end_order: true,
+                    one_way_lanes: true,
+                    stepping_aside: true,
+                    ..ShieldOptions::default()
+                },
+            )),
         ),
         (
             "shield-settle=16:checkpoint:runs/a",
-            Controller::Shield(Shield {
-                fallback: fallback(16, true),
-                ..shield_over("runs/a")
-            }),
+            Controller::Shield(shield_with(
+                "runs/a",
+                ShieldOptions {
+                    fallback: fallback(16, true),
+                    ..ShieldOptions::default()
+                },
+            )),
         ),
         (
             "rescue:shield:checkpoint:runs/a",
@@ -296,7 +332,11 @@ fn the_composed_form_reads_in_any_option_order() {
     };
     assert_eq!(s.policy.act, Act::Sampled);
     assert_eq!(
-        (s.fallback, s.dead_end_order, s.one_way_lanes),
+        (
+            s.options.fallback,
+            s.options.dead_end_order,
+            s.options.one_way_lanes
+        ),
         (
             Some(Fallback {
                 patience: 16,

@@ -85,32 +85,14 @@ impl Controller {
                 let s = s.clone();
                 let load = move || {
                     let p = &s.policy;
-                    let mut shield = ShieldController::load(
+                    let shield = ShieldController::load(
                         &p.checkpoint,
                         agents,
                         p.act.into(),
                         seed,
-                        s.ranking,
-                    )?;
-                    match s.fallback {
-                        Some(f) if f.goal_settling => {
-                            shield = shield.with_goal_settling(f.patience)
-                        }
-                        Some(f) => shield = shield.with_progress_fallback(f.patience),
-                        None => {}
-                    }
-                    if s.dead_end_order {
-                        shield = shield.with_dead_end_order();
-                    }
-                    if s.dead_end_eviction {
-                        shield = shield.with_dead_end_eviction();
-                    }
-                    if s.one_way_lanes {
-                        shield = shield.with_one_way_lanes();
-                    }
-                    if s.stepping_aside {
-                        shield = shield.with_stepping_aside();
-                    }
+                        s.options.ranking,
+                    )?
+                    .with_options(s.options);
                     Ok::<_, PolicyLoadError>(shield)
                 };
                 load()?;

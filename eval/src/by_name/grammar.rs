@@ -7,7 +7,8 @@ use std::str::FromStr;
 
 use buridan_policy::ActMode;
 
-use crate::shield::Ranking;
+pub use crate::shield::Fallback;
+use crate::shield::{Ranking, ShieldOptions};
 
 /// One planner of `buridan-mapf`, by its canonical name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -157,35 +158,14 @@ pub struct Policy {
     pub act: Act,
 }
 
-/// The shield's progress fallback: an agent that has not come closer to
-/// its goal for `patience` steps follows its shortest path.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct Fallback {
-    /// Steps without progress before the fallback takes an agent over.
-    pub patience: u32,
-    /// Only an agent's first arrival on its goal counts as progress, so
-    /// that one stepping on and off its goal settles on it.
-    pub goal_settling: bool,
-}
-
 /// A trained policy through the PIBT collision shield, with the shield's
 /// options ([`crate::shield::ShieldController`]).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Shield {
     /// The policy that states the preferences.
     pub policy: Policy,
-    /// Which of the policy's distributions ranks the moves.
-    pub ranking: Ranking,
-    /// The progress fallback, if any.
-    pub fallback: Option<Fallback>,
-    /// Dead-end aisles are filled from the back.
-    pub dead_end_order: bool,
-    /// Agents in a dead end's way back out of it (with the order).
-    pub dead_end_eviction: bool,
-    /// One-lane corridors are kept one-way.
-    pub one_way_lanes: bool,
-    /// Pushed agents step out of their pusher's way.
-    pub stepping_aside: bool,
+    /// What the shield does beyond PIBT's one step.
+    pub options: ShieldOptions,
 }
 
 impl Shield {
@@ -193,31 +173,26 @@ impl Shield {
     pub fn over(policy: Policy) -> Shield {
         Shield {
             policy,
-            ranking: Ranking::Walls,
-            fallback: None,
-            dead_end_order: false,
-            dead_end_eviction: false,
-            one_way_lanes: false,
-            stepping_aside: false,
+            options: ShieldOptions::default(),
         }
     }
 
-    /// Today's name of these options (`shield`, `shield-env`,
-    /// `shield-ordered`, `shield-lanes`, `shield-settle`), when one has them.
+    /// The name of these options among the named forms (`shield`,
+    /// `shield-env`, `shield-ordered`, `shield-lanes`, `shield-settle`),
+    /// when one has them.
     fn named_form(&self) -> Option<&'static str> {
-        let settle = self.fallback.is_some_and(|f| f.goal_settling);
-        let (o, l) = (self.dead_end_order, self.one_way_lanes);
-        if self.dead_end_eviction || self.stepping_aside {
+        let o = &self.options;
+        if o.dead_end_eviction || o.stepping_aside {
             return None;
         }
-        Some(match (self.ranking, settle, o, l) {
-            (Ranking::Walls, false, false, false) => "shield",
-            (Ranking::Env, false, false, false) => "shield-env",
-            (Ranking::Walls, false, true, false) => "shield-ordered",
-            (Ranking::Walls, false, true, true) => "shield-lanes",
-            (Ranking::Walls, true, false, false) => "shield-settle",
-            _ => return None,
-        })
+        let settle = o.fallback.is_some_and(|f| f.goal_settling);
+        let these = (o.ranking, o.dead_end_order, o.one_way_lanes, settle);
+        SHIELD_FORMS
+            .iter()
+            .find(|&&(_, ranking, ordered, lanes, settle)| {
+                (ranking, ordered, lanes, settle) == these
+            })
+            .map(|&(form, ..)| form)
     }
 }
 
@@ -394,35 +369,34 @@ impl fmt::Display for Controller {
             }
             Controller::Shield(s) => {
                 fmt_policy(&s.policy, f)?;
+                let o = &s.options;
                 match s.named_form() {
                     Some(name) => {
                         f.write_str(name)?;
-                        if let Some(fb) = s.fallback {
+                        if let Some(fb) = o.fallback {
                             write!(f, "={}", fb.patience)?;
                         }
                     }
                     None => {
                         let mut options = Vec::new();
-                        if s.ranking == Ranking::Env {
+                        if o.ranking == Ranking::Env {
                             options.push("env".to_string());
                         }
-                        if let Some(fb) = s.fallback {
+                        if let Some(fb) = o.fallback {
                             options.push(format!("patience={}", fb.patience));
                             if fb.goal_settling {
                                 options.push("settle".into());
                             }
                         }
-                        if s.dead_end_order {
-                            options.push("ordered".into());
-                        }
-                        if s.dead_end_eviction {
-                            options.push("evict".into());
-                        }
-                        if s.one_way_lanes {
-                            options.push("lanes".into());
-                        }
-                        if s.stepping_aside {
-                            options.push("aside".into());
+                        for (set, name) in [
+                            (o.dead_end_order, "ordered"),
+                            (o.dead_end_eviction, "evict"),
+                            (o.one_way_lanes, "lanes"),
+                            (o.stepping_aside, "aside"),
+                        ] {
+                            if set {
+                                options.push(name.into());
+                            }
                         }
                         write!(f, "shield[{}]", options.join(","))?;
                     }
@@ -631,7 +605,13 @@ fn parse_shield(text: &str) -> Result<Option<Shield>, Problem> {
                 option: rest.to_string(),
             });
         };
-        let shield = shield_options(options)?;
+        let shield = Shield {
+            policy: Policy {
+                checkpoint: PathBuf::new(),
+                act: Act::Greedy,
+            },
+            options: shield_options(options)?,
+        };
         let inner = inner.strip_prefix(':').unwrap_or("");
         ("shield[…]", shield, inner)
     } else {
@@ -642,17 +622,22 @@ fn parse_shield(text: &str) -> Result<Option<Shield>, Problem> {
         if settle && patience.is_none() {
             return Err(Problem::SettleNeedsPatience);
         }
-        let mut shield = Shield::over(Policy {
-            checkpoint: PathBuf::new(),
-            act: Act::Greedy,
-        });
-        shield.ranking = ranking;
-        shield.dead_end_order = ordered;
-        shield.one_way_lanes = lanes;
-        shield.fallback = patience.map(|patience| Fallback {
-            patience,
-            goal_settling: settle,
-        });
+        let shield = Shield {
+            policy: Policy {
+                checkpoint: PathBuf::new(),
+                act: Act::Greedy,
+            },
+            options: ShieldOptions {
+                ranking,
+                fallback: patience.map(|patience| Fallback {
+                    patience,
+                    goal_settling: settle,
+                }),
+                dead_end_order: ordered,
+                one_way_lanes: lanes,
+                ..ShieldOptions::default()
+            },
+        };
         (form, shield, inner)
     };
     let Some(dir) = inner.strip_prefix("checkpoint:") else {
@@ -704,11 +689,8 @@ fn named_shield(text: &str) -> Result<Option<NamedShield<'_>>, Problem> {
 }
 
 /// The options between `shield[` and `]`.
-fn shield_options(options: &str) -> Result<Shield, Problem> {
-    let mut shield = Shield::over(Policy {
-        checkpoint: PathBuf::new(),
-        act: Act::Greedy,
-    });
+fn shield_options(options: &str) -> Result<ShieldOptions, Problem> {
+    let mut shield = ShieldOptions::default();
     let (mut env, mut patience, mut settle) = (false, None, false);
     for option in options.split(',').map(str::trim).filter(|o| !o.is_empty()) {
         let twice = || Problem::ShieldOption {

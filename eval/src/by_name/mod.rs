@@ -12,6 +12,7 @@ mod build;
 mod grammar;
 mod label;
 
+pub use crate::shield::ShieldOptions;
 pub use grammar::{
     Act, Controller, ControllerParseError, Fallback, Net, NetKind, PlannerKind, Policy, Portfolio,
     Problem, Shield, FORMS,
