@@ -131,6 +131,12 @@ pub struct ImitationConfig {
     /// carry the lesson and the agreeing steps only anchor the policy
     /// where it is, so a share below 1 buys the fit's time back. 1: all.
     pub agreeing_share: f64,
+    /// The deployment shield also makes pushed agents step out of their
+    /// pusher's way (`shield[patience=16,ordered,lanes,aside]` instead of
+    /// `shield-lanes=16`): the [`Teacher::Shield`]'s shield and, in a
+    /// `[polish]`, the shield its judge replays the final held-out
+    /// episodes through.
+    pub stepping_aside: bool,
     /// Threads each gradient step's minibatch is cut across (its windows or
     /// rows in shares, the shares' gradients summed in order: the same step
     /// up to float rounding). 0: the machine's cores; `learner train` gives
@@ -157,6 +163,7 @@ impl Default for ImitationConfig {
             labels: LabelStyle::Split,
             teacher: Teacher::Planner,
             agreeing_share: 1.0,
+            stepping_aside: false,
             threads: 0,
         }
     }

@@ -163,8 +163,8 @@ pub fn dagger<S: EnvSlot>(
         walls: vec![0u8; rows * w],
         executed: vec![0u8; rows * heads],
     });
-    let mut teacher =
-        (cfg.teacher == Teacher::Shield).then(|| ShieldTeacher::new(seed, envs, n, rng.random()));
+    let mut teacher = (cfg.teacher == Teacher::Shield)
+        .then(|| ShieldTeacher::new(seed, envs, n, rng.random(), cfg.stepping_aside));
     // Actions are `[rows, heads]`: one per agent in every mode.
     let (mut actions, mut policy_actions, mut logp) = (
         vec![0u8; rows * heads],
@@ -390,9 +390,14 @@ struct ShieldTeacher {
 }
 
 impl ShieldTeacher {
-    fn new(seed: u64, envs: usize, agents: usize, draws: u64) -> Self {
+    fn new(seed: u64, envs: usize, agents: usize, draws: u64, aside: bool) -> Self {
+        let shield = RolloutShield::new(seed).with_one_way_lanes(TEACHER_PATIENCE);
         Self {
-            shield: RolloutShield::new(seed).with_one_way_lanes(TEACHER_PATIENCE),
+            shield: if aside {
+                shield.with_stepping_aside()
+            } else {
+                shield
+            },
             walls: vec![0; envs * agents * NUM_ACTIONS],
             first: vec![0; envs * agents],
             executed: vec![0; envs * agents],

@@ -612,6 +612,7 @@ impl ProbeBench {
             ground: buridan_learner::train::stop::Ground {
                 map: std::sync::Arc::new(buridan_env::Map::load("rm-1.1").unwrap()),
                 env: buridan_learner::train::env_config(&cfg, 0),
+                stepping_aside: false,
             },
             probe: buridan_learner::train::stop::GreedyProbe::new(check, dir).unwrap(),
         }

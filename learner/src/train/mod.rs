@@ -708,6 +708,7 @@ impl Run {
         Some(stop::Ground {
             map: map.clone(),
             env: env_config(&self.cfg, self.cfg.run.seed),
+            stepping_aside: self.cfg.polish.as_ref().is_some_and(|p| p.stepping_aside),
         })
     }
 

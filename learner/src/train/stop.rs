@@ -242,6 +242,9 @@ pub struct Ground {
     /// Its rules and limits, and the run's seed (each check plays from a
     /// seed of its own, derived from it).
     pub env: EnvConfig,
+    /// The deployment shield also steps aside (`[polish] stepping_aside`):
+    /// `shield[patience=16,ordered,lanes,aside]`, not `shield-lanes=16`.
+    pub stepping_aside: bool,
 }
 
 /// A [`GreedyCheck`] through a run: when the next check is due, the seed
@@ -535,14 +538,19 @@ fn solve_final(policy: &Policy, ground: &Ground, n: usize) -> Result<(usize, f64
 
 /// [`solve_final`] through the deployment shield, `shield-lanes=16`
 /// ([`RolloutShield::with_one_way_lanes`] with the shield teacher's
-/// patience), tie-breaks drawn from the final episodes' seed.
+/// patience; with [`Ground::stepping_aside`] also
+/// [`RolloutShield::with_stepping_aside`]), tie-breaks drawn from the
+/// final episodes' seed.
 fn solve_final_shielded(
     policy: &Policy,
     ground: &Ground,
     n: usize,
 ) -> Result<(usize, f64), TrainError> {
     let seed = seed::greedy_final(ground.env.seed);
-    let shield = RolloutShield::new(seed).with_one_way_lanes(TEACHER_PATIENCE);
+    let mut shield = RolloutShield::new(seed).with_one_way_lanes(TEACHER_PATIENCE);
+    if ground.stepping_aside {
+        shield = shield.with_stepping_aside();
+    }
     solve_greedily(policy, ground, n, seed, Some(shield))
 }
 

@@ -84,6 +84,9 @@ pub struct RolloutShield {
     envs: Vec<Option<EnvShield>>,
     prefs: Vec<ActionOrder>,
     kind: Kind,
+    /// Pushed agents step out of their pusher's way
+    /// ([`Shield::with_stepping_aside`]).
+    aside: bool,
 }
 
 /// Which shield a [`RolloutShield`] plays through, as the evaluation's
@@ -100,7 +103,16 @@ enum Kind {
 }
 
 impl Kind {
-    fn build(self, grid: &buridan_env::Grid) -> Shield {
+    fn build(self, grid: &buridan_env::Grid, aside: bool) -> Shield {
+        let shield = self.options(grid);
+        if aside {
+            shield.with_stepping_aside()
+        } else {
+            shield
+        }
+    }
+
+    fn options(self, grid: &buridan_env::Grid) -> Shield {
         let shield = Shield::new(grid);
         match self {
             Kind::Plain => shield,
@@ -122,6 +134,7 @@ impl RolloutShield {
             envs: Vec::new(),
             prefs: Vec::new(),
             kind: Kind::Plain,
+            aside: false,
         }
     }
 
@@ -142,6 +155,17 @@ impl RolloutShield {
     pub fn with_one_way_lanes(self, patience: u32) -> Self {
         Self {
             kind: Kind::Lanes(patience),
+            ..self
+        }
+    }
+
+    /// This shield, whose pushed agents also step out of their pusher's
+    /// way ([`Shield::with_stepping_aside`]): with
+    /// [`Self::with_one_way_lanes`], as
+    /// `shield[patience=PATIENCE,ordered,lanes,aside]` executes a policy.
+    pub fn with_stepping_aside(self) -> Self {
+        Self {
+            aside: true,
             ..self
         }
     }
@@ -187,7 +211,13 @@ impl RolloutShield {
                 &masks[moves],
                 &mut self.prefs,
             );
-            let shield = shield_for(&mut self.envs[e], self.seed, self.kind, e, env);
+            let shield = shield_for(
+                &mut self.envs[e],
+                self.seed,
+                (self.kind, self.aside),
+                e,
+                env,
+            );
             shield
                 .step(
                     &env.positions(),
@@ -206,7 +236,7 @@ impl RolloutShield {
 fn shield_for<'a>(
     slot: &'a mut Option<EnvShield>,
     seed: u64,
-    kind: Kind,
+    (kind, aside): (Kind, bool),
     e: usize,
     env: &GridEnv,
 ) -> &'a mut Shield {
@@ -216,7 +246,7 @@ fn shield_for<'a>(
     if !current {
         let mut shield = match slot.take() {
             Some(s) if Arc::ptr_eq(&s.map, env.map()) => s.shield,
-            _ => kind.build(&env.map().grid),
+            _ => kind.build(&env.map().grid, aside),
         };
         // Tie-breaks drawn per episode as the evaluation's shield draws
         // them, from the batch's seed and the env's index.
@@ -377,6 +407,51 @@ mod tests {
         assert_eq!(
             shield.envs[0].as_ref().unwrap().episode,
             venv.grid_env(0).unwrap().episode()
+        );
+    }
+
+    /// The shield's doctest scene (`Shield::with_stepping_aside`) in an
+    /// env: agent 1 rests on its goal at a lane's mouth, agent 0 above it
+    /// is bound into the lane and pushes it.
+    #[test]
+    fn with_stepping_aside_a_pushed_agent_leaves_its_pushers_way() {
+        let grid = Grid::from_rows(&["@@@@..", "......"]).unwrap();
+        let scenario = Scenario {
+            starts: vec![Cell::new(0, 4), Cell::new(1, 4)],
+            goals: vec![Cell::new(1, 0), Cell::new(1, 4)],
+        };
+        let map = Arc::new(Map {
+            name: "lane-mouth".into(),
+            grid,
+            scenario: Some(scenario),
+        });
+        let cfg = EnvConfig {
+            agents: 2,
+            starts: Starts::Fixed,
+            ..EnvConfig::default()
+        };
+        let venv = VecEnv::new(map, cfg, 1, ObsKind::Local, 1).unwrap();
+        // Agent 0 heads down (then left, stay, right, up); agent 1 would
+        // rather stay (then left, up, right, down).
+        let chosen = [3, 0];
+        let logits = [3.0, 1.0, 2.0, 5.0, 4.0, 5.0, 3.0, 2.0, 1.0, 4.0];
+        let pushed = |mut shield: RolloutShield| {
+            let (mut masks, mut executed) = ([0u8; 10], [9u8; 2]);
+            shield.write_masks(&venv, &mut masks).unwrap();
+            // Agent 0's priority grows while it is off its goal; by the
+            // third step it outranks agent 1.
+            for _ in 0..3 {
+                shield
+                    .joint_move(&venv, &chosen, &logits, &masks, &mut executed)
+                    .unwrap();
+            }
+            executed[1]
+        };
+        assert_eq!(pushed(RolloutShield::new(0)), 4, "into the lane");
+        assert_eq!(
+            pushed(RolloutShield::new(0).with_stepping_aside()),
+            2,
+            "aside, to the right"
         );
     }
 }
