@@ -1,5 +1,6 @@
 //! The settings of an imitation run (`[imitation]` in a training config).
 
+use buridan_mapf::shield::rollout::RolloutShield;
 use serde::{Deserialize, Serialize};
 
 use crate::error::ImitationError;
@@ -46,6 +47,20 @@ pub enum Teacher {
 /// The progress fallback's patience of the [`Teacher::Shield`]'s shield:
 /// the evaluation's `shield-lanes=16`.
 pub const TEACHER_PATIENCE: u32 = 16;
+
+/// The deployment shield, as the [`Teacher::Shield`] and a `[polish]`'s
+/// judge play through it: `shield-lanes=16` ([`TEACHER_PATIENCE`]), and
+/// with `stepping_aside` (the setting of that name)
+/// `shield[patience=16,ordered,lanes,aside]`; per-episode tie-breaks from
+/// `seed`.
+pub fn deployment_shield(seed: u64, stepping_aside: bool) -> RolloutShield {
+    let shield = RolloutShield::new(seed).with_one_way_lanes(TEACHER_PATIENCE);
+    if stepping_aside {
+        shield.with_stepping_aside()
+    } else {
+        shield
+    }
+}
 
 /// The patience of the shield's goal settling in
 /// [`Rollout::Shielded`] rollouts: the evaluation's `shield-settle=16`.

@@ -32,7 +32,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::cloning::Cloner;
-use crate::config::{ImitationConfig, Rollout, Teacher, SHIELD_PATIENCE, TEACHER_PATIENCE};
+use crate::config::{deployment_shield, ImitationConfig, Rollout, Teacher, SHIELD_PATIENCE};
 use crate::dataset::Dataset;
 use crate::error::ImitationError;
 use crate::expert::{Expert, Labels};
@@ -391,13 +391,8 @@ struct ShieldTeacher {
 
 impl ShieldTeacher {
     fn new(seed: u64, envs: usize, agents: usize, draws: u64, aside: bool) -> Self {
-        let shield = RolloutShield::new(seed).with_one_way_lanes(TEACHER_PATIENCE);
         Self {
-            shield: if aside {
-                shield.with_stepping_aside()
-            } else {
-                shield
-            },
+            shield: deployment_shield(seed, aside),
             walls: vec![0; envs * agents * NUM_ACTIONS],
             first: vec![0; envs * agents],
             executed: vec![0; envs * agents],

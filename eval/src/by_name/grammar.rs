@@ -599,21 +599,14 @@ fn parse(text: &str) -> Result<Controller, Problem> {
 /// `shield[OPTIONS]:checkpoint:DIR` and the named shield forms; `None`
 /// when `text` is no shield.
 fn parse_shield(text: &str) -> Result<Option<Shield>, Problem> {
-    let (form, mut shield, inner) = if let Some(rest) = text.strip_prefix("shield[") {
+    let (form, options, inner) = if let Some(rest) = text.strip_prefix("shield[") {
         let Some((options, inner)) = rest.split_once(']') else {
             return Err(Problem::ShieldOption {
                 option: rest.to_string(),
             });
         };
-        let shield = Shield {
-            policy: Policy {
-                checkpoint: PathBuf::new(),
-                act: Act::Greedy,
-            },
-            options: shield_options(options)?,
-        };
         let inner = inner.strip_prefix(':').unwrap_or("");
-        ("shield[…]", shield, inner)
+        ("shield[…]", shield_options(options)?, inner)
     } else {
         let Some((form, ranking, ordered, lanes, settle, patience, inner)) = named_shield(text)?
         else {
@@ -622,31 +615,30 @@ fn parse_shield(text: &str) -> Result<Option<Shield>, Problem> {
         if settle && patience.is_none() {
             return Err(Problem::SettleNeedsPatience);
         }
-        let shield = Shield {
-            policy: Policy {
-                checkpoint: PathBuf::new(),
-                act: Act::Greedy,
-            },
-            options: ShieldOptions {
-                ranking,
-                fallback: patience.map(|patience| Fallback {
-                    patience,
-                    goal_settling: settle,
-                }),
-                dead_end_order: ordered,
-                one_way_lanes: lanes,
-                ..ShieldOptions::default()
-            },
+        let options = ShieldOptions {
+            ranking,
+            fallback: patience.map(|patience| Fallback {
+                patience,
+                goal_settling: settle,
+            }),
+            dead_end_order: ordered,
+            one_way_lanes: lanes,
+            ..ShieldOptions::default()
         };
-        (form, shield, inner)
+        (form, options, inner)
     };
     let Some(dir) = inner.strip_prefix("checkpoint:") else {
         return Err(Problem::ShieldNeedsPolicy {
             form: form.to_string(),
         });
     };
-    shield.policy.checkpoint = PathBuf::from(dir);
-    Ok(Some(shield))
+    Ok(Some(Shield {
+        policy: Policy {
+            checkpoint: PathBuf::from(dir),
+            act: Act::Greedy,
+        },
+        options,
+    }))
 }
 
 type NamedShield<'a> = (

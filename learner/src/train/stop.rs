@@ -56,7 +56,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use buridan_env::{seed, EnvConfig, Map};
-use buridan_imitate::config::TEACHER_PATIENCE;
+use buridan_imitate::config::deployment_shield;
 use buridan_mapf::shield::rollout::RolloutShield;
 use buridan_policy::{ActMode, Policy, Weights};
 use serde::{Deserialize, Serialize};
@@ -536,21 +536,16 @@ fn solve_final(policy: &Policy, ground: &Ground, n: usize) -> Result<(usize, f64
     solve_greedily(policy, ground, n, seed::greedy_final(ground.env.seed), None)
 }
 
-/// [`solve_final`] through the deployment shield, `shield-lanes=16`
-/// ([`RolloutShield::with_one_way_lanes`] with the shield teacher's
-/// patience; with [`Ground::stepping_aside`] also
-/// [`RolloutShield::with_stepping_aside`]), tie-breaks drawn from the
-/// final episodes' seed.
+/// [`solve_final`] through the deployment shield ([`deployment_shield`],
+/// stepping aside with [`Ground::stepping_aside`]), tie-breaks drawn from
+/// the final episodes' seed.
 fn solve_final_shielded(
     policy: &Policy,
     ground: &Ground,
     n: usize,
 ) -> Result<(usize, f64), TrainError> {
     let seed = seed::greedy_final(ground.env.seed);
-    let mut shield = RolloutShield::new(seed).with_one_way_lanes(TEACHER_PATIENCE);
-    if ground.stepping_aside {
-        shield = shield.with_stepping_aside();
-    }
+    let shield = deployment_shield(seed, ground.stepping_aside);
     solve_greedily(policy, ground, n, seed, Some(shield))
 }
 

@@ -271,27 +271,36 @@ mod tests {
     use super::*;
     use buridan_env::{Cell, EnvConfig, Grid, ObsKind, Scenario, Starts, VecEnv};
 
-    /// A corridor with a pocket above its second cell; agents 0 and 1 face
-    /// each other, each bound for the other's side (a fixed scenario, so
-    /// every episode starts so).
-    fn face_to_face() -> VecEnv {
-        let grid = Grid::from_rows(&["@.@@", "...."]).unwrap();
-        let scenario = Scenario {
-            starts: vec![Cell::new(1, 1), Cell::new(1, 2)],
-            goals: vec![Cell::new(1, 3), Cell::new(1, 0)],
-        };
+    /// One env of two agents on `rows`, every episode starting from
+    /// `starts` bound for `goals`.
+    fn fixed_env(rows: &[&str], starts: [Cell; 2], goals: [Cell; 2], t_max: u32) -> VecEnv {
         let map = Arc::new(Map {
-            name: "pocket".into(),
-            grid,
-            scenario: Some(scenario),
+            name: "fixed".into(),
+            grid: Grid::from_rows(rows).unwrap(),
+            scenario: Some(Scenario {
+                starts: starts.to_vec(),
+                goals: goals.to_vec(),
+            }),
         });
         let cfg = EnvConfig {
             agents: 2,
             starts: Starts::Fixed,
-            t_max: 2,
+            t_max,
             ..EnvConfig::default()
         };
         VecEnv::new(map, cfg, 1, ObsKind::Local, 1).unwrap()
+    }
+
+    /// A corridor with a pocket above its second cell; agents 0 and 1 face
+    /// each other, each bound for the other's side (a fixed scenario, so
+    /// every episode starts so).
+    fn face_to_face() -> VecEnv {
+        fixed_env(
+            &["@.@@", "...."],
+            [Cell::new(1, 1), Cell::new(1, 2)],
+            [Cell::new(1, 3), Cell::new(1, 0)],
+            2,
+        )
     }
 
     #[test]
@@ -415,22 +424,12 @@ mod tests {
     /// is bound into the lane and pushes it.
     #[test]
     fn with_stepping_aside_a_pushed_agent_leaves_its_pushers_way() {
-        let grid = Grid::from_rows(&["@@@@..", "......"]).unwrap();
-        let scenario = Scenario {
-            starts: vec![Cell::new(0, 4), Cell::new(1, 4)],
-            goals: vec![Cell::new(1, 0), Cell::new(1, 4)],
-        };
-        let map = Arc::new(Map {
-            name: "lane-mouth".into(),
-            grid,
-            scenario: Some(scenario),
-        });
-        let cfg = EnvConfig {
-            agents: 2,
-            starts: Starts::Fixed,
-            ..EnvConfig::default()
-        };
-        let venv = VecEnv::new(map, cfg, 1, ObsKind::Local, 1).unwrap();
+        let venv = fixed_env(
+            &["@@@@..", "......"],
+            [Cell::new(0, 4), Cell::new(1, 4)],
+            [Cell::new(1, 0), Cell::new(1, 4)],
+            EnvConfig::default().t_max,
+        );
         // Agent 0 heads down (then left, stay, right, up); agent 1 would
         // rather stay (then left, up, right, down).
         let chosen = [3, 0];
