@@ -15,15 +15,29 @@
 #   SKIP_CARGO=1         reuse the binaries already in the target directory
 #   CARGO_TARGET_DIR     where cargo puts them (default: <repo>/target)
 #   STRIP_DEBUG=0        keep the debug info in the image binaries (default: strip it)
+#   CUDA=1               build buridan/learner:cuda instead (TAG defaults to "cuda"):
+#                        the `cuda` learner of scripts/build-cuda.sh (target/cuda)
+#                        and NVIDIA's CUDA 13 libraries from its toolchain; the
+#                        driver (libcuda.so.1) comes from the NVIDIA container runtime
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 DEPLOY="$ROOT/deploy"
 STAGE="$DEPLOY/.build"
-TAG="${TAG:-dev}"
+CUDA="${CUDA:-0}"
 IMAGE_PREFIX="${IMAGE_PREFIX:-buridan}"
-TARGET_DIR="${CARGO_TARGET_DIR:-$ROOT/target}"
-BINS=(learner actor fleet-control)
+if [[ "$CUDA" == 1 ]]; then
+    TAG="${TAG:-cuda}"
+    TARGET_DIR="${CARGO_TARGET_DIR:-$ROOT/target/cuda}"
+    BINS=(learner)
+    # The toolchain of scripts/build-cuda.sh: the CUDA 13 libraries and the
+    # driver stub (for the smoke test only; never in the image).
+    CUDA_TOOLCHAIN="${BURIDAN_CUDA_TOOLCHAIN:-$ROOT/target/cuda-toolchain}"
+else
+    TAG="${TAG:-dev}"
+    TARGET_DIR="${CARGO_TARGET_DIR:-$ROOT/target}"
+    BINS=(learner actor fleet-control)
+fi
 
 say() { printf '==> %s\n' "$*" >&2; }
 die() { printf 'build-images: error: %s\n' "$*" >&2; exit 1; }
@@ -34,7 +48,10 @@ done
 docker info >/dev/null 2>&1 || die "cannot reach the Docker daemon (is it running? are you in the docker group?)"
 
 # 1. Release binaries.
-if [[ "${SKIP_CARGO:-0}" != 1 ]]; then
+if [[ "${SKIP_CARGO:-0}" != 1 && "$CUDA" == 1 ]]; then
+    say "scripts/build-cuda.sh (about 13 minutes on a cold tree with 2 cores)"
+    "$ROOT/scripts/build-cuda.sh"
+elif [[ "${SKIP_CARGO:-0}" != 1 ]]; then
     command -v cargo >/dev/null || die "'cargo' not found on PATH (or set SKIP_CARGO=1)"
     say "cargo build --release -p buridan-cli -p buridan-actor -p buridan-control (several minutes on a cold tree)"
     (cd "$ROOT" && cargo build --release -p buridan-cli -p buridan-actor -p buridan-control)
@@ -46,7 +63,9 @@ done
 # 2. Staging context: bin/, rootfs/, data/, models/.
 say "staging the root filesystem in ${STAGE#"$ROOT"/}"
 rm -rf "$STAGE"
-mkdir -p "$STAGE/bin" "$STAGE/rootfs/tmp" "$STAGE/rootfs/etc" "$STAGE/data"
+# cuda/ holds the CUDA libraries of a CUDA=1 build (empty otherwise: the
+# classic builder reads every stage before its target).
+mkdir -p "$STAGE/bin" "$STAGE/rootfs/tmp" "$STAGE/rootfs/etc" "$STAGE/data" "$STAGE/cuda"
 chmod 1777 "$STAGE/rootfs/tmp"
 chmod 0755 "$STAGE/data"
 # The pretrained models the fleet controller serves (checkpoint:model:NAME).
@@ -63,7 +82,14 @@ for b in "${BINS[@]}"; do
         strip --strip-debug "$STAGE/bin/$b"
     fi
     # ldd prints "libx.so => /path (0x..)" and "/lib64/ld-linux-x86-64.so.2 (0x..)".
-    if ! ldd_out="$(ldd "$src" 2>&1)"; then
+    # A cuda binary finds its CUDA libraries in the toolchain's wheels; the
+    # driver's libcuda.so.1 is the NVIDIA runtime's at run time, so its
+    # absence here is expected.
+    cuda_lib=""
+    if [[ "$CUDA" == 1 ]]; then
+        cuda_lib="$("$ROOT/scripts/build-cuda.sh" --print-libs)"
+    fi
+    if ! ldd_out="$(LD_LIBRARY_PATH="$cuda_lib" ldd "$src" 2>&1 | grep -v '^\s*libcuda\.so\.1 => not found')"; then
         if grep -q 'not a dynamic executable\|statically linked' <<<"$ldd_out"; then
             say "$b is static: no libraries to copy"
             continue
@@ -74,6 +100,11 @@ for b in "${BINS[@]}"; do
         die "ldd $src: missing libraries:"$'\n'"$ldd_out"
     fi
     while read -r lib; do
+        if [[ -n "$cuda_lib" && "$lib" == "$cuda_lib"/* ]]; then
+            # CUDA's libraries go to /usr/local/cuda/lib64 (LD_LIBRARY_PATH).
+            cp -L "$lib" "$STAGE/cuda/"
+            continue
+        fi
         # Same path in the image as on the build host (the loader path is
         # baked into the binary's PT_INTERP); -L copies the file, not a symlink.
         cp -L --parents "$lib" "$STAGE/rootfs/"
@@ -95,18 +126,26 @@ fi
 revision="$(git -C "$ROOT" rev-parse --short HEAD 2>/dev/null || echo unknown)"
 for b in "${BINS[@]}"; do
     image="$IMAGE_PREFIX/$b:$TAG"
-    say "docker build --target $b -t $image"
+    target="$b"
+    smoke=()
+    if [[ "$CUDA" == 1 ]]; then
+        target="$b-cuda"
+        # Without a GPU here the smoke test lends the binary the driver stub.
+        smoke=(-v "$CUDA_TOOLCHAIN/lib/libcuda.so:/usr/local/cuda/stub/libcuda.so.1:ro"
+               -e LD_LIBRARY_PATH=/usr/local/cuda/lib64:/usr/local/cuda/stub)
+    fi
+    say "docker build --target $target -t $image"
     docker build -q \
         -f "$DEPLOY/Dockerfile" \
-        --target "$b" \
+        --target "$target" \
         --label "org.opencontainers.image.title=buridan-$b" \
         --label "org.opencontainers.image.revision=$revision" \
         -t "$image" \
         "$STAGE" >/dev/null
     # Smoke test: the loader finds every library and the binary starts.
-    version="$(docker run --rm "$image" --version 2>&1)" || die "$image does not start: $version"
+    version="$(docker run --rm "${smoke[@]}" "$image" --version 2>&1)" || die "$image does not start: $version"
     say "$image OK ($version)"
 done
 
 docker image ls "$IMAGE_PREFIX/*:$TAG" >&2
-say "done: $IMAGE_PREFIX/learner:$TAG, $IMAGE_PREFIX/actor:$TAG and $IMAGE_PREFIX/fleet-control:$TAG"
+say "done: ${BINS[*]/#/$IMAGE_PREFIX/} (tag $TAG)"

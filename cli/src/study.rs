@@ -165,6 +165,7 @@ fn train_args(a: RunArgs) -> crate::train::TrainArgs {
         config: a.config,
         steps: a.steps,
         seed: a.seed,
+        device: a.device,
         resume: a.resume,
         metrics: None,
         overrides: a.overrides,

@@ -65,6 +65,11 @@ pub struct TrainArgs {
     /// Seed of envs, weights and sampling.
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Where the learner's gradient steps run: `cpu` (the default) or
+    /// `cuda[:N]`, a GPU, in a binary built by `scripts/build-cuda.sh`;
+    /// actors and evaluations act on the CPU either way (TOML `device`).
+    #[arg(long, value_name = "cpu|cuda[:N]")]
+    pub device: Option<buridan_policy::DeviceSpec>,
     /// Continue from a checkpoint directory or a previous `--out` (its
     /// newest checkpoint); `auto`: from `--out`'s newest checkpoint if it
     /// has one, else start fresh (for restarts by a supervisor).
@@ -129,6 +134,7 @@ impl TrainArgs {
             config: self.config.clone(),
             steps: self.steps,
             seed: self.seed,
+            device: self.device,
             resume: self.resume.clone(),
             overrides: self.overrides.clone(),
             no_imitation: self.no_imitation,

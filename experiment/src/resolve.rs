@@ -34,6 +34,8 @@ pub struct RunArgs {
     pub steps: Option<u64>,
     /// Seed.
     pub seed: Option<u64>,
+    /// Where the learner's updates run (`cpu`, `cuda[:N]`).
+    pub device: Option<buridan_policy::DeviceSpec>,
     /// A checkpoint directory or run to continue from; `auto`: `out`'s
     /// newest checkpoint if it has one.
     pub resume: Option<PathBuf>,
@@ -176,6 +178,9 @@ pub fn resolve(args: &RunArgs) -> Result<TrainConfig, ResolveError> {
     }
     if let Some(v) = args.seed {
         cfg.run.seed = v;
+    }
+    if let Some(v) = args.device {
+        cfg.run.device = v;
     }
     if let Some(v) = &args.resume {
         cfg.run.resume = if v.as_os_str() == "auto" {

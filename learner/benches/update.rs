@@ -6,18 +6,47 @@
 //! and with the 64-cell LSTM after it, side by side — the learner's half
 //! of the end-to-end LSTM / MLP training-speed ratio, apart from the actors.
 //!
+//! A third group times one PPO epoch of the general-policy probes' shape
+//! (issue 56's `p2`: feed-forward [512, 512], the 9 × 9 window with the
+//! path, priority, intent and order features; 16 agents on rm-2.1).
+//!
+//! Each group runs on the CPU and, in a `cuda` build on a machine with a
+//! GPU, again on the GPU (`…/cuda`), from the same weights and batch: the
+//! side-by-side figures of the book's GPU chapter. Elsewhere it says that
+//! it ran on the CPU alone.
+//!
 //! `cargo bench -p buridan-learner --bench update`
+//! (GPU: `scripts/build-cuda.sh`, then the bench binary it lists)
 
 use std::sync::Arc;
 
 use buridan_actor::Collector;
+use buridan_env::ObsFeatures;
 use buridan_env::{Map, ObsKind, Starts, VecEnv};
 use buridan_learner::algo::impala::Impala;
 use buridan_learner::algo::ppo::{Ppo, PpoSettings};
 use buridan_learner::train::{env_config, Algorithm, ImpalaConfig, PpoConfig, Task, TrainConfig};
-use buridan_policy::{Fragment, Inference, Mode, Policy};
+use buridan_policy::{DeviceSpec, Fragment, Inference, Mode, Policy};
+use candle_core::Device;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use rand::SeedableRng;
+
+/// The devices to time on: the CPU, and the first GPU where there is one.
+fn devices() -> Vec<(&'static str, Device)> {
+    let mut devices = vec![("", Device::Cpu)];
+    match DeviceSpec::first_gpu() {
+        Some(gpu) => devices.push(("/cuda", gpu)),
+        None => eprintln!(
+            "update bench: CPU only (GPU: {})",
+            if buridan_policy::device::CUDA_BUILT {
+                "none found"
+            } else {
+                "not a `cuda` build"
+            }
+        ),
+    }
+    devices
+}
 
 fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
     let map = Arc::new(Map::load(&cfg.map_label()).unwrap());
@@ -60,28 +89,31 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("learner");
     g.sample_size(10);
     g.throughput(Throughput::Elements(samples as u64));
-    // One epoch over the whole batch: the cost of one pass.
-    let mut ppo = Ppo::new(
-        &policy,
-        PpoSettings {
-            epochs: 1,
-            minibatch_size: 8000,
-            ..cfg.ppo_settings(&PpoConfig::default())
-        },
-    );
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
-    g.bench_function("ppo_update_1_epoch_8000_samples", |b| {
-        b.iter(|| ppo.update(&policy, &frags, &mut rng).unwrap())
-    });
-    let icfg = TrainConfig {
-        algorithm: Algorithm::Impala(ImpalaConfig::default()),
-        ..cfg.clone()
-    };
-    let ipolicy = Policy::new(icfg.model_spec(policy.spec().obs_dim), 0).unwrap();
-    let mut impala = Impala::new(&ipolicy, icfg.impala_settings(&ImpalaConfig::default()));
-    g.bench_function("impala_update_8000_samples", |b| {
-        b.iter(|| impala.update(&ipolicy, &frags).unwrap())
-    });
+    for (suffix, device) in devices() {
+        // One epoch over the whole batch: the cost of one pass.
+        let policy = Policy::new_on(policy.spec().clone(), 0, &device).unwrap();
+        let mut ppo = Ppo::new(
+            &policy,
+            PpoSettings {
+                epochs: 1,
+                minibatch_size: 8000,
+                ..cfg.ppo_settings(&PpoConfig::default())
+            },
+        );
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+        g.bench_function(format!("ppo_update_1_epoch_8000_samples{suffix}"), |b| {
+            b.iter(|| ppo.update(&policy, &frags, &mut rng).unwrap())
+        });
+        let icfg = TrainConfig {
+            algorithm: Algorithm::Impala(ImpalaConfig::default()),
+            ..cfg.clone()
+        };
+        let ipolicy = Policy::new_on(icfg.model_spec(policy.spec().obs_dim), 0, &device).unwrap();
+        let mut impala = Impala::new(&ipolicy, icfg.impala_settings(&ImpalaConfig::default()));
+        g.bench_function(format!("impala_update_8000_samples{suffix}"), |b| {
+            b.iter(|| impala.update(&ipolicy, &frags).unwrap())
+        });
+    }
     g.finish();
 
     let tuned = TrainConfig::from_toml_file(
@@ -102,10 +134,53 @@ fn bench(c: &mut Criterion) {
         let samples: usize = frags.iter().map(|f| f.len * f.rows).sum();
         g.throughput(Throughput::Elements(samples as u64));
         let tuned_impala = cfg.algorithm.impala().expect("an IMPALA config");
-        let mut impala = Impala::new(&policy, cfg.impala_settings(tuned_impala));
-        g.bench_function(format!("update_{name}_{samples}_samples"), |b| {
-            b.iter(|| impala.update(&policy, &frags).unwrap())
-        });
+        for (suffix, device) in devices() {
+            let policy = Policy::new_on(policy.spec().clone(), 0, &device).unwrap();
+            let mut impala = Impala::new(&policy, cfg.impala_settings(tuned_impala));
+            g.bench_function(format!("update_{name}_{samples}_samples{suffix}"), |b| {
+                b.iter(|| impala.update(&policy, &frags).unwrap())
+            });
+        }
+    }
+    g.finish();
+
+    // The general-policy probe's shape (issue 56's p2), one PPO epoch.
+    let mut general = TrainConfig {
+        task: Task::Grid("rm-2.1".into()),
+        agents: 16,
+        sensor_range: 4,
+        features: ObsFeatures {
+            path: true,
+            priority: true,
+            intent: true,
+            order: true,
+            ..ObsFeatures::default()
+        },
+        ..TrainConfig::default()
+    };
+    general.model.lstm = false;
+    general.model.hidden = vec![512, 512];
+    general.run.envs_per_actor = 8;
+    let (policy, frags) = fragments(&general, 1);
+    let samples: usize = frags.iter().map(|f| f.len * f.rows).sum();
+    let mut g = c.benchmark_group("general-policy");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(samples as u64));
+    for (suffix, device) in devices() {
+        let policy = Policy::new_on(policy.spec().clone(), 0, &device).unwrap();
+        let mut ppo = Ppo::new(
+            &policy,
+            PpoSettings {
+                epochs: 1,
+                minibatch_size: samples,
+                ..general.ppo_settings(&PpoConfig::default())
+            },
+        );
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+        g.bench_function(
+            format!("ppo_update_1_epoch_ff512x2_{samples}_samples{suffix}"),
+            |b| b.iter(|| ppo.update(&policy, &frags, &mut rng).unwrap()),
+        );
     }
     g.finish();
 }

@@ -127,13 +127,25 @@ impl CustomOp1 for Fast {
 /// let y: Vec<f32> = buridan_policy::activation::sigmoid(&x).unwrap().to_vec1().unwrap();
 /// assert!((y[0] - 0.5).abs() < 1e-6 && (y[1] - 0.880797).abs() < 1e-5);
 /// ```
+///
+/// On a device other than the CPU (where the fast op has no kernel),
+/// candle's own exact sigmoid.
 pub fn sigmoid(x: &Tensor) -> Result<Tensor> {
-    x.apply_op1(Fast::Sigmoid)
+    if x.device().is_cpu() {
+        x.apply_op1(Fast::Sigmoid)
+    } else {
+        candle_nn::ops::sigmoid(x)
+    }
 }
 
-/// Element-wise tanh of an f32 tensor with [`fast_tanh`], differentiable.
+/// Element-wise tanh of an f32 tensor with [`fast_tanh`], differentiable;
+/// candle's own exact tanh on a device other than the CPU.
 pub fn tanh(x: &Tensor) -> Result<Tensor> {
-    x.apply_op1(Fast::Tanh)
+    if x.device().is_cpu() {
+        x.apply_op1(Fast::Tanh)
+    } else {
+        x.tanh()
+    }
 }
 
 /// The two f32 operands of a binary custom op as slices: an error names
@@ -203,7 +215,8 @@ impl candle_core::CustomOp2 for BiasAdd {
 
 /// `x [rows, cols] + b [cols]` (row-wise bias), differentiable; the bias
 /// gradient is computed as `1ᵀ·grad` (a matrix product) rather than
-/// candle's strided column reduction.
+/// candle's strided column reduction. On a device other than the CPU,
+/// candle's broadcast addition.
 ///
 /// ```
 /// use candle_core::{Device, Tensor};
@@ -213,7 +226,11 @@ impl candle_core::CustomOp2 for BiasAdd {
 /// assert_eq!(y.to_vec2::<f32>().unwrap(), vec![vec![11.0, 22.0], vec![13.0, 24.0]]);
 /// ```
 pub fn bias_add(x: &Tensor, b: &Tensor) -> Result<Tensor> {
-    x.contiguous()?.apply_op2(&b.contiguous()?, BiasAdd)
+    if x.device().is_cpu() {
+        x.contiguous()?.apply_op2(&b.contiguous()?, BiasAdd)
+    } else {
+        x.broadcast_add(b)
+    }
 }
 
 /// A dense layer `x Wᵀ + b` with `W [out, in]` (PyTorch layout) using

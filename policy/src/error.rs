@@ -98,6 +98,20 @@ pub enum PolicyError {
         /// Head index.
         head: usize,
     },
+    /// A GPU asked of a binary built without the `cuda` feature.
+    #[error("device cuda:{ordinal}: this binary was built without the `cuda` feature (scripts/build-cuda.sh builds one)")]
+    CudaNotBuilt {
+        /// The GPU ordinal asked for.
+        ordinal: usize,
+    },
+    /// The CUDA driver found no such GPU, or failed to open it.
+    #[error("device {device} is not available: {message}")]
+    DeviceUnavailable {
+        /// The device asked for, as named.
+        device: String,
+        /// What the driver said.
+        message: String,
+    },
     /// An error from candle.
     #[error(transparent)]
     Candle(#[from] candle_core::Error),

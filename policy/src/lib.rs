@@ -17,6 +17,7 @@
 //! - [`shards`]: one gradient on several threads (the shares every trainer
 //!   cuts its batch into).
 //! - [`threads`]: pinning candle's CPU thread count.
+//! - [`device`]: [`DeviceSpec`], where the weights live (`cpu`, `cuda:N`).
 //!
 //! ```
 //! use buridan_policy::{ActMode, Inference, ModelSpec, Mode, Policy};
@@ -29,6 +30,7 @@
 
 pub mod activation;
 pub mod checkpoint;
+pub mod device;
 pub mod dist;
 pub mod error;
 pub mod fragment;
@@ -40,6 +42,7 @@ pub mod shards;
 pub mod spec;
 pub mod threads;
 
+pub use device::DeviceSpec;
 pub use error::PolicyError;
 pub use fragment::{Fragment, DEFAULT_FRAGMENT_LEN};
 pub use infer::{ActMode, Inference, RecurrentState, NO_ACTION};

@@ -97,6 +97,9 @@ pub fn sequence(
             c0.dims()
         );
     }
+    if !xp.device().is_cpu() {
+        return unrolled(xp, w_hh, h0, c0, keep, t, max_seq_len);
+    }
     let saved = Arc::new(Mutex::new(Saved::default()));
     let op = Recurrence {
         h0: h0.flatten_all()?.to_vec1()?,
@@ -111,6 +114,65 @@ pub fn sequence(
     let h = xp.contiguous()?.apply_op2(&w_hh.contiguous()?, op)?;
     let c = Tensor::from_slice(&lock(&saved)?.c, (rows, cells), xp.device())?;
     Ok(LstmSequence { h, c })
+}
+
+/// [`sequence`] as one LSTM step of candle ops per time step, on any
+/// device: what [`sequence`] runs where the fused op has no kernel (a
+/// GPU). The same arguments and results (the shapes are checked by
+/// [`sequence`]); the state is cut from the graph every `max_seq_len`
+/// steps, and `c` is returned detached. Exact `σ` and `tanh` here against
+/// the fused op's fast approximations: the two agree within 1e-5 (the
+/// tests' bound).
+///
+/// ```
+/// use candle_core::{Device, Tensor};
+/// let dev = Device::Cpu;
+/// let xp = Tensor::new(&[[0.5f32, -1.0, 2.0, 0.25], [1.0, 0.0, -0.5, 3.0]], &dev).unwrap();
+/// let w_hh = Tensor::new(&[[0.1f32], [0.2], [-0.3], [0.4]], &dev).unwrap();
+/// let (h0, c0) = (Tensor::new(&[[0.3f32]], &dev).unwrap(), Tensor::new(&[[-0.2f32]], &dev).unwrap());
+/// let keep = Tensor::new(&[1f32, 0.0], &dev).unwrap();
+/// let a = buridan_policy::lstm::unrolled(&xp, &w_hh, &h0, &c0, &keep, 2, 0).unwrap();
+/// let b = buridan_policy::lstm::sequence(&xp, &w_hh, &h0, &c0, &keep, 2, 0).unwrap();
+/// let (ha, hb): (Vec<f32>, Vec<f32>) = (a.h.flatten_all().unwrap().to_vec1().unwrap(), b.h.flatten_all().unwrap().to_vec1().unwrap());
+/// assert!(ha.iter().zip(&hb).all(|(x, y)| (x - y).abs() < 1e-5));
+/// ```
+pub fn unrolled(
+    xp: &Tensor,
+    w_hh: &Tensor,
+    h0: &Tensor,
+    c0: &Tensor,
+    keep: &Tensor,
+    t: usize,
+    max_seq_len: usize,
+) -> Result<LstmSequence> {
+    let (b, cells) = h0.dims2()?;
+    let keep = keep.reshape((t * b, 1))?;
+    let w_t = w_hh.t()?;
+    let (mut h, mut c) = (h0.detach(), c0.detach());
+    let (mut hs, mut cs) = (Vec::with_capacity(t), Vec::with_capacity(t));
+    for s in 0..t {
+        if s > 0 && max_seq_len > 0 && s % max_seq_len == 0 {
+            h = h.detach();
+            c = c.detach();
+        }
+        let k = keep.narrow(0, s * b, b)?;
+        h = h.broadcast_mul(&k)?;
+        c = c.broadcast_mul(&k)?;
+        let a = (xp.narrow(0, s * b, b)? + h.matmul(&w_t)?)?;
+        let sig = candle_nn::ops::sigmoid(&a)?;
+        let i = sig.narrow(1, 0, cells)?;
+        let f = sig.narrow(1, cells, cells)?;
+        let g = a.narrow(1, 2 * cells, cells)?.tanh()?;
+        let o = sig.narrow(1, 3 * cells, cells)?;
+        c = ((f * &c)? + (i * g)?)?;
+        h = (o * c.tanh()?)?;
+        hs.push(h.clone());
+        cs.push(c.clone());
+    }
+    Ok(LstmSequence {
+        h: Tensor::cat(&hs, 0)?,
+        c: Tensor::cat(&cs, 0)?.detach(),
+    })
 }
 
 /// The fused op: its output is `h` after each step, `[t·b, cells]`; `c`

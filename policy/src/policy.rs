@@ -264,6 +264,34 @@ impl Policy {
         Ok(())
     }
 
+    /// A policy of the same spec and weights on `device` (a copy, never
+    /// shared with `self`).
+    pub fn to_device(&self, device: &Device) -> Result<Policy, PolicyError> {
+        let copy = Policy::new_on(self.spec.clone(), 0, device)?;
+        copy.copy_from(self)?;
+        Ok(copy)
+    }
+
+    /// The policy to act with on the CPU: `self` (a handle sharing its
+    /// weights) where they live on the CPU, else a CPU copy of them.
+    /// Actors, greedy checks and evaluations act on the CPU whatever
+    /// device the learner updates on.
+    ///
+    /// ```
+    /// use buridan_policy::{ModelSpec, Mode, Policy};
+    /// let p = Policy::new(ModelSpec::new(Mode::Ctde, 2, 8), 0).unwrap();
+    /// let q = p.on_cpu().unwrap();
+    /// assert!(q.device().is_cpu());
+    /// assert_eq!(p.weights(0).unwrap(), q.weights(0).unwrap());
+    /// ```
+    pub fn on_cpu(&self) -> Result<Policy, PolicyError> {
+        if self.device.is_cpu() {
+            Ok(self.clone())
+        } else {
+            self.to_device(&Device::Cpu)
+        }
+    }
+
     /// Copies all weights from another policy of the same spec.
     pub fn copy_from(&self, other: &Policy) -> Result<(), PolicyError> {
         self.set_weights(&other.weights(0)?)
@@ -320,16 +348,26 @@ impl Policy {
     /// std::fs::remove_dir_all(&dir).unwrap();
     /// ```
     pub fn load(dir: &Path) -> Result<Self, PolicyError> {
+        Self::load_on(dir, &Device::Cpu)
+    }
+
+    /// [`Self::load`] with the weights on `device`.
+    pub fn load_on(dir: &Path, device: &Device) -> Result<Self, PolicyError> {
         let spec = Self::read_spec(dir)?;
-        let policy = Policy::new(spec, 0)?;
+        let policy = Policy::new_on(spec, 0, device)?;
         policy.load_weights_file(&dir.join(MODEL_FILE), dir)?;
         Ok(policy)
     }
 
     /// Loads a checkpoint whose network is `expected`'s
     /// ([`ModelSpec::same_network`]); the policy takes `expected` as its
-    /// spec, so a run resumed on other layouts records those.
-    pub fn load_expecting(dir: &Path, expected: &ModelSpec) -> Result<Self, PolicyError> {
+    /// spec, so a run resumed on other layouts records those. The weights
+    /// go to `device`.
+    pub fn load_expecting(
+        dir: &Path,
+        expected: &ModelSpec,
+        device: &Device,
+    ) -> Result<Self, PolicyError> {
         let spec = Self::read_spec(dir)?;
         if !spec.same_network(expected) {
             return Err(PolicyError::SpecMismatch {
@@ -337,7 +375,7 @@ impl Policy {
                 found: serde_json::to_string(&spec).expect("serialises"),
             });
         }
-        let policy = Policy::new(expected.clone(), 0)?;
+        let policy = Policy::new_on(expected.clone(), 0, device)?;
         policy.load_weights_file(&dir.join(MODEL_FILE), dir)?;
         Ok(policy)
     }
@@ -349,7 +387,7 @@ impl Policy {
                 file: MODEL_FILE,
             });
         }
-        let tensors = candle_core::safetensors::load(path, &self.device)?;
+        let tensors = candle_core::safetensors::load(path, &Device::Cpu)?;
         let mut list = Vec::with_capacity(tensors.len());
         for (name, t) in tensors {
             let t = t.to_dtype(DType::F32)?;

@@ -142,6 +142,46 @@ fn the_fused_recurrence_equals_the_step_by_step_unroll() {
     }
 }
 
+/// The path a GPU runs (candle's own ops, exact `σ` and `tanh`), checked
+/// on the CPU against the same unroll and against the fused op.
+#[test]
+fn the_portable_unroll_equals_the_fused_recurrence() {
+    for (seed, max_seq_len) in [(1, 0), (2, 3), (3, 2), (4, 1)] {
+        let c = case(seed);
+        let seq = fused(&c, max_seq_len);
+        let portable = lstm::unrolled(
+            c.xp.as_tensor(),
+            c.w_hh.as_tensor(),
+            &c.h0,
+            &c.c0,
+            &c.keep,
+            T,
+            max_seq_len,
+        )
+        .unwrap();
+        for (what, a, b, tol) in [
+            ("h", flat(&portable.h), flat(&seq.h), 1e-5),
+            ("c", flat(&portable.c), flat(&seq.c), 1e-5),
+        ] {
+            let d = max_diff(&a, &b);
+            assert!(d < tol, "{what}, seed {seed}: {d}");
+        }
+        let (dxp, dw) = grads(&c, &seq.h);
+        let (dxp_p, dw_p) = grads(&c, &portable.h);
+        assert!(dxp.iter().any(|&v| v.abs() > 1e-3));
+        let (dx, dww) = (max_diff(&dxp, &dxp_p), max_diff(&dw, &dw_p));
+        assert!(
+            dx < 1e-4,
+            "d xp, seed {seed}, max_seq_len {max_seq_len}: {dx}"
+        );
+        assert!(
+            dww < 1e-4,
+            "d W_hh, seed {seed}, max_seq_len {max_seq_len}: {dww}"
+        );
+        assert!(!portable.c.track_op(), "c is detached");
+    }
+}
+
 #[test]
 fn truncation_stops_gradients_at_sequence_boundaries() {
     let c = case(5);

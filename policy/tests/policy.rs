@@ -352,7 +352,7 @@ fn checkpoint_round_trip_gives_identical_outputs() {
         let p = Policy::new(spec.clone(), 100 + k as u64).unwrap();
         p.save(&path).unwrap();
         assert!(path.join("spec.json").is_file() && path.join("model.safetensors").is_file());
-        let q = Policy::load_expecting(&path, &spec).unwrap();
+        let q = Policy::load_expecting(&path, &spec, &Device::Cpu).unwrap();
         let rows = 6;
         let obs = Tensor::from_vec(obs_batch(rows, 13, 2.0), (rows, 13), &Device::Cpu).unwrap();
         if spec.lstm.is_none() {
@@ -396,7 +396,7 @@ fn checkpoint_round_trip_gives_identical_outputs() {
     let ck0 = dir.path().join("ck0");
     let other = ModelSpec::new(Mode::Ctde, 2, 14);
     assert!(matches!(
-        Policy::load_expecting(&ck0, &other),
+        Policy::load_expecting(&ck0, &other, &Device::Cpu),
         Err(PolicyError::SpecMismatch { .. })
     ));
     // Weights of a 13-dim model under a 14-dim spec.

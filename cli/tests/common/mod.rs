@@ -61,6 +61,7 @@ pub fn train_args(out: PathBuf) -> TrainArgs {
         config: None,
         steps: Some(3000),
         seed: Some(3),
+        device: None,
         resume: None,
         metrics: None,
         overrides: vec![

@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::config::{Algorithm, TrainConfig};
 use super::state::TrainerState;
-use super::{cores, TrainError};
+use super::TrainError;
 use crate::algo::impala::Impala;
 use crate::algo::optim::ClippedAdam;
 use crate::algo::ppo::Ppo;
@@ -40,7 +40,7 @@ impl Learner {
     /// Sizes the update to the cores this run may use now
     /// ([`cores::share`] unless `update_threads` fixes it).
     pub(super) fn follow_cores(&mut self, cfg: &TrainConfig) {
-        let threads = cores::update_threads(cfg.algorithm.update_threads());
+        let threads = cfg.update_threads(cfg.algorithm.update_threads());
         match self {
             Learner::Ppo(p) => p.settings.update_threads = threads,
             Learner::Impala(i) => i.settings.update_threads = threads,

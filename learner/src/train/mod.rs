@@ -205,7 +205,9 @@ impl Run {
     /// the optimiser.
     pub fn prepare(cfg: &TrainConfig, out: &Path) -> Result<Run, TrainError> {
         cfg.validate()?;
-        // Before anything is written: a plant that does not load stops here.
+        // Before anything is written: a device this binary or this machine
+        // lacks, or a plant that does not load, stops here.
+        let device = cfg.run.device.open()?;
         let plant = cfg.load_plant()?.map(Arc::new);
         buridan_policy::threads::tune_allocator();
         let t_start = Instant::now();
@@ -238,18 +240,19 @@ impl Run {
         let spec = cfg.model_spec(obs_dim);
         let (policy, mut state) = match &cfg.run.resume {
             None => {
-                let policy = Policy::new(spec.clone(), cfg.run.seed)?;
+                let policy = Policy::new_on(spec.clone(), cfg.run.seed, &device)?;
                 if let Some(im) = &cfg.imitation {
                     imitate(cfg, im, Phase::Warmup, &layouts, &policy, out)?;
                 }
                 (policy, TrainerState::default())
             }
             Some(dir) => {
-                let policy =
-                    Policy::load_expecting(dir, &spec).map_err(|source| TrainError::Resume {
+                let policy = Policy::load_expecting(dir, &spec, &device).map_err(|source| {
+                    TrainError::Resume {
                         dir: dir.clone(),
                         source,
-                    })?;
+                    }
+                })?;
                 (policy, read_trainer_state(dir)?)
             }
         };
@@ -269,6 +272,7 @@ impl Run {
             map = %cfg.map_label(),
             agents = cfg.agents,
             params = policy.num_params(),
+            device = %cfg.run.device,
             candle_threads = buridan_policy::threads::candle_threads(),
             updates = state.updates,
             "training"

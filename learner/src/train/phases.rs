@@ -63,7 +63,7 @@ pub(super) fn imitate(
     // updates do.
     let _learning = cores::Learning::start();
     let im = &ImitationConfig {
-        threads: cores::update_threads(im.threads),
+        threads: cfg.update_threads(im.threads),
         ..im.clone()
     };
     let imitated = match layouts {

@@ -71,7 +71,7 @@ pub fn rollout_through(
     let mut venv = VecEnv::new(map, env, num_envs.max(1), kind, 1)?;
     let rows = venv.rows();
     let heads = policy.spec().heads;
-    let mut inf = Inference::new(policy.clone(), rows, seed);
+    let mut inf = Inference::new(policy.on_cpu()?, rows, seed);
     let mut actions = vec![0u8; rows * heads];
     let mut executed = vec![0u8; rows * heads];
     let mut walls = vec![0u8; rows * heads * NUM_ACTIONS];

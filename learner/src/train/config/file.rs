@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use buridan_env::replay::ReplayConfig;
 use buridan_env::{ObsFeatures, Rules, Starts};
 use buridan_imitate::ImitationConfig;
-use buridan_policy::Mode;
+use buridan_policy::{DeviceSpec, Mode};
 use serde::{Deserialize, Serialize};
 
 use super::{Algo, Algorithm};
@@ -26,6 +26,10 @@ fn is_zero(n: &u8) -> bool {
 
 fn no_delay(delay: &f32) -> bool {
     *delay == 0.0
+}
+
+fn on_cpu(device: &DeviceSpec) -> bool {
+    device.is_cpu()
 }
 
 fn replay_off(replay: &ReplayConfig) -> bool {
@@ -78,6 +82,8 @@ pub(super) struct TrainFile {
     #[serde(skip_serializing_if = "Option::is_none")]
     stop: Option<StopRule>,
     resume: Option<PathBuf>,
+    #[serde(skip_serializing_if = "on_cpu")]
+    device: DeviceSpec,
     #[serde(skip_serializing_if = "Option::is_none")]
     ppo: Option<PpoConfig>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -150,12 +156,12 @@ macro_rules! convert_through_shared_fields {
             type Error = FileError;
 
             fn try_from(file: TrainFile) -> Result<Self, FileError> {
-                let TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, algo, ppo, impala, seed, steps, num_actors, envs_per_actor, actor_nice, fragment_len, checkpoint_every, stop_return, stop_len, stop, resume, $($field),* } = file;
+                let TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, algo, ppo, impala, seed, steps, num_actors, envs_per_actor, actor_nice, fragment_len, checkpoint_every, stop_return, stop_len, stop, resume, device, $($field),* } = file;
                 Ok(TrainConfig {
                     task: Task::from_keys(map, maps, plant)?,
                     algorithm: TrainFile::algorithm(algo, ppo, impala)?,
                     model: ModelConfig { hidden, lstm, lstm_cells, max_seq_len },
-                    run: RunConfig { seed, steps, num_actors, envs_per_actor, actor_nice, fragment_len, checkpoint_every, stop_return, stop_len, stop, resume },
+                    run: RunConfig { seed, steps, num_actors, envs_per_actor, actor_nice, fragment_len, checkpoint_every, stop_return, stop_len, stop, resume, device },
                     $($field),*
                 })
             }
@@ -171,8 +177,8 @@ macro_rules! convert_through_shared_fields {
                     Algorithm::Impala(i) => (None, Some(i)),
                 };
                 let ModelConfig { hidden, lstm, lstm_cells, max_seq_len } = model;
-                let RunConfig { seed, steps, num_actors, envs_per_actor, actor_nice, fragment_len, checkpoint_every, stop_return, stop_len, stop, resume } = run;
-                TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, algo, ppo, impala, seed, steps, num_actors, envs_per_actor, actor_nice, fragment_len, checkpoint_every, stop_return, stop_len, stop, resume, $($field),* }
+                let RunConfig { seed, steps, num_actors, envs_per_actor, actor_nice, fragment_len, checkpoint_every, stop_return, stop_len, stop, resume, device } = run;
+                TrainFile { map, maps, plant, hidden, lstm, lstm_cells, max_seq_len, algo, ppo, impala, seed, steps, num_actors, envs_per_actor, actor_nice, fragment_len, checkpoint_every, stop_return, stop_len, stop, resume, device, $($field),* }
             }
         }
     };

@@ -425,6 +425,25 @@ impl TrainConfig {
 }
 
 impl TrainConfig {
+    /// The threads an update cuts its batch over for an `update_threads`
+    /// setting: on the CPU the number itself, or the run's share of the
+    /// cores for 0 ([`super::cores::update_threads`]); on a GPU one for 0,
+    /// so that each update is one graph on the device.
+    ///
+    /// ```
+    /// use buridan_learner::train::TrainConfig;
+    /// let mut cfg = TrainConfig::default();
+    /// assert_eq!(cfg.update_threads(3), 3);
+    /// cfg.run.device = buridan_policy::DeviceSpec::Cuda(0);
+    /// assert_eq!((cfg.update_threads(0), cfg.update_threads(3)), (1, 3));
+    /// ```
+    pub fn update_threads(&self, setting: usize) -> usize {
+        match (setting, self.run.device) {
+            (0, buridan_policy::DeviceSpec::Cuda(_)) => 1,
+            (setting, _) => super::cores::update_threads(setting),
+        }
+    }
+
     /// PPO's update settings: `ppo` with the run's discount and sequence
     /// length.
     pub fn ppo_settings(&self, p: &PpoConfig) -> PpoSettings {
@@ -443,7 +462,7 @@ impl TrainConfig {
             grad_clip: p.grad_clip,
             standardize_advantages: p.standardize_advantages,
             max_seq_len: self.model.max_seq_len,
-            update_threads: super::cores::update_threads(p.update_threads),
+            update_threads: self.update_threads(p.update_threads),
         }
     }
 
@@ -463,7 +482,7 @@ impl TrainConfig {
                 pg_rho_bar: i.pg_rho_bar,
             },
             max_seq_len: self.model.max_seq_len,
-            update_threads: super::cores::update_threads(i.update_threads),
+            update_threads: self.update_threads(i.update_threads),
         }
     }
 }

@@ -3,18 +3,24 @@
 
 use std::path::PathBuf;
 
+use buridan_policy::DeviceSpec;
+
 use crate::train::stop::StopRule;
 
 /// How a run is carried out, TOML top-level keys `seed`, `steps`,
 /// `num_actors`, `envs_per_actor`, `actor_nice`, `fragment_len`,
-/// `checkpoint_every`, `stop_return`, `stop_len`, `[stop]` and `resume`
-/// (the file keeps them flat; [`super::TrainConfig`] groups them here).
+/// `checkpoint_every`, `stop_return`, `stop_len`, `[stop]`, `resume` and
+/// `device` (the file keeps them flat; [`super::TrainConfig`] groups them here).
 ///
 /// ```
 /// use buridan_learner::train::TrainConfig;
 /// let cfg: TrainConfig = toml::from_str("seed = 7\nsteps = 1000\nenvs_per_actor = 4").unwrap();
 /// assert_eq!((cfg.run.seed, cfg.run.steps, cfg.run.envs_per_actor), (7, 1000, 4));
 /// assert_eq!((cfg.run.num_actors, cfg.run.fragment_len), (1, 50));
+/// assert_eq!(cfg.run.device, buridan_policy::DeviceSpec::Cpu);
+/// let gpu: TrainConfig = toml::from_str("device = \"cuda:1\"").unwrap();
+/// assert_eq!(gpu.run.device, buridan_policy::DeviceSpec::Cuda(1));
+/// assert!(toml::from_str::<TrainConfig>("device = \"gpu\"").is_err());
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunConfig {
@@ -48,6 +54,11 @@ pub struct RunConfig {
     pub stop: Option<StopRule>,
     /// Continue from this checkpoint directory (weights, optimiser, counters).
     pub resume: Option<PathBuf>,
+    /// Where the learner's weights and updates live (`cpu`, `cuda[:N]`;
+    /// a GPU needs a `cuda` build, [`buridan_policy::device`]). Actors,
+    /// imitation's expert and the evaluations act on the CPU whatever it
+    /// is; only the gradient steps (PPO, IMPALA, cloning) move.
+    pub device: DeviceSpec,
 }
 
 impl Default for RunConfig {
@@ -64,6 +75,7 @@ impl Default for RunConfig {
             stop_len: None,
             stop: None,
             resume: None,
+            device: DeviceSpec::Cpu,
         }
     }
 }
