@@ -7,9 +7,9 @@ train differently). Run from the repository root:
 
     python3 docs/results/recipe-stop/readme-row-more.py
 
-Reads readme-row-more-2026-12-07.csv beside this file (the row's recipe,
-`readme-row-more.toml`, on today's code: seed 0 and seeds 10-19, seed-42
-protocol), the row's own ten seeds from
+Reads readme-row-more-2026-12-07.csv and readme-row-more-rm-3.1-2026-12-08.csv
+beside this file (the row's recipe, `readme-row-more.toml`, on the code of
+dd1ea6e9 and 990267f2: seed 0 and seeds 10-19, seed-42 protocol), the row's own ten seeds from
 ../recipe-lstm-imitation-intent/cells.csv (method
 ppo-lstm-imitation-intent-ctde, seeds 0-9 on the code of e8debc79) and
 the recipe's twenty seeds from layouts-judged-2026-12-07.csv (seeds 0-9),
@@ -49,9 +49,10 @@ def cell(xs):
 
 def main():
     today = {}
-    for r in csv.DictReader(open(HERE / "readme-row-more-2026-12-07.csv")):
-        for c in COLUMNS:
-            today.setdefault((r["layout"], c, int(r["seed"]) >= 10), []).append(float(r[c]))
+    for name in ["readme-row-more-2026-12-07.csv", "readme-row-more-rm-3.1-2026-12-08.csv"]:
+        for r in csv.DictReader(open(HERE / name)):
+            for c in COLUMNS:
+                today.setdefault((r["layout"], c, int(r["seed"]) >= 10), []).append(float(r[c]))
     row = {}
     for r in csv.DictReader(open(HERE.parent / "recipe-lstm-imitation-intent" / "cells.csv")):
         if r["method"] == "ppo-lstm-imitation-intent-ctde":
@@ -74,6 +75,29 @@ def main():
             now = recipe.get((layout, c), [])
             lo, hi = boot_diff(now, every)
             print(f"| {layout} {c} | {cell(own)} | {cell(zero)} | {cell(more)} | {cell(every)} | {cell(now)} | {mean(now) - mean(every):+.2f} [{lo:+.2f}, {hi:+.2f}] |")
+
+    # Seeds 10-19 of both recipes, paired by seed: training differs from
+    # the first update on, but the seed-42 episodes and the seeds are shared.
+    def by_seed(names, layout, c):
+        out = {}
+        for name in names:
+            for r in csv.DictReader(open(HERE / name)):
+                if r["layout"] == layout and int(r["seed"]) >= 10:
+                    out[int(r["seed"])] = float(r[c])
+        return out
+    print()
+    print("| seeds 10-19, paired | row's recipe | recipe as it stands | recipe minus row's recipe, paired |")
+    print("|---|---|---|---|")
+    for layout, recipe_file in [("rm-2.2", "layouts-judged-more-2026-12-07.csv"), ("rm-3.1", "rm-3.1-more-2026-12-07.csv")]:
+        for c in COLUMNS:
+            a = by_seed(["readme-row-more-2026-12-07.csv", "readme-row-more-rm-3.1-2026-12-08.csv"], layout, c)
+            b = by_seed([recipe_file], layout, c)
+            seeds = sorted(set(a) & set(b))
+            if not seeds:
+                continue
+            d = [b[k] - a[k] for k in seeds]
+            lo, hi = boot(d)
+            print(f"| {layout} {c} | {cell([a[k] for k in seeds])} | {cell([b[k] for k in seeds])} | {mean(d):+.2f} [{lo:+.2f}, {hi:+.2f}] |")
 
 
 if __name__ == "__main__":
