@@ -100,5 +100,5 @@ cargo test --manifest-path "$root/Cargo.toml" --release --features cuda \
   -p buridan-learner --test device --no-run --target-dir "$root/target/cuda"
 
 step "done"
-echo "binaries: $root/target/cuda/release/{learner,actor,…}"
+echo "binary: $root/target/cuda/release/learner (actors need no GPU: the default build's actor joins it)"
 echo "run them with LD_LIBRARY_PATH=<the GPU machine's CUDA 13 libraries>, or $cuda/lib"

@@ -95,6 +95,16 @@ pub struct EvalArgs {
     /// Episodes run in parallel (1 keeps compute times comparable).
     #[arg(long, default_value_t = 1, conflicts_with = "plant")]
     pub jobs: usize,
+    /// Where trained policies infer: `cpu` (the default) or `cuda[:N]`, a
+    /// GPU, in a binary built by `scripts/build-cuda.sh`; planners, shields
+    /// and the env run on the CPU either way.
+    #[arg(
+        long,
+        value_name = "cpu|cuda[:N]",
+        default_value = "cpu",
+        conflicts_with = "plant"
+    )]
+    pub device: buridan_policy::DeviceSpec,
     /// Output directory (CSV, JSON, PNG).
     #[arg(long)]
     pub out: PathBuf,
@@ -228,6 +238,10 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
         None
     };
     let limits = planner_limits(args.time_limit, args.memory_limit)?;
+    let device = args
+        .device
+        .open()
+        .with_context(|| format!("--device {}", args.device))?;
     let t_max = args.t_max.unwrap_or(args.rules.default_t_max());
     let sweep = counts.len() > 1;
     let mut controller: Controller = args.controller.parse()?;
@@ -253,7 +267,7 @@ pub fn run(args: &EvalArgs) -> Result<Vec<EvalSummary>> {
             None => count.expect("a count without --scen"),
         };
         let episodes = set.as_ref().map_or(args.episodes, |s| s.instances.len());
-        let make = controller.factory(agents, args.seed, limits, args.rules)?;
+        let make = controller.factory_on(agents, args.seed, limits, args.rules, &device)?;
         let spec = EvalSpec {
             agents,
             episodes,

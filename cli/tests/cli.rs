@@ -145,6 +145,14 @@ fn bad_controllers_and_checkpoints_are_reported() {
         format!("{err:#}").contains("unknown map 'rm-7.7'"),
         "{err:#}"
     );
+    // A GPU asked of a default build: refused, naming the build script.
+    if !buridan_policy::device::CUDA_BUILT {
+        let mut args = eval_args("cbs".into(), out.clone());
+        args.device = buridan_policy::DeviceSpec::Cuda(0);
+        let err = format!("{:#}", eval::run(&args).unwrap_err());
+        assert!(err.contains("--device cuda:0"), "{err}");
+        assert!(err.contains("scripts/build-cuda.sh"), "{err}");
+    }
 }
 
 #[test]

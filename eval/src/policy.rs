@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use buridan_env::{GridEnv, ObsFeatures, NUM_ACTIONS};
-use buridan_policy::{checkpoint, ActMode, Inference, Mode, Policy, PolicyError};
+use buridan_policy::{checkpoint, ActMode, Device, Inference, Mode, Policy, PolicyError};
 
 use crate::{Controller, GiveUp};
 
@@ -49,7 +49,18 @@ impl PolicyController {
         act_mode: ActMode,
         seed: u64,
     ) -> Result<Self, PolicyLoadError> {
-        let (_, policy, rows) = load_for_agents(path, agents)?;
+        Self::load_on(path, agents, act_mode, seed, &Device::Cpu)
+    }
+
+    /// [`Self::load`] with the weights on `device` (inference there).
+    pub fn load_on(
+        path: &Path,
+        agents: usize,
+        act_mode: ActMode,
+        seed: u64,
+        device: &Device,
+    ) -> Result<Self, PolicyLoadError> {
+        let (_, policy, rows) = load_for_agents(path, agents, device)?;
         let spec = policy.spec().clone();
         Ok(Self {
             runner: PolicyRunner::new(policy, rows, act_mode, seed),
@@ -135,13 +146,14 @@ impl PolicyRunner {
 pub(crate) fn load_for_agents(
     path: &Path,
     agents: usize,
+    device: &Device,
 ) -> Result<(PathBuf, Policy, usize), PolicyLoadError> {
     let failed = |source| PolicyLoadError::Checkpoint {
         dir: path.to_path_buf(),
         source,
     };
     let dir = checkpoint::resolve(path).map_err(failed)?;
-    let policy = Policy::load(&dir).map_err(failed)?;
+    let policy = Policy::load_on(&dir, device).map_err(failed)?;
     let spec = policy.spec();
     let rows = match spec.mode {
         // A CTDE policy trained with n agents runs with any number (scalability).

@@ -26,7 +26,7 @@ use std::path::Path;
 
 use buridan_env::{seed, GridEnv};
 use buridan_mapf::shield::{preference_orders, ActionOrder, Shield};
-use buridan_policy::ActMode;
+use buridan_policy::{ActMode, Device};
 
 use crate::policy::{MaskKind, PolicyController, PolicyLoadError};
 
@@ -197,8 +197,20 @@ impl ShieldController {
         seed: u64,
         ranking: Ranking,
     ) -> Result<Self, PolicyLoadError> {
+        Self::load_on(checkpoint, agents, act_mode, seed, ranking, &Device::Cpu)
+    }
+
+    /// [`Self::load`] with the policy's weights on `device`.
+    pub fn load_on(
+        checkpoint: &Path,
+        agents: usize,
+        act_mode: ActMode,
+        seed: u64,
+        ranking: Ranking,
+        device: &Device,
+    ) -> Result<Self, PolicyLoadError> {
         Ok(Self {
-            policy: PolicyController::load(checkpoint, agents, act_mode, seed)?,
+            policy: PolicyController::load_on(checkpoint, agents, act_mode, seed, device)?,
             seed,
             options: ShieldOptions {
                 ranking,

@@ -42,6 +42,7 @@ pub mod shards;
 pub mod spec;
 pub mod threads;
 
+pub use candle_core::Device;
 pub use device::DeviceSpec;
 pub use error::PolicyError;
 pub use fragment::{Fragment, DEFAULT_FRAGMENT_LEN};

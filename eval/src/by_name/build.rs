@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use buridan_env::Rules;
 use buridan_mapf::{planner_within_cap, Limits, Planner, PlannerLookupError};
+use buridan_policy::Device;
 
 use super::grammar::{Controller, NetKind, Portfolio};
 use super::{
@@ -51,6 +52,20 @@ impl Controller {
         limits: Limits,
         rules: Rules,
     ) -> Result<ControllerFactory, ControllerNameError> {
+        self.factory_on(agents, seed, limits, rules, &Device::Cpu)
+    }
+
+    /// [`Self::factory`] whose trained policies act on `device` (`learner
+    /// eval --device`): each controller it makes loads its checkpoint's
+    /// weights there. Planners, shields and the env stay on the CPU.
+    pub fn factory_on(
+        &self,
+        agents: usize,
+        seed: u64,
+        limits: Limits,
+        rules: Rules,
+        device: &Device,
+    ) -> Result<ControllerFactory, ControllerNameError> {
         let name = || self.to_string();
         match self {
             Controller::Net(net) => {
@@ -69,7 +84,7 @@ impl Controller {
                         source,
                     })?
                     .into();
-                let inner = net.inner.factory(agents, seed, limits, rules)?;
+                let inner = net.inner.factory_on(agents, seed, limits, rules, device)?;
                 let kind = net.kind;
                 Ok(Box::new(move || {
                     let rescue = RescueController::new(inner(), planner.clone(), limits);
@@ -82,15 +97,16 @@ impl Controller {
                 }))
             }
             Controller::Shield(s) => {
-                let s = s.clone();
+                let (s, device) = (s.clone(), device.clone());
                 let load = move || {
                     let p = &s.policy;
-                    let shield = ShieldController::load(
+                    let shield = ShieldController::load_on(
                         &p.checkpoint,
                         agents,
                         p.act.into(),
                         seed,
                         s.options.ranking,
+                        &device,
                     )?
                     .with_options(s.options);
                     Ok::<_, PolicyLoadError>(shield)
@@ -101,11 +117,11 @@ impl Controller {
                 }))
             }
             Controller::Policy(p) => {
-                let (dir, act) = (p.checkpoint.clone(), p.act.into());
-                PolicyController::load(&dir, agents, act, seed)?;
+                let (dir, act, device) = (p.checkpoint.clone(), p.act.into(), device.clone());
+                PolicyController::load_on(&dir, agents, act, seed, &device)?;
                 Ok(Box::new(move || {
                     Box::new(
-                        PolicyController::load(&dir, agents, act, seed)
+                        PolicyController::load_on(&dir, agents, act, seed, &device)
                             .expect("loaded once already"),
                     )
                 }))

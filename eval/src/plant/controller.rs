@@ -36,7 +36,7 @@ impl PlantPolicy {
             source,
         })?;
         let trained_on = trained_plant(&dir)?;
-        let (dir, policy, rows) = load_for_agents(&dir, agents)?;
+        let (dir, policy, rows) = load_for_agents(&dir, agents, &buridan_policy::Device::Cpu)?;
         let spec = policy.spec().clone();
         let env = PlantEnv::new(
             plant.clone(),

@@ -27,6 +27,10 @@ pub enum TrainError {
     /// The policy cannot be built, saved or restored.
     #[error("policy")]
     Policy(#[from] PolicyError),
+    /// The run's `device` cannot be opened (a GPU in a default build, or
+    /// none with that ordinal).
+    #[error("cannot train on the device the run names")]
+    Device(#[source] PolicyError),
     /// A checkpoint to resume from does not fit this run.
     #[error("cannot resume from {}", dir.display())]
     Resume {

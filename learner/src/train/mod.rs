@@ -207,7 +207,7 @@ impl Run {
         cfg.validate()?;
         // Before anything is written: a device this binary or this machine
         // lacks, or a plant that does not load, stops here.
-        let device = cfg.run.device.open()?;
+        let device = cfg.run.device.open().map_err(TrainError::Device)?;
         let plant = cfg.load_plant()?.map(Arc::new);
         buridan_policy::threads::tune_allocator();
         let t_start = Instant::now();
