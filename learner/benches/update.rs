@@ -116,14 +116,18 @@ fn bench(c: &mut Criterion) {
     }
     g.finish();
 
-    let tuned = TrainConfig::from_toml_file(
-        concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/configs/impala-ctde-rm-2.1.toml"
-        )
-        .as_ref(),
-    )
-    .expect("the tuned IMPALA config parses");
+    // Where it was built, or (a bench binary carried to another machine,
+    // scripts/gpu-check.sh) beside the working directory.
+    let built_here = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/configs/impala-ctde-rm-2.1.toml"
+    );
+    let config = [built_here, "configs/impala-ctde-rm-2.1.toml"]
+        .into_iter()
+        .map(std::path::Path::new)
+        .find(|p| p.exists())
+        .expect("learner/configs/impala-ctde-rm-2.1.toml, run from learner/");
+    let tuned = TrainConfig::from_toml_file(config).expect("the tuned IMPALA config parses");
     let mut g = c.benchmark_group("impala-rm-2.1");
     g.sample_size(20);
     for (name, lstm) in [("mlp", false), ("lstm", true)] {
