@@ -95,9 +95,11 @@ export CUDAFORGE_THREADS="${CUDAFORGE_THREADS:-$(nproc)}"
 cargo build --manifest-path "$root/Cargo.toml" --release --features buridan-cli/cuda \
   -p buridan-cli --bins --target-dir "$root/target/cuda"
 # The parity tests (learner/tests/device.rs) and the update bench, built to
-# be carried to a GPU machine: their paths are printed by cargo.
+# be carried to a GPU machine (scripts/gpu-check.sh): cargo prints their paths.
 cargo test --manifest-path "$root/Cargo.toml" --release --features cuda \
   -p buridan-learner --test device --no-run --target-dir "$root/target/cuda"
+cargo bench --manifest-path "$root/Cargo.toml" --features cuda \
+  -p buridan-learner --bench update --no-run --target-dir "$root/target/cuda"
 
 step "done"
 echo "binary: $root/target/cuda/release/learner (actors need no GPU: the default build's actor joins it)"

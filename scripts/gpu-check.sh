@@ -5,7 +5,7 @@
 # the GPU learner and with the CPU learner.
 #
 # Here (no GPU needed):   scripts/gpu-check.sh --pack
-#   builds (scripts/build-cuda.sh, then the bench) and leaves the stripped,
+#   builds (scripts/build-cuda.sh: the learner, tests and bench) and leaves the stripped,
 #   xz-compressed binaries in target/cuda-carry/ (carry that folder).
 # There (the device tool runs it from the repository root):
 #   scripts/gpu-check.sh --run
@@ -24,17 +24,8 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 carry="$root/target/cuda-carry"
 
 pack() {
+  # The cuda learner, its parity tests and the update bench.
   "$root/scripts/build-cuda.sh"
-  local toolchain="${BURIDAN_CUDA_TOOLCHAIN:-$root/target/cuda-toolchain}"
-  local cuda
-  cuda="$("$root/scripts/build-cuda.sh" --print-libs)"
-  (
-    export PATH="$cuda/../bin:$PATH" CUDA_HOME="$cuda/.." CUDA_PATH="$cuda/.." CUDA_ROOT="$toolchain/lib"
-    export LIBRARY_PATH="$toolchain/lib${LIBRARY_PATH:+:$LIBRARY_PATH}"
-    export CUDA_COMPUTE_CAP="${CUDA_COMPUTE_CAP:-90}"
-    cargo bench --manifest-path "$root/Cargo.toml" --features buridan-learner/cuda \
-      -p buridan-learner --bench update --no-run --target-dir "$root/target/cuda"
-  )
   rm -rf "$carry" && mkdir -p "$carry"
   newest() { ls -t $1 2>/dev/null | grep -v '\.d$' | head -1; }
   strip -o "$carry/learner" "$root/target/cuda/release/learner"

@@ -13,6 +13,7 @@
 //! - [`monitor`]: deadlock and livelock detection.
 //! - [`api`]: [`BatchedEnv`], the batched interface actors drive.
 //! - [`seed`]: how one run seed becomes every random stream's seed.
+//! - [`text_serde`]: serde through a type's text ([`serde_as_text!`]).
 //!
 //! ```
 //! use buridan_env::{EnvConfig, GridEnv, Map, Starts};
@@ -39,6 +40,7 @@ pub mod reward;
 pub mod rules;
 pub mod seed;
 pub mod stats;
+pub mod text_serde;
 pub mod vec_env;
 pub mod world;
 

@@ -26,7 +26,7 @@
 //! - [`output`]: CSV, JSON and PNG files of a report; the agent-count sweep.
 //! - [`plot`]: heatmaps, box plots and line charts as PNG.
 //! - [`replay`]: one episode recorded step by step, for drawing.
-//! - [`text_serde`]: serde through a type's text ([`serde_as_text!`]).
+//! - [`serde_as_text!`]: serde through a type's text (`buridan_env::text_serde`).
 
 pub mod benchmark;
 pub mod by_name;
@@ -47,7 +47,7 @@ pub mod rescue;
 pub mod runner;
 pub mod shield;
 pub mod stats;
-pub mod text_serde;
+pub use buridan_env::serde_as_text;
 pub mod throughput;
 
 pub use controller::{Controller, GiveUp, PlanNotes, RandomController};

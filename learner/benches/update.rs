@@ -26,9 +26,10 @@ use buridan_env::{Map, ObsKind, Starts, VecEnv};
 use buridan_learner::algo::impala::Impala;
 use buridan_learner::algo::ppo::{Ppo, PpoSettings};
 use buridan_learner::train::{env_config, Algorithm, ImpalaConfig, PpoConfig, Task, TrainConfig};
-use buridan_policy::{DeviceSpec, Fragment, Inference, Mode, Policy};
+use buridan_policy::{DeviceSpec, Fragment, Inference, Mode, ModelSpec, Policy};
 use candle_core::Device;
-use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use criterion::measurement::WallTime;
+use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion, Throughput};
 use rand::SeedableRng;
 
 /// The devices to time on: the CPU, and the first GPU where there is one.
@@ -48,7 +49,9 @@ fn devices() -> Vec<(&'static str, Device)> {
     devices
 }
 
-fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
+/// `count` fragments collected on `cfg`'s task by a fresh policy, and that
+/// policy's spec.
+fn fragments(cfg: &TrainConfig, count: usize) -> (ModelSpec, Vec<Fragment>) {
     let map = Arc::new(Map::load(&cfg.map_label()).unwrap());
     let venv = VecEnv::new(
         map,
@@ -59,11 +62,10 @@ fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
     )
     .unwrap();
     let spec = cfg.model_spec(venv.obs_dim());
-    let policy = Policy::new(spec.clone(), 0).unwrap();
     let rows = venv.obs().len() / venv.obs_dim();
     let mut actor = Collector {
         id: 0,
-        inference: Inference::new(Policy::new(spec, 0).unwrap(), rows, 1),
+        inference: Inference::new(Policy::new(spec.clone(), 0).unwrap(), rows, 1),
         behaviour: cfg.behaviour(),
         venv,
         fragment_len: cfg.run.fragment_len,
@@ -71,7 +73,37 @@ fn fragments(cfg: &TrainConfig, count: usize) -> (Policy, Vec<Fragment>) {
         shield: None,
     };
     let frags = (0..count).map(|_| actor.collect().unwrap()).collect();
-    (policy, frags)
+    (spec, frags)
+}
+
+/// Samples (agent-steps) in a batch of fragments.
+fn samples(frags: &[Fragment]) -> usize {
+    frags.iter().map(|f| f.len * f.rows).sum()
+}
+
+/// Times one PPO epoch over the whole batch as one minibatch (the cost of
+/// one pass), `cfg`'s PPO settings, fresh weights on `device`.
+fn bench_ppo_epoch(
+    g: &mut BenchmarkGroup<'_, WallTime>,
+    name: String,
+    cfg: &TrainConfig,
+    spec: &ModelSpec,
+    frags: &[Fragment],
+    device: &Device,
+) {
+    let policy = Policy::new_on(spec.clone(), 0, device).unwrap();
+    let mut ppo = Ppo::new(
+        &policy,
+        PpoSettings {
+            epochs: 1,
+            minibatch_size: samples(frags),
+            ..cfg.ppo_settings(&PpoConfig::default())
+        },
+    );
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+    g.bench_function(name, |b| {
+        b.iter(|| ppo.update(&policy, frags, &mut rng).unwrap())
+    });
 }
 
 fn bench(c: &mut Criterion) {
@@ -83,32 +115,20 @@ fn bench(c: &mut Criterion) {
         mode: Mode::Ctde,
         ..TrainConfig::default()
     };
+    let devices = devices();
     // 5 fragments × 50 steps × 16 envs = 4000 env steps = 8000 samples.
-    let (policy, frags) = fragments(&cfg, 5);
-    let samples: usize = frags.iter().map(|f| f.len * f.rows).sum();
+    let (spec, frags) = fragments(&cfg, 5);
     let mut g = c.benchmark_group("learner");
     g.sample_size(10);
-    g.throughput(Throughput::Elements(samples as u64));
-    for (suffix, device) in devices() {
-        // One epoch over the whole batch: the cost of one pass.
-        let policy = Policy::new_on(policy.spec().clone(), 0, &device).unwrap();
-        let mut ppo = Ppo::new(
-            &policy,
-            PpoSettings {
-                epochs: 1,
-                minibatch_size: 8000,
-                ..cfg.ppo_settings(&PpoConfig::default())
-            },
-        );
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
-        g.bench_function(format!("ppo_update_1_epoch_8000_samples{suffix}"), |b| {
-            b.iter(|| ppo.update(&policy, &frags, &mut rng).unwrap())
-        });
+    g.throughput(Throughput::Elements(samples(&frags) as u64));
+    for (suffix, device) in &devices {
+        let name = format!("ppo_update_1_epoch_{}_samples{suffix}", samples(&frags));
+        bench_ppo_epoch(&mut g, name, &cfg, &spec, &frags, device);
         let icfg = TrainConfig {
             algorithm: Algorithm::Impala(ImpalaConfig::default()),
             ..cfg.clone()
         };
-        let ipolicy = Policy::new_on(icfg.model_spec(policy.spec().obs_dim), 0, &device).unwrap();
+        let ipolicy = Policy::new_on(icfg.model_spec(spec.obs_dim), 0, device).unwrap();
         let mut impala = Impala::new(&ipolicy, icfg.impala_settings(&ImpalaConfig::default()));
         g.bench_function(format!("impala_update_8000_samples{suffix}"), |b| {
             b.iter(|| impala.update(&ipolicy, &frags).unwrap())
@@ -134,14 +154,14 @@ fn bench(c: &mut Criterion) {
         let mut cfg = tuned.clone();
         cfg.model.lstm = lstm;
         // One train batch: 10 envs × 50 steps = 500 env steps.
-        let (policy, frags) = fragments(&cfg, 1);
-        let samples: usize = frags.iter().map(|f| f.len * f.rows).sum();
-        g.throughput(Throughput::Elements(samples as u64));
+        let (spec, frags) = fragments(&cfg, 1);
+        let n = samples(&frags);
+        g.throughput(Throughput::Elements(n as u64));
         let tuned_impala = cfg.algorithm.impala().expect("an IMPALA config");
-        for (suffix, device) in devices() {
-            let policy = Policy::new_on(policy.spec().clone(), 0, &device).unwrap();
+        for (suffix, device) in &devices {
+            let policy = Policy::new_on(spec.clone(), 0, device).unwrap();
             let mut impala = Impala::new(&policy, cfg.impala_settings(tuned_impala));
-            g.bench_function(format!("update_{name}_{samples}_samples{suffix}"), |b| {
+            g.bench_function(format!("update_{name}_{n}_samples{suffix}"), |b| {
                 b.iter(|| impala.update(&policy, &frags).unwrap())
             });
         }
@@ -165,26 +185,16 @@ fn bench(c: &mut Criterion) {
     general.model.lstm = false;
     general.model.hidden = vec![512, 512];
     general.run.envs_per_actor = 8;
-    let (policy, frags) = fragments(&general, 1);
-    let samples: usize = frags.iter().map(|f| f.len * f.rows).sum();
+    let (spec, frags) = fragments(&general, 1);
     let mut g = c.benchmark_group("general-policy");
     g.sample_size(10);
-    g.throughput(Throughput::Elements(samples as u64));
-    for (suffix, device) in devices() {
-        let policy = Policy::new_on(policy.spec().clone(), 0, &device).unwrap();
-        let mut ppo = Ppo::new(
-            &policy,
-            PpoSettings {
-                epochs: 1,
-                minibatch_size: samples,
-                ..general.ppo_settings(&PpoConfig::default())
-            },
+    g.throughput(Throughput::Elements(samples(&frags) as u64));
+    for (suffix, device) in &devices {
+        let name = format!(
+            "ppo_update_1_epoch_ff512x2_{}_samples{suffix}",
+            samples(&frags)
         );
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
-        g.bench_function(
-            format!("ppo_update_1_epoch_ff512x2_{samples}_samples{suffix}"),
-            |b| b.iter(|| ppo.update(&policy, &frags, &mut rng).unwrap()),
-        );
+        bench_ppo_epoch(&mut g, name, &general, &spec, &frags, device);
     }
     g.finish();
 }

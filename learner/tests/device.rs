@@ -20,10 +20,10 @@ use std::sync::Arc;
 
 use buridan_actor::Collector;
 use buridan_env::{Map, ObsKind, Starts, VecEnv};
-use buridan_learner::algo::impala::Impala;
-use buridan_learner::algo::ppo::Ppo;
+use buridan_learner::algo::impala::{Impala, ImpalaSettings};
+use buridan_learner::algo::ppo::{Ppo, PpoSettings};
 use buridan_learner::train::{env_config, Algorithm, ImpalaConfig, PpoConfig, Task, TrainConfig};
-use buridan_policy::{DeviceSpec, Fragment, Inference, Mode, Policy};
+use buridan_policy::{DeviceSpec, Fragment, Inference, Mode, ModelSpec, Policy};
 use candle_core::Device;
 use rand::SeedableRng;
 
@@ -34,9 +34,9 @@ fn gpu() -> Device {
         .unwrap_or_else(|e| panic!("parity test on a `cuda` build: {e}"))
 }
 
-/// The recipe's policy shape (64-cell LSTM) on rm-2.1, 4 agents, and
-/// `count` fragments collected by it on the CPU.
-fn setup(algorithm: Algorithm, count: usize) -> (TrainConfig, Vec<Fragment>) {
+/// The recipe's policy shape (64-cell LSTM) on rm-2.1, 4 agents: the
+/// config, the spec, and `count` fragments collected by it on the CPU.
+fn setup(algorithm: Algorithm, count: usize) -> (TrainConfig, ModelSpec, Vec<Fragment>) {
     let cfg = TrainConfig {
         task: Task::Grid("rm-2.1".into()),
         agents: 4,
@@ -51,7 +51,7 @@ fn setup(algorithm: Algorithm, count: usize) -> (TrainConfig, Vec<Fragment>) {
     let rows = venv.obs().len() / venv.obs_dim();
     let mut actor = Collector {
         id: 0,
-        inference: Inference::new(Policy::new(spec, 3).unwrap(), rows, 1),
+        inference: Inference::new(Policy::new(spec.clone(), 3).unwrap(), rows, 1),
         behaviour: cfg.behaviour(),
         venv,
         fragment_len: cfg.run.fragment_len,
@@ -59,7 +59,53 @@ fn setup(algorithm: Algorithm, count: usize) -> (TrainConfig, Vec<Fragment>) {
         shield: None,
     };
     let frags = (0..count).map(|_| actor.collect().unwrap()).collect();
-    (cfg, frags)
+    (cfg, spec, frags)
+}
+
+/// The seed of the weights every compared update starts from.
+const WEIGHTS: u64 = 11;
+
+/// The weights every compared update starts from, flat.
+fn initial(spec: &ModelSpec) -> Vec<f32> {
+    flat(&Policy::new(spec.clone(), WEIGHTS).unwrap())
+}
+
+/// One PPO update of `frags` (one epoch, one thread, fixed shuffling) from
+/// the initial weights on `device`: the weights after it, flat.
+fn ppo_update(
+    cfg: &TrainConfig,
+    spec: &ModelSpec,
+    frags: &[Fragment],
+    device: &Device,
+) -> Vec<f32> {
+    let policy = Policy::new_on(spec.clone(), WEIGHTS, device).unwrap();
+    let settings = PpoSettings {
+        epochs: 1,
+        update_threads: 1,
+        ..cfg.ppo_settings(cfg.algorithm.ppo().unwrap())
+    };
+    let mut ppo = Ppo::new(&policy, settings);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    ppo.update(&policy, frags, &mut rng).unwrap();
+    flat(&policy)
+}
+
+/// One IMPALA gradient step of `frags` (one thread) from the initial
+/// weights on `device`: the weights after it, flat.
+fn impala_step(
+    cfg: &TrainConfig,
+    spec: &ModelSpec,
+    frags: &[Fragment],
+    device: &Device,
+) -> Vec<f32> {
+    let policy = Policy::new_on(spec.clone(), WEIGHTS, device).unwrap();
+    let settings = ImpalaSettings {
+        update_threads: 1,
+        ..cfg.impala_settings(cfg.algorithm.impala().unwrap())
+    };
+    let mut impala = Impala::new(&policy, settings);
+    impala.update(&policy, frags).unwrap();
+    flat(&policy)
 }
 
 fn flat(policy: &Policy) -> Vec<f32> {
@@ -99,23 +145,10 @@ fn assert_agree(what: &str, before: &[f32], cpu: &[f32], gpu: &[f32]) {
     ignore = "needs a `cuda` build (scripts/build-cuda.sh) on a machine with a GPU"
 )]
 fn a_ppo_update_on_the_gpu_moves_the_weights_as_on_the_cpu() {
-    let (cfg, frags) = setup(Algorithm::Ppo(PpoConfig::default()), 2);
-    let spec = cfg.model_spec(frags[0].obs_dim);
-    let settings = || buridan_learner::algo::ppo::PpoSettings {
-        epochs: 1,
-        update_threads: 1,
-        ..cfg.ppo_settings(cfg.algorithm.ppo().unwrap())
-    };
-    let on = |device: &Device| {
-        let policy = Policy::new_on(spec.clone(), 11, device).unwrap();
-        let mut ppo = Ppo::new(&policy, settings());
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-        ppo.update(&policy, &frags, &mut rng).unwrap();
-        flat(&policy)
-    };
-    let before = flat(&Policy::new(spec.clone(), 11).unwrap());
-    let (cpu, gpu) = (on(&Device::Cpu), on(&gpu()));
-    assert_agree("PPO", &before, &cpu, &gpu);
+    let (cfg, spec, frags) = setup(Algorithm::Ppo(PpoConfig::default()), 2);
+    let cpu = ppo_update(&cfg, &spec, &frags, &Device::Cpu);
+    let gpu = ppo_update(&cfg, &spec, &frags, &gpu());
+    assert_agree("PPO", &initial(&spec), &cpu, &gpu);
 }
 
 #[test]
@@ -124,52 +157,27 @@ fn a_ppo_update_on_the_gpu_moves_the_weights_as_on_the_cpu() {
     ignore = "needs a `cuda` build (scripts/build-cuda.sh) on a machine with a GPU"
 )]
 fn an_impala_step_on_the_gpu_moves_the_weights_as_on_the_cpu() {
-    let (cfg, frags) = setup(Algorithm::Impala(ImpalaConfig::default()), 1);
-    let spec = cfg.model_spec(frags[0].obs_dim);
-    let on = |device: &Device| {
-        let policy = Policy::new_on(spec.clone(), 11, device).unwrap();
-        let settings = buridan_learner::algo::impala::ImpalaSettings {
-            update_threads: 1,
-            ..cfg.impala_settings(cfg.algorithm.impala().unwrap())
-        };
-        let mut impala = Impala::new(&policy, settings);
-        impala.update(&policy, &frags).unwrap();
-        flat(&policy)
-    };
-    let before = flat(&Policy::new(spec.clone(), 11).unwrap());
-    let (cpu, gpu) = (on(&Device::Cpu), on(&gpu()));
-    assert_agree("IMPALA", &before, &cpu, &gpu);
+    let (cfg, spec, frags) = setup(Algorithm::Impala(ImpalaConfig::default()), 1);
+    let cpu = impala_step(&cfg, &spec, &frags, &Device::Cpu);
+    let gpu = impala_step(&cfg, &spec, &frags, &gpu());
+    assert_agree("IMPALA", &initial(&spec), &cpu, &gpu);
 }
 
 /// What the GPU tests compare, checked where every machine can: the same
 /// update twice on the CPU agrees with itself exactly, and an update on
-/// other data (another seed's batch) fails the agreement test.
+/// other data (the same actor's third fragment: other episodes) fails the
+/// agreement test.
 #[test]
 fn the_agreement_test_tells_the_same_update_from_another() {
-    let (cfg, frags) = setup(Algorithm::Ppo(PpoConfig::default()), 2);
-    // The same actor's third fragment: other episodes.
-    let (_, more) = setup(Algorithm::Ppo(PpoConfig::default()), 3);
-    let spec = cfg.model_spec(frags[0].obs_dim);
-    let run = |batch: &[Fragment]| {
-        let policy = Policy::new(spec.clone(), 11).unwrap();
-        let mut ppo = Ppo::new(
-            &policy,
-            buridan_learner::algo::ppo::PpoSettings {
-                epochs: 1,
-                update_threads: 1,
-                ..cfg.ppo_settings(cfg.algorithm.ppo().unwrap())
-            },
-        );
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-        ppo.update(&policy, batch, &mut rng).unwrap();
-        flat(&policy)
-    };
-    let before = flat(&Policy::new(spec.clone(), 11).unwrap());
-    let (a, b) = (run(&frags), run(&frags));
+    let (cfg, spec, frags) = setup(Algorithm::Ppo(PpoConfig::default()), 3);
+    let (batch, other) = (&frags[..2], &frags[2..]);
+    let before = initial(&spec);
+    let a = ppo_update(&cfg, &spec, batch, &Device::Cpu);
+    let b = ppo_update(&cfg, &spec, batch, &Device::Cpu);
     assert_eq!(a, b, "one update, twice");
     let (cosine, ratio) = agreement(&before, &a, &b);
     assert!(cosine > 0.999_999 && (ratio - 1.0).abs() < 1e-9);
-    let c = run(&more[2..]);
+    let c = ppo_update(&cfg, &spec, other, &Device::Cpu);
     let (cosine, _) = agreement(&before, &a, &c);
     assert!(
         cosine < 0.99,

@@ -12,7 +12,6 @@ use std::fmt;
 use std::str::FromStr;
 
 use candle_core::Device;
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::PolicyError;
 
@@ -69,18 +68,7 @@ impl fmt::Display for DeviceSpec {
     }
 }
 
-impl Serialize for DeviceSpec {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.collect_str(self)
-    }
-}
-
-impl<'de> Deserialize<'de> for DeviceSpec {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let s = String::deserialize(d)?;
-        s.parse().map_err(serde::de::Error::custom)
-    }
-}
+buridan_env::serde_as_text!(DeviceSpec);
 
 /// Whether this binary was built with candle's CUDA backend (the `cuda`
 /// cargo feature).
@@ -146,7 +134,7 @@ mod tests {
 
     #[test]
     fn toml_holds_the_printed_form() {
-        #[derive(Serialize, Deserialize, PartialEq, Debug)]
+        #[derive(serde::Serialize, serde::Deserialize, PartialEq, Debug)]
         struct Cfg {
             device: DeviceSpec,
         }

@@ -74,8 +74,20 @@ fn reference(c: &Case, max_seq_len: usize) -> (Tensor, Tensor) {
     (Tensor::cat(&hs, 0).unwrap(), Tensor::cat(&css, 0).unwrap())
 }
 
-fn fused(c: &Case, max_seq_len: usize) -> lstm::LstmSequence {
-    lstm::sequence(
+/// A recurrence over a whole sequence: the fused op or the portable unroll.
+type Recurrence = fn(
+    &Tensor,
+    &Tensor,
+    &Tensor,
+    &Tensor,
+    &Tensor,
+    usize,
+    usize,
+) -> candle_core::Result<lstm::LstmSequence>;
+
+/// `recurrence` over case `c`.
+fn run(c: &Case, max_seq_len: usize, recurrence: Recurrence) -> lstm::LstmSequence {
+    recurrence(
         c.xp.as_tensor(),
         c.w_hh.as_tensor(),
         &c.h0,
@@ -85,6 +97,10 @@ fn fused(c: &Case, max_seq_len: usize) -> lstm::LstmSequence {
         max_seq_len,
     )
     .unwrap()
+}
+
+fn fused(c: &Case, max_seq_len: usize) -> lstm::LstmSequence {
+    run(c, max_seq_len, lstm::sequence)
 }
 
 fn loss(c: &Case, h: &Tensor) -> Tensor {
@@ -112,71 +128,62 @@ fn grads(c: &Case, h: &Tensor) -> (Vec<f32>, Vec<f32>) {
     )
 }
 
+/// Two runs of the recurrence on case `c` agree: `h` and `c` within
+/// `tol[0]` and `tol[1]`, the gradients of [`loss`] with respect to `xp`
+/// and `W_hh` within `tol[2]` and `tol[3]` (the first run's `xp` gradient
+/// not all but zero).
+fn assert_agree(
+    c: &Case,
+    what: &str,
+    (h_a, c_a): (&Tensor, &Tensor),
+    (h_b, c_b): (&Tensor, &Tensor),
+    tol: [f32; 4],
+) {
+    let d = max_diff(&flat(h_a), &flat(h_b));
+    assert!(d < tol[0], "h, {what}: {d}");
+    let d = max_diff(&flat(c_a), &flat(c_b));
+    assert!(d < tol[1], "c, {what}: {d}");
+    let (dxp_a, dw_a) = grads(c, h_a);
+    let (dxp_b, dw_b) = grads(c, h_b);
+    assert!(dxp_a.iter().any(|&v| v.abs() > 1e-3));
+    let d = max_diff(&dxp_a, &dxp_b);
+    assert!(d < tol[2], "d xp, {what}: {d}");
+    let d = max_diff(&dw_a, &dw_b);
+    assert!(d < tol[3], "d W_hh, {what}: {d}");
+}
+
 #[test]
 fn the_fused_recurrence_equals_the_step_by_step_unroll() {
     for (seed, max_seq_len) in [(1, 0), (2, 3), (3, 2), (4, 1)] {
         let c = case(seed);
         let (h_ref, c_ref) = reference(&c, max_seq_len);
         let seq = fused(&c, max_seq_len);
-        assert!(
-            max_diff(&flat(&seq.h), &flat(&h_ref)) < 1e-6,
-            "h, seed {seed}"
-        );
-        assert!(
-            max_diff(&flat(&seq.c), &flat(&c_ref)) < 1e-6,
-            "c, seed {seed}"
-        );
-        let (dxp_ref, dw_ref) = grads(&c, &h_ref);
-        let (dxp, dw) = grads(&c, &seq.h);
-        assert!(dxp.iter().any(|&v| v.abs() > 1e-3));
-        assert!(
-            max_diff(&dxp, &dxp_ref) < 1e-5,
-            "d xp, seed {seed}, max_seq_len {max_seq_len}: {}",
-            max_diff(&dxp, &dxp_ref)
-        );
-        assert!(
-            max_diff(&dw, &dw_ref) < 1e-4,
-            "d W_hh, seed {seed}, max_seq_len {max_seq_len}: {}",
-            max_diff(&dw, &dw_ref)
+        let what = format!("seed {seed}, max_seq_len {max_seq_len}");
+        assert_agree(
+            &c,
+            &what,
+            (&seq.h, &seq.c),
+            (&h_ref, &c_ref),
+            [1e-6, 1e-6, 1e-5, 1e-4],
         );
     }
 }
 
 /// The path a GPU runs (candle's own ops, exact `σ` and `tanh`), checked
-/// on the CPU against the same unroll and against the fused op.
+/// on the CPU against the fused op.
 #[test]
 fn the_portable_unroll_equals_the_fused_recurrence() {
     for (seed, max_seq_len) in [(1, 0), (2, 3), (3, 2), (4, 1)] {
         let c = case(seed);
         let seq = fused(&c, max_seq_len);
-        let portable = lstm::unrolled(
-            c.xp.as_tensor(),
-            c.w_hh.as_tensor(),
-            &c.h0,
-            &c.c0,
-            &c.keep,
-            T,
-            max_seq_len,
-        )
-        .unwrap();
-        for (what, a, b, tol) in [
-            ("h", flat(&portable.h), flat(&seq.h), 1e-5),
-            ("c", flat(&portable.c), flat(&seq.c), 1e-5),
-        ] {
-            let d = max_diff(&a, &b);
-            assert!(d < tol, "{what}, seed {seed}: {d}");
-        }
-        let (dxp, dw) = grads(&c, &seq.h);
-        let (dxp_p, dw_p) = grads(&c, &portable.h);
-        assert!(dxp.iter().any(|&v| v.abs() > 1e-3));
-        let (dx, dww) = (max_diff(&dxp, &dxp_p), max_diff(&dw, &dw_p));
-        assert!(
-            dx < 1e-4,
-            "d xp, seed {seed}, max_seq_len {max_seq_len}: {dx}"
-        );
-        assert!(
-            dww < 1e-4,
-            "d W_hh, seed {seed}, max_seq_len {max_seq_len}: {dww}"
+        let portable = run(&c, max_seq_len, lstm::unrolled);
+        let what = format!("seed {seed}, max_seq_len {max_seq_len}");
+        assert_agree(
+            &c,
+            &what,
+            (&seq.h, &seq.c),
+            (&portable.h, &portable.c),
+            [1e-5, 1e-5, 1e-4, 1e-4],
         );
         assert!(!portable.c.track_op(), "c is detached");
     }

@@ -1,6 +1,8 @@
 //! Serde through a type's text: a type written and read as words
 //! (`Display` and `FromStr`, as controller and action names are)
-//! serializes as that text and deserializes by parsing it.
+//! serializes as that text and deserializes by parsing it. It sits in
+//! the lowest crate so that every crate above can use it (the policy's
+//! device names, the evaluation's controller and action names).
 
 /// Implements `serde::Serialize` (the type's `Display` text) and
 /// `serde::Deserialize` (a string parsed by its `FromStr`, the parse
@@ -21,7 +23,7 @@
 ///         n.parse().map(Seed).map_err(|e| format!("{e}"))
 ///     }
 /// }
-/// buridan_eval::serde_as_text!(Seed);
+/// buridan_env::serde_as_text!(Seed);
 /// assert_eq!(serde_json::to_string(&Seed(3)).unwrap(), r#""seed-3""#);
 /// assert_eq!(serde_json::from_str::<Seed>(r#""seed-7""#).unwrap(), Seed(7));
 /// let err = serde_json::from_str::<Seed>(r#""7""#).unwrap_err();
